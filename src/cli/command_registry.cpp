@@ -1,0 +1,12 @@
+#include "command_registry.hpp"
+
+namespace swerve::cli {
+
+const std::vector<Command>& all_commands() {
+  static const std::vector<Command> commands = {
+      make_check_config_command(),
+  };
+  return commands;
+}
+
+}  // namespace swerve::cli

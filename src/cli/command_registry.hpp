@@ -1,0 +1,32 @@
+// The one place where swerve-mpc's subcommands are registered: each command adds its options to
+// its CLI11 subcommand and runs when selected, returning the process exit code.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace CLI {
+class App;
+}
+
+namespace swerve::cli {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;  // the command ran and found a problem (bad config, failed run)
+inline constexpr int kExitUsage = 2;    // the command line itself is wrong
+
+struct Command {
+  std::string name;
+  std::string summary;
+  // Declares options on `app`; returns the action to run once parsing succeeded.
+  std::function<std::function<int()>(CLI::App& app)> declare;
+};
+
+// Every subcommand, in the order --help lists them.
+const std::vector<Command>& all_commands();
+
+// Defined by each command's own file.
+Command make_check_config_command();
+
+}  // namespace swerve::cli

@@ -1,0 +1,150 @@
+#include "swerve/kinematics/module_layout.hpp"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <sstream>
+
+namespace swerve {
+namespace {
+
+constexpr double kMinModuleSeparation = 1e-3;  // m; closer than this two modules are one point
+
+template <typename Value>
+[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
+  std::ostringstream message;
+  message << field << " = " << value << ": " << rule;
+  throw ConfigError(message.str());
+}
+
+void require_positive(const std::string& field, double value) {
+  if (!std::isfinite(value) || value <= 0.0) reject(field, value, "must be finite and > 0");
+}
+
+}  // namespace
+
+void ModuleLimits::validate() const {
+  require_positive("ModuleLimits.max_drive_speed", max_drive_speed);
+  require_positive("ModuleLimits.max_drive_acceleration", max_drive_acceleration);
+  require_positive("ModuleLimits.max_steering_rate", max_steering_rate);
+  if (!std::isfinite(min_steering_angle) || min_steering_angle < -kPi - 1e-12) {
+    reject("ModuleLimits.min_steering_angle", min_steering_angle, "must be in [-pi, pi]");
+  }
+  if (!std::isfinite(max_steering_angle) || max_steering_angle > kPi + 1e-12) {
+    reject("ModuleLimits.max_steering_angle", max_steering_angle, "must be in [-pi, pi]");
+  }
+  if (min_steering_angle >= max_steering_angle) {
+    reject("ModuleLimits.min_steering_angle", min_steering_angle, "must be < max_steering_angle");
+  }
+}
+
+ModuleLayout::ModuleLayout(std::vector<Eigen::Vector2d> positions_body, double wheel_radius,
+                           ModuleLimits limits)
+    : positions_body_(std::move(positions_body)), wheel_radius_(wheel_radius), limits_(limits) {
+  const std::size_t count = positions_body_.size();
+  if (count < 2) reject("ModuleLayout.modules", count, "need at least 2 modules");
+  for (std::size_t i = 0; i < count; ++i) {
+    const Eigen::Vector2d& p = positions_body_[i];
+    if (!p.allFinite()) {
+      reject("ModuleLayout.modules[" + std::to_string(i) + "].position", p.transpose(), "must be finite");
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if ((p - positions_body_[j]).norm() < kMinModuleSeparation) {
+        reject("ModuleLayout.modules[" + std::to_string(i) + "].position", p.transpose(),
+               "coincides with modules[" + std::to_string(j) + "]");
+      }
+    }
+  }
+  // Forward kinematics stacks [1 0 -y_i; 0 1 x_i] per module; it has rank 3 exactly when the
+  // modules are not all on one point, which the separation check already guarantees for >= 2
+  // modules. The explicit rank check guards that reasoning against future changes.
+  Eigen::MatrixXd stacked(2 * static_cast<Eigen::Index>(count), 3);
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto row = 2 * static_cast<Eigen::Index>(i);
+    stacked.row(row) << 1.0, 0.0, -positions_body_[i].y();
+    stacked.row(row + 1) << 0.0, 1.0, positions_body_[i].x();
+  }
+  if (Eigen::FullPivLU<Eigen::MatrixXd>(stacked).rank() < 3) {
+    reject("ModuleLayout.modules", count, "module positions give a forward-kinematics matrix of rank < 3");
+  }
+  require_positive("ModuleLayout.wheel_radius", wheel_radius_);
+  limits_.validate();
+}
+
+ModuleLayout ModuleLayout::rectangle(double wheelbase, double track, double wheel_radius, ModuleLimits limits) {
+  require_positive("ModuleLayout::rectangle wheelbase", wheelbase);
+  require_positive("ModuleLayout::rectangle track", track);
+  const double hx = wheelbase / 2.0;
+  const double hy = track / 2.0;
+  return ModuleLayout({{hx, hy}, {hx, -hy}, {-hx, hy}, {-hx, -hy}}, wheel_radius, limits);
+}
+
+ModuleLayout ModuleLayout::triangle(double radius, double wheel_radius, ModuleLimits limits) {
+  require_positive("ModuleLayout::triangle radius", radius);
+  std::vector<Eigen::Vector2d> positions;
+  for (int i = 0; i < 3; ++i) {
+    const double angle = 2.0 * kPi * i / 3.0;
+    positions.emplace_back(radius * std::cos(angle), radius * std::sin(angle));
+  }
+  return ModuleLayout(std::move(positions), wheel_radius, limits);
+}
+
+ModuleLayout ModuleLayout::multi_axle(int axles, double axle_spacing, double track, double wheel_radius,
+                                      ModuleLimits limits) {
+  if (axles < 1) reject("ModuleLayout::multi_axle axles", axles, "must be >= 1");
+  require_positive("ModuleLayout::multi_axle axle_spacing", axle_spacing);
+  require_positive("ModuleLayout::multi_axle track", track);
+  std::vector<Eigen::Vector2d> positions;
+  const double front_x = 0.5 * axle_spacing * (axles - 1);
+  for (int axle = 0; axle < axles; ++axle) {
+    const double x = front_x - axle * axle_spacing;
+    positions.emplace_back(x, track / 2.0);
+    positions.emplace_back(x, -track / 2.0);
+  }
+  return ModuleLayout(std::move(positions), wheel_radius, limits);
+}
+
+ModuleLayout ModuleLayout::two_module(double module_x, double track, double wheel_radius, ModuleLimits limits) {
+  require_positive("ModuleLayout::two_module track", track);
+  return ModuleLayout({{module_x, track / 2.0}, {module_x, -track / 2.0}}, wheel_radius, limits);
+}
+
+ModuleLayout load_module_layout(const config::ConfigNode& vehicle) {
+  using config::Bound;
+  const double wheel_radius = vehicle.get_double("wheel_radius", Bound::positive());
+  const config::ConfigNode modules = vehicle.child("modules");
+  if (modules.size() < 2) modules.fail("= " + modules.to_yaml() + ": need at least 2 modules");
+  std::vector<Eigen::Vector2d> positions;
+  for (std::size_t i = 0; i < modules.size(); ++i) {
+    const config::ConfigNode module = modules.at(i);
+    const std::vector<double> xy = module.get_doubles("position", 2);
+    const Eigen::Vector2d position(xy[0], xy[1]);
+    for (std::size_t j = 0; j < positions.size(); ++j) {
+      if ((position - positions[j]).norm() < kMinModuleSeparation) {
+        module.fail_at("position", "= " + module.child("position").to_yaml() + ": coincides with modules[" +
+                                       std::to_string(j) + "]");
+      }
+    }
+    positions.push_back(position);
+  }
+  ModuleLimits limits;
+  if (const auto node = vehicle.optional_child("limits")) {
+    limits.max_drive_speed = node->get_double_or("drive_speed", limits.max_drive_speed, Bound::positive());
+    limits.max_drive_acceleration =
+        node->get_double_or("drive_acceleration", limits.max_drive_acceleration, Bound::positive());
+    limits.max_steering_rate = node->get_double_or("steering_rate", limits.max_steering_rate, Bound::positive());
+    if (const auto angle = node->optional_child("steering_angle")) {
+      const std::vector<double> range = angle->as_doubles(2, Bound::closed(-kPi, kPi));
+      if (range[0] >= range[1]) angle->fail("= " + angle->to_yaml() + ": min must be < max");
+      limits.min_steering_angle = range[0];
+      limits.max_steering_angle = range[1];
+    }
+  }
+  try {
+    return ModuleLayout(std::move(positions), wheel_radius, limits);
+  } catch (const ConfigError& error) {
+    vehicle.fail(error.what());  // keep the file and path in front of the geometric rule
+  }
+}
+
+}  // namespace swerve

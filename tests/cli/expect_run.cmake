@@ -1,0 +1,21 @@
+# Runs a command and checks its exit code, that stderr is one line (when EXPECT_ONE_LINE_ERROR),
+# and that stdout/stderr match the given regular expressions. Used by the CLI tests.
+#   -DCOMMAND="exe|arg|..." -DEXPECT_EXIT=N [-DSTDOUT_REGEX=...] [-DSTDERR_REGEX=...] [-DEXPECT_ONE_LINE_ERROR=1]
+string(REPLACE "|" ";" COMMAND "${COMMAND}")
+execute_process(COMMAND ${COMMAND} RESULT_VARIABLE exit_code OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT "${exit_code}" STREQUAL "${EXPECT_EXIT}")
+  message(FATAL_ERROR "exit code ${exit_code}, expected ${EXPECT_EXIT}\nstdout:\n${out}\nstderr:\n${err}")
+endif()
+if(DEFINED STDOUT_REGEX AND NOT out MATCHES "${STDOUT_REGEX}")
+  message(FATAL_ERROR "stdout does not match '${STDOUT_REGEX}':\n${out}")
+endif()
+if(DEFINED STDERR_REGEX AND NOT err MATCHES "${STDERR_REGEX}")
+  message(FATAL_ERROR "stderr does not match '${STDERR_REGEX}':\n${err}")
+endif()
+if(EXPECT_ONE_LINE_ERROR)
+  string(REGEX MATCHALL "\n" newlines "${err}")
+  list(LENGTH newlines line_count)
+  if(NOT line_count EQUAL 1)
+    message(FATAL_ERROR "stderr should be exactly one line, got ${line_count}:\n${err}")
+  endif()
+endif()
