@@ -1,18 +1,18 @@
 // Counts heap allocations made by the current thread while a scope is active, so tests can assert
-// "no allocation after construction" on the real-time path (a count, never a timer).
-// Include it in exactly one .cpp of a test executable: it replaces the global operator new.
+// "no allocation after construction" on the real-time path (a count, never a timer). It hooks
+// malloc itself (Eigen allocates through malloc, not operator new), forwarding to glibc.
+// Include it in exactly one .cpp of a test executable. Under AddressSanitizer, which owns malloc,
+// counting is unavailable: tests call `AllocationCounter::available()` and GTEST_SKIP.
 #pragma once
 
 #include <cstddef>
 #include <cstdlib>
-#include <new>
 
 namespace swerve::testing {
 
 inline thread_local long allocation_count = 0;
 inline thread_local bool counting_allocations = false;
 
-// Counts allocations made during its lifetime; `count()` reads them.
 class AllocationCounter {
  public:
   AllocationCounter() : start_(allocation_count) { counting_allocations = true; }
@@ -20,6 +20,13 @@ class AllocationCounter {
   AllocationCounter(const AllocationCounter&) = delete;
   AllocationCounter& operator=(const AllocationCounter&) = delete;
   long count() const { return allocation_count - start_; }
+  static bool available() {
+#if defined(__SANITIZE_ADDRESS__)
+    return false;
+#else
+    return true;
+#endif
+  }
 
  private:
   long start_;
@@ -27,13 +34,36 @@ class AllocationCounter {
 
 }  // namespace swerve::testing
 
-void* operator new(std::size_t size) {
+#if !defined(__SANITIZE_ADDRESS__)
+extern "C" {
+void* __libc_malloc(std::size_t size) noexcept;
+void* __libc_calloc(std::size_t count, std::size_t size) noexcept;
+void* __libc_realloc(void* pointer, std::size_t size) noexcept;
+void* __libc_memalign(std::size_t alignment, std::size_t size) noexcept;
+
+inline void swerve_count_allocation() noexcept {
   if (swerve::testing::counting_allocations) ++swerve::testing::allocation_count;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
 }
-void* operator new[](std::size_t size) { return ::operator new(size); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void* malloc(std::size_t size) noexcept {
+  swerve_count_allocation();
+  return __libc_malloc(size);
+}
+void* calloc(std::size_t count, std::size_t size) noexcept {
+  swerve_count_allocation();
+  return __libc_calloc(count, size);
+}
+void* realloc(void* pointer, std::size_t size) noexcept {
+  swerve_count_allocation();
+  return __libc_realloc(pointer, size);
+}
+void* aligned_alloc(std::size_t alignment, std::size_t size) noexcept {
+  swerve_count_allocation();
+  return __libc_memalign(alignment, size);
+}
+int posix_memalign(void** out, std::size_t alignment, std::size_t size) noexcept {
+  swerve_count_allocation();
+  *out = __libc_memalign(alignment, size);
+  return *out ? 0 : 12;  // ENOMEM
+}
+}
+#endif
