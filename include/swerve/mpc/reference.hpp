@@ -1,0 +1,110 @@
+// Time-parameterised reference trajectories: desired pose_world (x, y, psi) and body twist
+// (vx, vy, r) at any time, sampled into the controller's window. Geometric paths are followed at a
+// trapezoidal speed profile by arc length, and twists come from the path's analytic derivatives,
+// so integrating the twist reproduces the pose (no finite differences anywhere).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace swerve {
+
+struct ReferenceSample {
+  Eigen::Vector3d pose_world = Eigen::Vector3d::Zero();  // x, y, psi (psi wrapped to (-pi, pi])
+  Eigen::Vector3d twist_body = Eigen::Vector3d::Zero();  // vx, vy (desired body frame), r
+};
+
+class Reference {
+ public:
+  virtual ~Reference() = default;
+  // On [0, duration()] the reference moves; after it, it holds its final pose with zero twist (a
+  // window that runs off the end asks the vehicle to stop there); before 0 it holds the start pose. noexcept, no
+  // allocation.
+  virtual ReferenceSample sample(double t) const noexcept = 0;
+  virtual double duration() const noexcept = 0;
+};
+
+// A planar curve p(u), u in [0, u_end], with its first two derivatives (for tangent and curvature).
+class PlanarCurve {
+ public:
+  virtual ~PlanarCurve() = default;
+  virtual double parameter_end() const = 0;
+  virtual Eigen::Vector2d point(double u) const = 0;
+  virtual Eigen::Vector2d first_derivative(double u) const = 0;
+  virtual Eigen::Vector2d second_derivative(double u) const = 0;
+};
+
+// The speed along the path: rises from 0 at `acceleration`, cruises at `speed`, and (if
+// `stop_at_end`) falls back to 0 exactly at the path's end. acceleration <= 0 means "start at speed".
+struct SpeedProfile {
+  double speed = 1.0;          // m/s
+  double acceleration = 0.0;   // m/s^2; 0: no ramp
+  bool stop_at_end = false;
+};
+
+// Follows a curve by arc length at a speed profile, with the heading held at a constant offset
+// from the tangent (offset 0: heading along the path; the paper's 60 deg case: offset = pi/3).
+class PathReference final : public Reference {
+ public:
+  // Throws ConfigError for a degenerate curve (zero length, a cusp) or invalid profile/offset.
+  PathReference(std::shared_ptr<const PlanarCurve> curve, SpeedProfile profile, double heading_offset);
+  ReferenceSample sample(double t) const noexcept override;
+  double duration() const noexcept override { return duration_; }
+  double length() const noexcept { return length_; }
+
+ private:
+  double arc_length_at(double t, double* speed) const noexcept;
+  double parameter_at(double s) const noexcept;
+
+  std::shared_ptr<const PlanarCurve> curve_;
+  SpeedProfile profile_;
+  double heading_offset_;
+  double length_ = 0.0;
+  double duration_ = 0.0;
+  double ramp_time_ = 0.0;
+  // s -> u table from integrating du/ds = 1/|p'(u)| with RK4; Hermite-interpolated with the exact slope.
+  std::vector<double> table_s_, table_u_, table_du_ds_;
+};
+
+// Curves. Each is a PlanarCurve; the factories below return ready references.
+std::shared_ptr<const PlanarCurve> make_line_curve(const Eigen::Vector2d& start_world, double direction,
+                                                   double length);
+// Arc of `radius` starting at `start_world` with initial tangent `direction`, turning through
+// `sweep` (> 0 CCW, < 0 CW).
+std::shared_ptr<const PlanarCurve> make_arc_curve(const Eigen::Vector2d& start_world, double direction,
+                                                  double radius, double sweep);
+// The paper's curve (paper-notes assumption 10): y = amplitude sin(2 pi x / wavelength), x in [0, length_x].
+std::shared_ptr<const PlanarCurve> make_sine_curve(double amplitude, double wavelength, double length_x);
+// Figure-eight (lemniscate of Gerono) of half-width `size`, centred on the origin, started at the
+// centre heading up-right; `loops` full figure-eights.
+std::shared_ptr<const PlanarCurve> make_figure_eight_curve(double size, int loops);
+
+// A recorded trajectory: rows (t, x, y, psi) with optional (vx, vy, r) in the body frame. Without
+// twists they are derived from a clamped cubic spline through the poses (psi unwrapped first;
+// end slopes from a one-sided cubic, so the twist stays third-order accurate at the ends).
+class SampledReference final : public Reference {
+ public:
+  // `rows`: each of size 4 or 7, strictly increasing t starting anywhere; throws ConfigError naming
+  // the row and the value.
+  explicit SampledReference(const std::vector<std::vector<double>>& rows);
+  ReferenceSample sample(double t) const noexcept override;
+  double duration() const noexcept override { return t_.back() - t_.front(); }
+
+ private:
+  std::vector<double> t_;
+  // Per channel (x, y, psi unwrapped): values and spline second derivatives.
+  std::vector<double> value_[3], second_[3];
+  bool has_twist_ = false;
+  std::vector<double> twist_[3];
+};
+
+// Loads a CSV with a header line naming the columns t,x,y,psi[,vx,vy,r]; errors name file and line.
+std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path);
+
+// Angle helpers shared by references, costs and metrics.
+double wrap_angle(double angle);  // to (-pi, pi]
+
+}  // namespace swerve
