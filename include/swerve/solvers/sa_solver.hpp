@@ -1,0 +1,67 @@
+// Simulated annealing for the wear-aware OCP (the paper's real-time solver, arXiv 2506.04752),
+// built for a fixed wall-clock budget: move-blocked offsets on top of the best initial guess,
+// proposals kept inside the bounds by projection, incremental rollouts from the first changed
+// step, step sizes adapted to the acceptance rate, and no allocation inside solve().
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "swerve/solvers/solver.hpp"
+
+namespace swerve {
+
+struct SaOptions {
+  int knots = 6;                           // move-blocking knots over the horizon (0: one per step)
+  int max_iterations = 3000;               // proposals per solve; the deadline may stop it earlier
+  double initial_acceptance = 0.3;         // T0 so that a typical uphill probe is accepted this often
+  double final_temperature_ratio = 1e-3;   // T at max_iterations / T0 (geometric cooling)
+  double step_fraction = 0.1;              // initial proposal sigma / each input's half-range
+  double target_acceptance = 0.3;          // sigma grows above it and shrinks below it
+  int adapt_interval = 50;                 // proposals between sigma updates
+  int reheat_interval = 0;                 // proposals between restarts from the best (0: never)
+  double probability_one_group = 0.6;      // move one knot of one input group (one module)
+  double probability_one_knot = 0.3;       // move one knot of every input; else the whole sequence
+  std::uint64_t seed = 1;
+
+  // Throws ConfigError naming the field and value.
+  void validate() const;
+};
+
+class SimulatedAnnealingSolver final : public Solver {
+ public:
+  // Sizes every buffer for the problem's shape; solve() then allocates nothing.
+  SimulatedAnnealingSolver(const OcpProblem& problem_shape, SaOptions options);
+  const char* name() const noexcept override { return "sa"; }
+  const SaOptions& options() const noexcept { return options_; }
+
+ private:
+  SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
+                       SolveSummary* summary) noexcept override;
+
+  double uniform() noexcept;   // [0, 1)
+  double gaussian() noexcept;  // N(0, 1)
+  // Rebuilds raw inputs = base + interpolated knot offsets on steps [first, last].
+  void interpolate(const Eigen::MatrixXd& knots, int first, int last, Eigen::MatrixXd* raw) const noexcept;
+
+  SaOptions options_;
+  int nx_, nu_, horizon_, knot_count_, group_size_;
+  std::uint64_t rng_state_[4];
+  bool has_spare_gaussian_ = false;
+  double spare_gaussian_ = 0.0;
+
+  std::vector<int> knot_left_;        // per step: the knot at or before it
+  std::vector<double> knot_weight_;   // per step: weight of the knot after it
+  std::vector<int> knot_first_step_;  // per knot: the first and last step it influences
+  std::vector<int> knot_last_step_;
+
+  Eigen::MatrixXd base_;                                 // nu x N
+  Eigen::MatrixXd knots_, candidate_knots_;              // nu x K offsets
+  Eigen::MatrixXd raw_, candidate_raw_;                  // nu x N before projection
+  Eigen::MatrixXd inputs_, candidate_inputs_;            // nu x N projected
+  Eigen::MatrixXd states_, candidate_states_;            // nx x N+1
+  Eigen::VectorXd stage_costs_, candidate_stage_costs_;  // N
+  Eigen::VectorXd sigma_, reference_step_;               // nu
+};
+
+}  // namespace swerve

@@ -1,0 +1,63 @@
+#include "swerve/solvers/solver.hpp"
+
+#include <cmath>
+
+namespace swerve {
+
+const char* to_string(SolveStatus status) noexcept {
+  switch (status) {
+    case SolveStatus::kNotRun: return "not_run";
+    case SolveStatus::kConverged: return "converged";
+    case SolveStatus::kBudgetExhausted: return "budget_exhausted";
+    case SolveStatus::kInfeasible: return "infeasible";
+    case SolveStatus::kNumericalError: return "numerical_error";
+    case SolveStatus::kInvalidInput: return "invalid_input";
+  }
+  return "unknown";
+}
+
+void Solution::resize(int state_size, int input_size, int horizon) {
+  inputs = Eigen::MatrixXd::Zero(input_size, horizon);
+  states = Eigen::MatrixXd::Zero(state_size, horizon + 1);
+  cost = 0.0;
+  valid = false;
+}
+
+void Solution::shift() noexcept {
+  const Eigen::Index horizon = inputs.cols();
+  if (horizon == 0) return;
+  for (Eigen::Index k = 0; k + 1 < horizon; ++k) inputs.col(k) = inputs.col(k + 1);
+  for (Eigen::Index k = 0; k + 1 < states.cols(); ++k) states.col(k) = states.col(k + 1);
+}
+
+SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
+                          SolveSummary* summary) noexcept {
+  const auto start = SolverClock::now();
+  SolveSummary local_summary;
+  SolveSummary& report = summary != nullptr ? *summary : local_summary;
+  report = SolveSummary{};
+  auto finish = [&](SolveStatus status, const char* reason) {
+    report.status = status;
+    if (reason != nullptr) report.reason = reason;
+    report.solve_time_s = std::chrono::duration<double>(SolverClock::now() - start).count();
+    return status;
+  };
+  if (out == nullptr || out->inputs.rows() != problem.input_size() || out->inputs.cols() != problem.horizon() ||
+      out->states.rows() != problem.state_size() || out->states.cols() != problem.horizon() + 1) {
+    return finish(SolveStatus::kInvalidInput, "the output Solution is not sized for the problem");
+  }
+  out->valid = false;
+  if (!problem.initial_state().allFinite() || !problem.reference_poses().allFinite()) {
+    return finish(SolveStatus::kInvalidInput, "the problem's state or reference is not finite");
+  }
+  if (deadline <= start) return finish(SolveStatus::kInvalidInput, "the deadline has already passed");
+  const SolveStatus status = do_solve(problem, guesses, deadline, out, &report);
+  if (has_solution(status) && (!out->inputs.allFinite() || !std::isfinite(out->cost))) {
+    out->valid = false;
+    return finish(SolveStatus::kNumericalError, "the backend returned a non-finite plan");
+  }
+  out->valid = has_solution(status);
+  return finish(status, nullptr);
+}
+
+}  // namespace swerve

@@ -1,0 +1,142 @@
+// OcpProblem: the exact cost of a hand-computed case, projection onto bounds, incremental
+// rollouts, and validation of every field.
+#include "swerve/mpc/ocp_problem.hpp"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "support/linear_models.hpp"
+#include "swerve/config/config_error.hpp"
+
+namespace swerve {
+namespace {
+
+using testing::DoubleIntegratorModel;
+
+CostWeights hand_weights() {
+  CostWeights w;
+  w.pose = {10.0, 10.0, 5.0};
+  w.terminal_scale = 10.0;
+  w.effort = Eigen::Vector3d::Constant(1.0);
+  w.rate = Eigen::Vector3d::Constant(2.0);
+  w.wear = 0.5;
+  return w;
+}
+
+TEST(OcpProblem, CostOfAHandComputedCaseIsExact) {
+  // dt = 1, x0 = 0, u0 = (1, 0, 0), u1 = 0, reference at the origin:
+  //   x1 = 0.5 (v 1), x2 = 1.5: tracking 10 * 0.25 + 10 * 10 * 2.25 = 227.5
+  //   effort 1 * 1 = 1; rate 2 * (1 - 0)^2 + 2 * (0 - 1)^2 = 4; wear 0.5 * (1 * 1 * 1) = 0.5
+  const DoubleIntegratorModel model(1.0);
+  const OcpProblem problem(model, 2, 1.0, hand_weights(), {});
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 2);
+  inputs(0, 0) = 1.0;
+  Eigen::MatrixXd states(6, 3);
+  const CostBreakdown parts = problem.evaluate(inputs, states);
+  EXPECT_DOUBLE_EQ(parts.tracking, 227.5);
+  EXPECT_DOUBLE_EQ(parts.effort, 1.0);
+  EXPECT_DOUBLE_EQ(parts.rate, 4.0);
+  EXPECT_DOUBLE_EQ(parts.wear, 0.5);
+  EXPECT_DOUBLE_EQ(states(0, 2), 1.5);
+  Eigen::VectorXd stage(2);
+  EXPECT_DOUBLE_EQ(problem.rollout(inputs, 0, states, stage), 233.0);
+}
+
+TEST(OcpProblem, HeadingErrorIsWrapped) {
+  const DoubleIntegratorModel model;
+  CostWeights w;
+  w.pose = {0.0, 0.0, 1.0};
+  w.terminal_scale = 1.0;
+  OcpProblem problem(model, 1, 1.0, w, {});
+  Eigen::VectorXd x0 = Eigen::VectorXd::Zero(6);
+  x0[2] = 3.1;
+  ASSERT_TRUE(problem.set_initial_state(x0));
+  ASSERT_TRUE(problem.set_reference(1, {0.0, 0.0, -3.1}, Eigen::Vector3d::Zero()));
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 1), states(6, 2);
+  const double error = 2 * 3.14159265358979323846 - 6.2;
+  EXPECT_NEAR(problem.evaluate(inputs, states).tracking, error * error, 1e-12);
+}
+
+TEST(OcpProblem, IncrementalRolloutEqualsFullRollout) {
+  const DoubleIntegratorModel model(0.3);
+  OcpProblem problem(model, 8, 0.1, hand_weights(), {});
+  for (int k = 1; k <= 8; ++k) problem.set_reference(k, {0.1 * k, -0.05 * k, 0.02 * k}, Eigen::Vector3d::Zero());
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Random(3, 8), states(6, 9);
+  Eigen::VectorXd stage(8);
+  problem.rollout(inputs, 0, states, stage);
+  inputs.col(5) += Eigen::Vector3d(0.3, -0.2, 0.1);
+  const double incremental = problem.rollout(inputs, 5, states, stage);
+  Eigen::MatrixXd fresh_states(6, 9);
+  Eigen::VectorXd fresh_stage(8);
+  EXPECT_NEAR(incremental, problem.rollout(inputs, 0, fresh_states, fresh_stage), 1e-12);
+}
+
+TEST(OcpProblem, ProjectionKeepsBoxAndStepBoundsAndReportsTheFirstChange) {
+  const DoubleIntegratorModel model;
+  InputBounds bounds;
+  bounds.lower = Eigen::Vector3d::Constant(-1.0);
+  bounds.upper = Eigen::Vector3d::Constant(1.0);
+  bounds.max_step = Eigen::Vector3d::Constant(0.25);
+  OcpProblem problem(model, 4, 0.1, {}, bounds);
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 4);
+  inputs(0, 2) = 5.0;  // out of the box and far beyond one step from 0
+  EXPECT_EQ(problem.project(inputs), 2);
+  EXPECT_DOUBLE_EQ(inputs(0, 2), 0.25);
+  EXPECT_DOUBLE_EQ(inputs(0, 3), 0.0);
+  EXPECT_TRUE(problem.is_feasible(inputs));
+  EXPECT_EQ(problem.project(inputs), 4);  // already feasible: nothing changes
+  inputs(1, 0) = std::numeric_limits<double>::quiet_NaN();
+  problem.project(inputs);
+  EXPECT_DOUBLE_EQ(inputs(1, 0), 0.0);  // a NaN input is replaced by the previous input
+}
+
+TEST(OcpProblem, PerCycleSettersRejectBadValuesAndKeepTheOldOnes) {
+  const DoubleIntegratorModel model;
+  OcpProblem problem(model, 3, 0.1, {}, {});
+  Eigen::VectorXd x0 = Eigen::VectorXd::Ones(6);
+  ASSERT_TRUE(problem.set_initial_state(x0));
+  x0[4] = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(problem.set_initial_state(x0));
+  EXPECT_FALSE(problem.set_initial_state(Eigen::VectorXd::Ones(5)));
+  EXPECT_TRUE(problem.initial_state().isOnes());
+  EXPECT_FALSE(problem.set_reference(0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()));
+  EXPECT_FALSE(problem.set_reference(4, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()));
+  EXPECT_FALSE(problem.set_wear_weight(-1.0));
+  EXPECT_FALSE(problem.set_previous_input(Eigen::Vector3d(0, std::nan(""), 0)));
+}
+
+template <typename Build>
+std::string error_of(Build build) {
+  try {
+    build();
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(OcpProblem, ConstructionValidatesEveryField) {
+  const DoubleIntegratorModel model;
+  EXPECT_EQ(error_of([&] { OcpProblem(model, 0, 0.1, {}, {}); }), "OcpProblem.horizon = 0: must be >= 1");
+  EXPECT_EQ(error_of([&] { OcpProblem(model, 5, -0.1, {}, {}); }), "OcpProblem.dt = -0.1: must be finite and > 0");
+  CostWeights negative;
+  negative.wear = -1.0;
+  EXPECT_EQ(error_of([&] { OcpProblem(model, 5, 0.1, negative, {}); }),
+            "OcpProblem.weights.wear = -1: must be finite and >= 0");
+  CostWeights wrong_size;
+  wrong_size.effort = Eigen::VectorXd::Ones(2);
+  EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, wrong_size, {}); }).find("weights.effort.size() = 2"),
+            std::string::npos);
+  InputBounds inverted;
+  inverted.lower = Eigen::Vector3d(0, 2, 0);
+  inverted.upper = Eigen::Vector3d(1, 1, 1);
+  EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, {}, inverted); }).find("OcpProblem.bounds.lower[1] = 2"),
+            std::string::npos);
+  InputBounds zero_step;
+  zero_step.max_step = Eigen::Vector3d(1, 0, 1);
+  EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, {}, zero_step); }), "");
+}
+
+}  // namespace
+}  // namespace swerve

@@ -1,0 +1,247 @@
+// Simulated annealing against closed-form optima, and its contract: bounds, deadline, budget
+// monotonicity, warm-start benefit, determinism by seed, failure statuses.
+#include "swerve/solvers/sa_solver.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <limits>
+
+#include "support/linear_models.hpp"
+#include "swerve/config/config_error.hpp"
+
+namespace swerve {
+namespace {
+
+using testing::DoubleIntegratorModel;
+using namespace std::chrono_literals;
+
+// A tracking problem on the double integrator: from rest at the origin, follow a line.
+OcpProblem make_lq_problem(const DoubleIntegratorModel& model, int horizon, InputBounds bounds = {}) {
+  CostWeights w;
+  w.pose = {10.0, 10.0, 5.0};
+  w.terminal_scale = 10.0;
+  w.effort = Eigen::Vector3d::Constant(0.1);
+  w.rate = Eigen::Vector3d::Constant(0.5);
+  w.wear = 1.0;
+  OcpProblem problem(model, horizon, 0.1, w, bounds);
+  for (int k = 1; k <= horizon; ++k) {
+    problem.set_reference(k, {0.1 * k, 0.05 * k, 0.01 * k}, Eigen::Vector3d::Zero());
+  }
+  return problem;
+}
+
+Deadline far_deadline() { return SolverClock::now() + 60s; }
+
+double cost_of(const OcpProblem& problem, const Eigen::MatrixXd& inputs) {
+  Eigen::MatrixXd states(problem.state_size(), problem.horizon() + 1);
+  return problem.evaluate(inputs, states).total();
+}
+
+TEST(SimulatedAnnealing, ReachesTheClosedFormOptimumOfALinearQuadraticProblem) {
+  const DoubleIntegratorModel model(0.5);
+  const OcpProblem problem = make_lq_problem(model, 10);
+  const Eigen::MatrixXd optimum = testing::double_integrator_optimum(problem, model);
+  const double optimal_cost = cost_of(problem, optimum);
+
+  SaOptions options;
+  options.knots = 0;  // one knot per step: the optimum is representable exactly
+  options.max_iterations = 40000;
+  SimulatedAnnealingSolver solver(problem, options);
+  Solution solution;
+  solution.resize(6, 3, 10);
+  SolveSummary summary;
+  ASSERT_EQ(solver.solve(problem, {}, far_deadline(), &solution, &summary), SolveStatus::kConverged);
+  // Documented tolerance: within 1 % of the optimal cost from a cold (zero) start.
+  EXPECT_LE(solution.cost, optimal_cost * 1.01) << "optimum " << optimal_cost;
+  RecordProperty("relative_gap", std::to_string(solution.cost / optimal_cost - 1.0));
+  EXPECT_GE(solution.cost, optimal_cost * (1 - 1e-9));
+  EXPECT_NEAR(summary.cost.total(), solution.cost, 1e-9 * solution.cost);
+}
+
+TEST(SimulatedAnnealing, KeepsEveryInputInsideItsBounds) {
+  const DoubleIntegratorModel model;
+  InputBounds bounds;
+  bounds.lower = Eigen::Vector3d::Constant(-0.3);
+  bounds.upper = Eigen::Vector3d::Constant(0.2);
+  bounds.max_step = Eigen::Vector3d::Constant(0.05);
+  const OcpProblem problem = make_lq_problem(model, 12, bounds);
+  SaOptions options;
+  options.max_iterations = 3000;
+  SimulatedAnnealingSolver solver(problem, options);
+  Solution solution;
+  solution.resize(6, 3, 12);
+  ASSERT_TRUE(has_solution(solver.solve(problem, {}, far_deadline(), &solution, nullptr)));
+  EXPECT_TRUE(problem.is_feasible(solution.inputs));
+}
+
+TEST(SimulatedAnnealing, IsNeverWorseThanItsBestInitialGuess) {
+  const DoubleIntegratorModel model;
+  const OcpProblem problem = make_lq_problem(model, 10);
+  const Eigen::MatrixXd optimum = testing::double_integrator_optimum(problem, model);
+  Eigen::MatrixXd bad = Eigen::MatrixXd::Constant(3, 10, 3.0);
+  InitialGuesses guesses;
+  guesses.add(&bad);
+  guesses.add(&optimum);
+  SaOptions options;
+  options.max_iterations = 200;
+  SimulatedAnnealingSolver solver(problem, options);
+  Solution solution;
+  solution.resize(6, 3, 10);
+  ASSERT_TRUE(has_solution(solver.solve(problem, guesses, far_deadline(), &solution, nullptr)));
+  EXPECT_LE(solution.cost, cost_of(problem, optimum) * (1 + 1e-12));
+}
+
+TEST(SimulatedAnnealing, IdenticalSeedsGiveIdenticalSolutions) {
+  const DoubleIntegratorModel model(0.2);
+  const OcpProblem problem = make_lq_problem(model, 15);
+  SaOptions options;
+  options.max_iterations = 2000;
+  options.seed = 42;
+  Solution a, b, c;
+  a.resize(6, 3, 15);
+  b.resize(6, 3, 15);
+  c.resize(6, 3, 15);
+  SimulatedAnnealingSolver first(problem, options), second(problem, options);
+  first.solve(problem, {}, far_deadline(), &a, nullptr);
+  second.solve(problem, {}, far_deadline(), &b, nullptr);
+  EXPECT_EQ(a.inputs, b.inputs);
+  options.seed = 43;
+  SimulatedAnnealingSolver third(problem, options);
+  third.solve(problem, {}, far_deadline(), &c, nullptr);
+  EXPECT_NE(a.inputs, c.inputs);
+}
+
+TEST(SimulatedAnnealing, MoreTimeNeverGivesAWorseBestCost) {
+  // Same seed and schedule: the longer run replays the shorter one and goes on, so its best
+  // cost can only be lower or equal.
+  const DoubleIntegratorModel model(0.2);
+  const OcpProblem problem = make_lq_problem(model, 20);
+  SaOptions options;
+  options.max_iterations = 200000;
+  Solution short_run, long_run;
+  short_run.resize(6, 3, 20);
+  long_run.resize(6, 3, 20);
+  SolveSummary short_summary, long_summary;
+  SimulatedAnnealingSolver a(problem, options), b(problem, options);
+  a.solve(problem, {}, SolverClock::now() + 2ms, &short_run, &short_summary);
+  b.solve(problem, {}, SolverClock::now() + 20ms, &long_run, &long_summary);
+  ASSERT_EQ(short_summary.status, SolveStatus::kBudgetExhausted);
+  if (long_summary.iterations < short_summary.iterations) GTEST_SKIP() << "the machine stalled the longer run";
+  EXPECT_LE(long_run.cost, short_run.cost);
+}
+
+TEST(SimulatedAnnealing, HonoursTheDeadline) {
+  const DoubleIntegratorModel model;
+  const OcpProblem problem = make_lq_problem(model, 40);
+  SaOptions options;
+  options.max_iterations = 100000000;
+  SimulatedAnnealingSolver solver(problem, options);
+  Solution solution;
+  solution.resize(6, 3, 40);
+  SolveSummary summary;
+  const auto start = SolverClock::now();
+  const SolveStatus status = solver.solve(problem, {}, start + 3ms, &solution, &summary);
+  const double elapsed = std::chrono::duration<double>(SolverClock::now() - start).count();
+  EXPECT_EQ(status, SolveStatus::kBudgetExhausted);
+  EXPECT_TRUE(solution.valid);
+  // Stated overhead: one proposal plus the final evaluation, well under 2 ms here.
+  EXPECT_LT(elapsed, 0.003 + 0.002);
+}
+
+TEST(SimulatedAnnealing, WarmStartReachesATargetCostInFewerIterationsThanCold) {
+  const DoubleIntegratorModel model(0.2);
+  OcpProblem problem = make_lq_problem(model, 15);
+  SaOptions options;
+  options.max_iterations = 20000;
+  SimulatedAnnealingSolver solver(problem, options);
+  Solution previous;
+  previous.resize(6, 3, 15);
+  solver.solve(problem, {}, far_deadline(), &previous, nullptr);
+
+  // Next cycle: the state advanced by the first input, the reference window moved on by one.
+  Eigen::VectorXd x1(6);
+  double wear = 0.0;
+  model.step(problem.initial_state(), previous.inputs.col(0), problem.dt(), x1, &wear);
+  problem.set_initial_state(x1);
+  problem.set_previous_input(previous.inputs.col(0));
+  for (int k = 1; k <= 15; ++k) problem.set_reference(k, {0.1 * (k + 1), 0.05 * (k + 1), 0.01 * (k + 1)}, {0, 0, 0});
+  previous.shift();
+  const double target = cost_of(problem, testing::double_integrator_optimum(problem, model)) * 1.05;
+
+  auto iterations_to_reach = [&](const InitialGuesses& guesses) {
+    for (int budget : {1, 10, 30, 100, 300, 1000, 3000, 10000, 30000}) {
+      SaOptions run = options;
+      run.max_iterations = budget;
+      SimulatedAnnealingSolver fresh(problem, run);
+      Solution solution;
+      solution.resize(6, 3, 15);
+      fresh.solve(problem, guesses, far_deadline(), &solution, nullptr);
+      if (solution.cost <= target) return budget;
+    }
+    return std::numeric_limits<int>::max();
+  };
+  InitialGuesses warm;
+  warm.add(&previous.inputs);
+  const int warm_iterations = iterations_to_reach(warm);
+  const int cold_iterations = iterations_to_reach({});
+  EXPECT_LT(warm_iterations, cold_iterations);
+}
+
+class FailingModel final : public PredictionModel {
+ public:
+  int state_size() const noexcept override { return 6; }
+  int input_size() const noexcept override { return 2; }
+  bool step(const Eigen::Ref<const Eigen::VectorXd>&, const Eigen::Ref<const Eigen::VectorXd>&, double,
+            Eigen::Ref<Eigen::VectorXd> x_next, double*) const noexcept override {
+    x_next.setConstant(std::numeric_limits<double>::quiet_NaN());
+    return false;
+  }
+};
+
+TEST(SimulatedAnnealing, ReportsStatusesInsteadOfFailingSilently) {
+  const FailingModel failing;
+  const OcpProblem broken(failing, 5, 0.1, {}, {});
+  SimulatedAnnealingSolver solver(broken, {});
+  Solution solution;
+  solution.resize(6, 2, 5);
+  SolveSummary summary;
+  EXPECT_EQ(solver.solve(broken, {}, far_deadline(), &solution, &summary), SolveStatus::kNumericalError);
+  EXPECT_FALSE(solution.valid);
+  EXPECT_STREQ(to_string(summary.status), "numerical_error");
+
+  const DoubleIntegratorModel model;
+  const OcpProblem problem = make_lq_problem(model, 5);
+  SimulatedAnnealingSolver good(problem, {});
+  Solution wrong_size;
+  wrong_size.resize(6, 3, 4);
+  EXPECT_EQ(good.solve(problem, {}, far_deadline(), &wrong_size, nullptr), SolveStatus::kInvalidInput);
+  Solution right;
+  right.resize(6, 3, 5);
+  EXPECT_EQ(good.solve(problem, {}, SolverClock::now() - 1ms, &right, nullptr), SolveStatus::kInvalidInput);
+  Eigen::MatrixXd nan_guess = Eigen::MatrixXd::Constant(3, 5, std::numeric_limits<double>::quiet_NaN());
+  InitialGuesses guesses;
+  guesses.add(&nan_guess);
+  EXPECT_TRUE(has_solution(good.solve(problem, guesses, far_deadline(), &right, nullptr)));  // NaN guess skipped
+}
+
+TEST(SaOptions, EveryFieldIsValidated) {
+  const auto invalid = [](auto mutate) {
+    SaOptions options;
+    mutate(options);
+    EXPECT_THROW(options.validate(), ConfigError);
+  };
+  invalid([](SaOptions& o) { o.knots = -1; });
+  invalid([](SaOptions& o) { o.max_iterations = 0; });
+  invalid([](SaOptions& o) { o.initial_acceptance = 1.0; });
+  invalid([](SaOptions& o) { o.final_temperature_ratio = 0.0; });
+  invalid([](SaOptions& o) { o.step_fraction = 0.0; });
+  invalid([](SaOptions& o) { o.target_acceptance = 0.0; });
+  invalid([](SaOptions& o) { o.adapt_interval = 0; });
+  invalid([](SaOptions& o) { o.reheat_interval = -1; });
+  invalid([](SaOptions& o) { o.probability_one_group = 0.8; });
+  EXPECT_NO_THROW(SaOptions{}.validate());
+}
+
+}  // namespace
+}  // namespace swerve
