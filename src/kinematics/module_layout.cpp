@@ -71,6 +71,15 @@ ModuleLayout::ModuleLayout(std::vector<Eigen::Vector2d> positions_body, double w
   limits_.validate();
 }
 
+ModuleLayout ModuleLayout::recentered(const Eigen::Vector2d& reference_point_body) const {
+  if (!reference_point_body.allFinite()) {
+    reject("ModuleLayout::recentered reference_point_body", reference_point_body.transpose(), "must be finite");
+  }
+  std::vector<Eigen::Vector2d> shifted = positions_body_;
+  for (Eigen::Vector2d& p : shifted) p -= reference_point_body;
+  return ModuleLayout(std::move(shifted), wheel_radius_, limits_);
+}
+
 ModuleLayout ModuleLayout::rectangle(double wheelbase, double track, double wheel_radius, ModuleLimits limits) {
   require_positive("ModuleLayout::rectangle wheelbase", wheelbase);
   require_positive("ModuleLayout::rectangle track", track);

@@ -48,6 +48,10 @@ class ModuleLayout {
   static ModuleLayout two_module(double module_x, double track, double wheel_radius,
                                  ModuleLimits limits = ModuleLimits{});
 
+  // The same modules measured from another reference point (body coordinates in this layout),
+  // e.g. the centre of mass: kinematics built on the result reports that point's twist.
+  ModuleLayout recentered(const Eigen::Vector2d& reference_point_body) const;
+
   int size() const { return static_cast<int>(positions_body_.size()); }
   const Eigen::Vector2d& position_body(int module) const {
     return positions_body_[static_cast<std::size_t>(module)];
