@@ -1,0 +1,138 @@
+// The planar dynamic model of an n-module swerve vehicle (n >= 2, set at run time): rigid body in
+// the body frame driven by Magic Formula tire forces, per-module steering angles, and optionally
+// the plant's actuator lag, saturation, transient slip and load transfer. Templated on the scalar
+// (double, swerve::ModelJet); allocation-free and noexcept after construction.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "swerve/models/magic_formula_tire.hpp"
+#include "swerve/models/tire_wear.hpp"
+#include "swerve/models/vehicle_params.hpp"
+
+namespace swerve {
+
+// kIdeal: the MPC's model (as in the paper): wheel speed and steering rate follow their commands
+// exactly; state = the shared prefix only. kPlant: the simulator's model: adds what
+// VehicleParams::plant switches on (lag, saturation, relaxation, load transfer).
+enum class Fidelity { kIdeal, kPlant };
+
+enum class ModelStatus {
+  kOk,
+  kNonFiniteState,    // a NaN or inf in x
+  kNonFiniteInput,    // a NaN or inf in u
+  kNonFiniteResult,   // the result was not finite (should not happen for finite inputs)
+  kInvalidArgument,   // dt <= 0, substeps < 1, or wrong vector sizes
+};
+const char* to_string(ModelStatus status);  // "ok", "non_finite_state", ...
+
+// The state prefix shared by every fidelity (size 6 + n):
+//   [x, y, psi]      pose of the body origin in the world frame (m, m, rad; psi not wrapped)
+//   [vx, vy, r]      velocity of the body origin in the body frame (m/s) and yaw rate (rad/s)
+//   [delta_1..n]     steering angles (rad, body frame, not wrapped)
+struct StateIndex {
+  static constexpr int kX = 0;
+  static constexpr int kY = 1;
+  static constexpr int kPsi = 2;
+  static constexpr int kVx = 3;
+  static constexpr int kVy = 4;
+  static constexpr int kYawRate = 5;
+  static constexpr int kFirstSteering = 6;
+  static constexpr int steering(int module) { return kFirstSteering + module; }
+  static constexpr int prefix_size(int modules) { return kFirstSteering + modules; }
+};
+
+// Input u (size 2n), the paper's hierarchical design (paper-notes "MPC inputs"):
+//   u[2i] = steering-rate command of module i (rad/s), u[2i+1] = wheel angular speed command (rad/s).
+struct InputIndex {
+  static constexpr int steering_rate(int module) { return 2 * module; }
+  static constexpr int wheel_speed(int module) { return 2 * module + 1; }
+  static constexpr int size(int modules) { return 2 * modules; }
+};
+
+// Per-module diagnostics of one derivative evaluation.
+template <typename T>
+struct ModuleDiagnostics {
+  T slip_ratio{0.0};             // kappa used for the force (transient value if relaxation is on)
+  T slip_angle{0.0};             // alpha, rad
+  T normal_load{0.0};            // Fz, N
+  T fx_wheel{0.0}, fy_wheel{0.0};  // N, wheel frame
+  T fx_body{0.0}, fy_body{0.0};    // N, body frame
+  T slip_velocity_x_wheel{0.0}, slip_velocity_y_wheel{0.0};  // m/s, see WheelSlip
+  T frictional_power{0.0};       // W
+  T wear_rate{0.0};              // wear units per second
+};
+
+template <typename T>
+class VehicleModel {
+ public:
+  using Vector = Eigen::Matrix<T, Eigen::Dynamic, 1>;
+
+  // Validates params (throws ConfigError). Sizes are fixed here.
+  VehicleModel(const VehicleParams& params, Fidelity fidelity);
+
+  int modules() const { return modules_; }
+  int state_size() const { return state_size_; }
+  int input_size() const { return 2 * modules_; }
+  Fidelity fidelity() const { return fidelity_; }
+  const VehicleParams& params() const { return params_; }
+
+  // Indices of the fidelity-dependent states after the prefix, or -1 when absent:
+  // [wheel speeds omega_1..n (rad/s) | steering rates delta_dot_1..n (rad/s)]  with actuator lag,
+  // then [kappa'_1, alpha'_1, ..., kappa'_n, alpha'_n] (transient slips) with relaxation.
+  int wheel_speed_index(int module) const;
+  int steering_rate_index(int module) const;
+  int transient_slip_ratio_index(int module) const;
+  int transient_slip_angle_index(int module) const;
+
+  // Static normal loads (N), modules then casters (see VehicleParams::static_normal_loads).
+  const std::vector<double>& static_normal_loads() const { return static_loads_; }
+
+  // Stiffness of the tire-slip dynamics (the reason the discrete map needs substeps): estimated
+  // fastest time constant (s) when the slowest wheel contact moves at `contact_speed` (m/s):
+  // tau = max(v, eps) / lambda, lambda the largest eigenvalue of M^-1/2 (sum_i K_i J_i^T J_i) M^-1/2
+  // with K_i = mu Fz_i max(Bx Cx, By Cy) (each tire linearised as a damper K_i / v on its contact
+  // velocity), J_i = [1 0 -(y_i - c_y); 0 1 x_i - c_x], M = diag(m, m, Iz). Pass 0 for the worst
+  // case (a wheel at rest: v -> eps; ~0.33 ms for the paper vehicle).
+  double slip_time_constant(double contact_speed) const;
+  // Substeps for a step of dt so that h = dt / substeps <= 2 tau (explicit Euler's and RK4's
+  // stability limits on the real axis are 2 tau and 2.79 tau).
+  int recommended_substeps(double dt, double contact_speed) const;
+
+  // x_dot = f(x, u). Optionally per-module diagnostics (array of modules() entries) and the total
+  // wear rate of all modules. Returns kNonFiniteState/kNonFiniteInput (x_dot filled with NaN) for
+  // non-finite inputs, kInvalidArgument for wrong sizes. No allocation.
+  //   psi_dot = r, [x_dot, y_dot] = R(psi) [vx, vy]
+  //   m (vx_dot - r vy_c) = Fx,  m (vy_dot + r vx_c) = Fy   (CoM velocity v_c = v + r x c)
+  //   Iz r_dot = sum_i (p_i - c) x F_i
+  ModelStatus derivative(const Eigen::Ref<const Vector>& x, const Eigen::Ref<const Vector>& u,
+                         Eigen::Ref<Vector> x_dot, ModuleDiagnostics<T>* diagnostics = nullptr,
+                         T* total_wear_rate = nullptr) const noexcept;
+
+  // A full state from its prefix (size 6 + n): fidelity extras set to pure rolling (wheel speeds
+  // matching the contact speed, steering rates and transient slips zero). Allocates (setup only).
+  Eigen::VectorXd complete_state(const Eigen::VectorXd& prefix) const;
+
+ private:
+  struct ForceSums;
+  void module_forces(const T* x, const T* u, int module, const T& fz, ForceSums* sums,
+                     ModuleDiagnostics<T>* diag, T* x_dot) const noexcept;
+
+  VehicleParams params_;
+  Fidelity fidelity_;
+  MagicFormulaTire<T> tire_;
+  int modules_;
+  int state_size_;
+  bool lag_ = false;
+  bool saturate_ = false;
+  bool relaxation_ = false;
+  bool load_transfer_ = false;
+  std::vector<double> static_loads_;        // N, modules then casters
+  std::vector<double> transfer_per_ax_;     // dFz/d(a_x) (N per m/s^2), modules then casters
+  std::vector<double> transfer_per_ay_;     // dFz/d(a_y)
+  double slip_rate_per_speed_ = 1.0;        // lambda (1/m), see slip_time_constant
+};
+
+}  // namespace swerve

@@ -1,0 +1,131 @@
+#include "swerve/models/vehicle_params.hpp"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <sstream>
+
+#include "load_distribution.hpp"
+#include "swerve/config/config_error.hpp"
+
+namespace swerve {
+namespace {
+
+template <typename Value>
+[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
+  std::ostringstream message;
+  message << "VehicleParams." << field << " = " << value << ": " << rule;
+  throw ConfigError(message.str());
+}
+
+std::string format(const Eigen::Vector2d& v) {
+  std::ostringstream out;
+  out << "[" << v.x() << ", " << v.y() << "]";
+  return out.str();
+}
+
+void require_positive(const std::string& field, double value) {
+  if (!std::isfinite(value) || value <= 0.0) reject(field, value, "must be finite and > 0");
+}
+
+}  // namespace
+
+namespace detail {
+
+Eigen::Matrix2Xd contact_positions(const VehicleParams& params) {
+  const int modules = params.layout.size();
+  const auto casters = static_cast<int>(params.casters.size());
+  Eigen::Matrix2Xd positions(2, modules + casters);
+  for (int i = 0; i < modules; ++i) positions.col(i) = params.layout.position_body(i);
+  for (int j = 0; j < casters; ++j) {
+    positions.col(modules + j) = params.casters[static_cast<std::size_t>(j)].position_body;
+  }
+  return positions;
+}
+
+Eigen::MatrixXd least_norm_load_matrix(const VehicleParams& params) {
+  const Eigen::Matrix2Xd positions = contact_positions(params);
+  const Eigen::Index contacts = positions.cols();
+  Eigen::MatrixXd a(3, contacts);
+  for (Eigen::Index i = 0; i < contacts; ++i) {
+    a(0, i) = 1.0;
+    a(1, i) = positions(0, i) - params.center_of_mass_body.x();
+    a(2, i) = positions(1, i) - params.center_of_mass_body.y();
+  }
+  // Pseudo-inverse through a complete orthogonal decomposition (rank-revealing: 2 contacts, or all
+  // contacts on one line, leave one moment equation unsatisfiable).
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> decomposition(a);
+  decomposition.setThreshold(1e-9);
+  return decomposition.pseudoInverse();
+}
+
+}  // namespace detail
+
+void VehicleParams::validate() const {
+  require_positive("mass", mass);
+  require_positive("yaw_inertia", yaw_inertia);
+  require_positive("gravity", gravity);
+  if (!center_of_mass_body.allFinite()) {
+    reject("center_of_mass", format(center_of_mass_body), "must be finite");
+  }
+  if (cog_height && (!std::isfinite(*cog_height) || *cog_height <= 0.0)) {
+    reject("cog_height", *cog_height, "must be finite and > 0");
+  }
+  require_positive("actuators.steering_time_constant", actuators.steering_time_constant);
+  require_positive("actuators.drive_time_constant", actuators.drive_time_constant);
+  if (!std::isfinite(plant.relaxation_length) || plant.relaxation_length < 0.0) {
+    reject("plant.relaxation_length", plant.relaxation_length, "must be finite and >= 0 (0 = off)");
+  }
+  if (plant.load_transfer && !cog_height) {
+    reject("plant.load_transfer", "true", "needs cog_height");
+  }
+  for (std::size_t j = 0; j < casters.size(); ++j) {
+    const std::string field = "casters[" + std::to_string(j) + "]";
+    if (!casters[j].position_body.allFinite()) {
+      reject(field + ".position", format(casters[j].position_body), "must be finite");
+    }
+    if (!std::isfinite(casters[j].rolling_resistance) || casters[j].rolling_resistance < 0.0) {
+      reject(field + ".rolling_resistance", casters[j].rolling_resistance, "must be finite and >= 0");
+    }
+    for (int i = 0; i < layout.size(); ++i) {
+      if ((casters[j].position_body - layout.position_body(i)).norm() < 1e-3) {
+        reject(field + ".position", format(casters[j].position_body),
+               "coincides with modules[" + std::to_string(i) + "]");
+      }
+    }
+  }
+  tire.validate();
+  wear.validate();
+  (void)static_normal_loads();  // throws when the weight cannot be carried
+}
+
+std::vector<double> VehicleParams::static_normal_loads() const {
+  const Eigen::MatrixXd p = detail::least_norm_load_matrix(*this);
+  const Eigen::Vector3d b(mass * gravity, 0.0, 0.0);
+  const Eigen::VectorXd loads = p * b;
+  // Residual of the equilibrium: non-zero when the CoM is off the line of collinear contacts.
+  const Eigen::Matrix2Xd positions = detail::contact_positions(*this);
+  Eigen::Vector3d residual = -b;
+  for (Eigen::Index i = 0; i < loads.size(); ++i) {
+    residual(0) += loads(i);
+    residual(1) += loads(i) * (positions(0, i) - center_of_mass_body.x());
+    residual(2) += loads(i) * (positions(1, i) - center_of_mass_body.y());
+  }
+  if (residual.norm() > 1e-6 * b(0)) {
+    reject("center_of_mass", format(center_of_mass_body),
+           "is off the line through all contacts: the weight cannot be carried (add a caster)");
+  }
+  for (Eigen::Index i = 0; i < loads.size(); ++i) {
+    if (loads(i) < 0.0) {
+      const int modules = layout.size();
+      const std::string contact = i < modules ? "modules[" + std::to_string(i) + "]"
+                                              : "casters[" + std::to_string(i - modules) + "]";
+      reject("center_of_mass", format(center_of_mass_body),
+             "lies outside the support: the static load on " + contact + " would be " +
+                 std::to_string(loads(i)) + " N < 0");
+    }
+  }
+  return {loads.data(), loads.data() + loads.size()};
+}
+
+}  // namespace swerve

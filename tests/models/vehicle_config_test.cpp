@@ -1,0 +1,122 @@
+// Loading `vehicle:` sections: every shipped configs/vehicles/*.yaml, the values of one by hand,
+// defaults, and errors that name the file, the key path and the value.
+#include "swerve/config/vehicle_config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "swerve/models/vehicle_model.hpp"
+
+namespace swerve {
+namespace {
+
+const std::string kVehicles = std::string(SWERVE_SOURCE_DIR) + "/configs/vehicles/";
+
+TEST(VehicleConfig, EveryShippedVehicleLoadsAndBuildsBothModels) {
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(kVehicles)) {
+    if (entry.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(entry.path().string());
+    const VehicleParams params = load_vehicle_config_file(entry.path().string());
+    const VehicleModel<double> ideal(params, Fidelity::kIdeal);
+    const VehicleModel<double> plant(params, Fidelity::kPlant);
+    EXPECT_EQ(ideal.state_size(), 6 + params.layout.size());
+    EXPECT_GE(plant.state_size(), ideal.state_size());
+    ++count;
+  }
+  EXPECT_GE(count, 5);
+}
+
+TEST(VehicleConfig, PaperVehicleHasTheStatedNumbers) {
+  const VehicleParams p = load_vehicle_config_file(kVehicles + "paper_ms_agv.yaml");
+  EXPECT_EQ(p.name, "paper_ms_agv");
+  EXPECT_EQ(p.layout.size(), 10);
+  EXPECT_DOUBLE_EQ(p.mass, 800.0);
+  EXPECT_DOUBLE_EQ(p.yaw_inertia, 2900.0);
+  EXPECT_DOUBLE_EQ(p.layout.wheel_radius(), 0.325);
+  EXPECT_DOUBLE_EQ(p.layout.position_body(0).x(), 2.08);
+  EXPECT_DOUBLE_EQ(p.layout.position_body(9).y(), -0.845);
+  EXPECT_NEAR(p.layout.limits().max_steering_angle, 1.5707963267948966, 1e-15);
+  EXPECT_DOUBLE_EQ(p.layout.limits().max_steering_rate, 1.0);
+  EXPECT_DOUBLE_EQ(p.tire.mu, 0.8);
+  EXPECT_DOUBLE_EQ(p.tire.longitudinal.b, 10.0);
+  EXPECT_DOUBLE_EQ(p.tire.lateral.c, 1.3);
+  EXPECT_EQ(p.wear.model, WearModelKind::kFrictionalPower);
+  for (double load : p.static_normal_loads()) EXPECT_NEAR(load, 800.0 * 9.81 / 10.0, 1e-9);
+}
+
+VehicleParams load_text(const std::string& body) {
+  const config::ConfigNode root = config::ConfigNode::parse(body, "test.yaml");
+  VehicleParams params = load_vehicle_config(root.child("vehicle"));
+  root.expect_all_read();
+  return params;
+}
+
+const char* kMinimal = R"(vehicle:
+  name: minimal
+  mass: 100
+  yaw_inertia: 10
+  wheel_radius: 0.1
+  modules: [{position: [0.3, 0.2]}, {position: [0.3, -0.2]}, {position: [-0.3, 0.2]}, {position: [-0.3, -0.2]}]
+  tire: {mu: 0.9, longitudinal: {B: 8, C: 1.6}, lateral: {B: 12, C: 1.2}}
+)";
+
+TEST(VehicleConfig, OptionalKeysTakeTheirDocumentedDefaults) {
+  const VehicleParams p = load_text(kMinimal);
+  EXPECT_EQ(p.center_of_mass_body, Eigen::Vector2d::Zero());
+  EXPECT_FALSE(p.cog_height.has_value());
+  EXPECT_DOUBLE_EQ(p.gravity, 9.81);
+  EXPECT_TRUE(p.casters.empty());
+  EXPECT_DOUBLE_EQ(p.actuators.steering_time_constant, 0.05);
+  EXPECT_DOUBLE_EQ(p.tire.longitudinal.e, 0.0);
+  EXPECT_EQ(p.tire.combined_slip, CombinedSlipMethod::kNormalizedSlip);
+  EXPECT_DOUBLE_EQ(p.tire.slip_speed_epsilon, 0.05);
+  EXPECT_TRUE(p.tire.smooth_slip);
+  EXPECT_EQ(p.wear.model, WearModelKind::kFrictionalPower);
+  EXPECT_DOUBLE_EQ(p.wear.coefficient, 1.0);
+  EXPECT_TRUE(p.plant.actuator_lag);
+  EXPECT_FALSE(p.plant.load_transfer);
+}
+
+void expect_error(const std::string& text, const std::string& expected) {
+  try {
+    load_text(text);
+    ADD_FAILURE() << "accepted; expected: " << expected;
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+  }
+}
+
+std::string with(const std::string& from, const std::string& to) {
+  std::string text = kMinimal;
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return text.replace(at, from.size(), to);
+}
+
+TEST(VehicleConfig, ErrorsNameFileKeyPathAndValue) {
+  expect_error(with("mass: 100", "mass: -100"), "test.yaml: vehicle.mass = -100: must be > 0");
+  expect_error(with("yaw_inertia: 10", "yaw_inertia: 0"), "test.yaml: vehicle.yaw_inertia = 0");
+  expect_error(with("mu: 0.9", "mu: 0"), "vehicle.tire.mu = 0");
+  expect_error(with("C: 1.2", "C: 2.2"), "vehicle.tire.lateral.C = 2.2");
+  expect_error(with("B: 8", "B: -8"), "vehicle.tire.longitudinal.B = -8");
+  expect_error(with("mass: 100", "mass: 100\n  masss: 3"), "vehicle.masss: unknown key");
+  expect_error(with("mass: 100", "mass: 100\n  wear: {model: magic}"), "vehicle.wear.model");
+  expect_error(with("mass: 100", "mass: 100\n  plant: {load_transfer: true}"),
+               "vehicle.plant.load_transfer = true: needs vehicle.cog_height");
+  expect_error(with("mass: 100", "mass: 100\n  center_of_mass: [1.0, 0.0]"),
+               "test.yaml: vehicle: VehicleParams.center_of_mass = [1, 0]: lies outside the support");
+  expect_error(with("mass: 100", "mass: 100\n  casters: [{position: [0.3, 0.2]}]"),
+               "VehicleParams.casters[0].position = [0.3, 0.2]: coincides with modules[0]");
+  expect_error(with("mass: 100", "mass: 100\n  tire2: {}"), "vehicle.tire2: unknown key");
+  expect_error(with("  tire: {mu: 0.9, longitudinal: {B: 8, C: 1.6}, lateral: {B: 12, C: 1.2}}\n", ""),
+               "vehicle.tire: required key is missing");
+}
+
+TEST(VehicleConfig, MissingFileIsAClearError) {
+  EXPECT_THROW(load_vehicle_config_file(kVehicles + "no_such_vehicle.yaml"), ConfigError);
+}
+
+}  // namespace
+}  // namespace swerve
