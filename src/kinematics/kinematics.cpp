@@ -34,6 +34,9 @@ double heading_of(double x, double y) {
   return angle <= -kPi ? kPi : angle;
 }
 
+// theta + pi, wrapped, exactly (no remainder call): theta is already in (-pi, pi].
+double opposite(double angle) { return angle > 0.0 ? angle - kPi : angle + kPi; }
+
 void zero_states(int size, ModuleStates* states) {
   states->resize(size);
   for (ModuleState& s : *states) s = ModuleState{};
@@ -129,13 +132,40 @@ KinematicsStatus Kinematics::command(const Eigen::Vector3d& twist_body, ModuleHe
     for (int i = 0; i < size_; ++i) (*states)[i] = ModuleState{0.0, memory_fits ? memory->angle(i) : 0.0};
     return status;
   };
-  if (memory->size() != size_) return fail(KinematicsStatus::kWrongModuleCount);
-  KinematicsStatus status = inverse(twist_body, states, center_of_rotation_body);
-  if (status != KinematicsStatus::kOk) return fail(status);
-  desaturate(layout_.limits().max_drive_speed, states);  // limit validated at construction
-  hold_singular(*memory, states);                         // sizes and values already checked
-  status = optimize(memory, states, measured);
-  if (status != KinematicsStatus::kOk) return fail(status);
+  if (memory->size() != size_ || (measured != nullptr && measured->size() != size_)) {
+    return fail(KinematicsStatus::kWrongModuleCount);
+  }
+  if (!finite3(twist_body) || !finite2(center_of_rotation_body) ||
+      (measured != nullptr && !finite_states(*measured))) {
+    return fail(KinematicsStatus::kNonFiniteInput);
+  }
+  // One fused pass of inverse -> desaturate -> hold, keeping each module's unit direction so the
+  // flip decision below needs no trigonometry beyond the one atan2 per module.
+  std::array<Eigen::Vector2d, kMaxModules> velocity;
+  double fastest = 0.0;
+  for (int i = 0; i < size_; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    velocity[k] = module_velocity(i, twist_body, center_of_rotation_body);
+    fastest = std::max(fastest, velocity[k].squaredNorm());
+  }
+  fastest = std::sqrt(fastest);
+  const double max_speed = layout_.limits().max_drive_speed;
+  const double scale = fastest > max_speed ? max_speed / fastest : 1.0;
+  states->resize(size_);
+  Directions directions;
+  for (int i = 0; i < size_; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    const Eigen::Vector2d u = scale * velocity[k];
+    const double speed = u.norm();
+    if (speed >= options_.hold_speed_threshold) {
+      directions.cos[k] = u.x() / speed;
+      directions.sin[k] = u.y() / speed;
+      (*states)[i] = ModuleState{speed, heading_of(u.x(), u.y())};
+    } else {  // singularity hold: see hold_singular
+      (*states)[i] = ModuleState{u.x() * memory->cos_angle(i) + u.y() * memory->sin_angle(i), memory->angle(i)};
+    }
+  }
+  choose_flips(memory, states, directions, measured);
   return KinematicsStatus::kOk;
 }
 
@@ -147,7 +177,8 @@ KinematicsStatus Kinematics::hold_singular(const ModuleHeadingMemory& memory, Mo
     if (std::abs(s.speed) >= options_.hold_speed_threshold) continue;
     // Keep the velocity's component along the held heading: tiny, signed, and exactly what that
     // heading can deliver.
-    const double projection = s.speed * (std::cos(s.angle) * memory.cos_angle(i) + std::sin(s.angle) * memory.sin_angle(i));
+    const double projection =
+        s.speed * (std::cos(s.angle) * memory.cos_angle(i) + std::sin(s.angle) * memory.sin_angle(i));
     s = ModuleState{projection, memory.angle(i)};
   }
   return KinematicsStatus::kOk;
@@ -160,26 +191,37 @@ KinematicsStatus Kinematics::optimize(ModuleHeadingMemory* memory, ModuleStates*
   if (!finite_states(*states) || (measured != nullptr && !finite_states(*measured))) {
     return KinematicsStatus::kNonFiniteInput;
   }
+  Directions directions;
+  for (int i = 0; i < size_; ++i) {
+    ModuleState& s = (*states)[i];
+    if (std::abs(s.speed) < options_.hold_speed_threshold) continue;
+    s.angle = wrap_angle(s.angle);
+    if (s.speed < 0.0) s = ModuleState{-s.speed, opposite(s.angle)};  // raw direction of travel
+    const auto k = static_cast<std::size_t>(i);
+    directions.cos[k] = std::cos(s.angle);
+    directions.sin[k] = std::sin(s.angle);
+  }
+  choose_flips(memory, states, directions, measured);
+  return KinematicsStatus::kOk;
+}
+
+void Kinematics::choose_flips(ModuleHeadingMemory* memory, ModuleStates* states, const Directions& directions,
+                              const ModuleStates* measured) const noexcept {
   // Keeping a decision is allowed while cos(steering error) >= cos(90 deg + band) = -sin(band).
   const double keep_cos = -std::sin(options_.flip_hysteresis);
-  // cos of the steering error of the unflipped choice, per moving module.
-  std::array<double, kMaxModules> dot{};
-  std::array<bool, kMaxModules> moving{};
+  std::array<double, kMaxModules> dot;  // cos of the steering error of the unflipped choice
   double sum_error = 0.0;
   int moving_count = 0;
   for (int i = 0; i < size_; ++i) {
-    ModuleState& s = (*states)[i];
     const auto k = static_cast<std::size_t>(i);
-    moving[k] = std::abs(s.speed) >= options_.hold_speed_threshold;
-    if (!moving[k]) continue;
-    if (s.speed < 0.0) s = ModuleState{-s.speed, wrap_angle(s.angle + kPi)};  // raw direction of travel
-    const double c = std::cos(s.angle);
-    const double sn = std::sin(s.angle);
+    if ((*states)[i].speed < options_.hold_speed_threshold) continue;  // held (or reversed) modules
+    const double c = directions.cos[k];
+    const double s = directions.sin[k];
     if (measured != nullptr) {
       const double m = (*measured)[i].angle;
-      dot[k] = c * std::cos(m) + sn * std::sin(m);
+      dot[k] = c * std::cos(m) + s * std::sin(m);
     } else if (memory->known(i)) {
-      dot[k] = c * memory->cos_angle(i) + sn * memory->sin_angle(i);
+      dot[k] = c * memory->cos_angle(i) + s * memory->sin_angle(i);
     } else {
       dot[k] = 1.0;  // nothing to steer from: the raw direction costs nothing
     }
@@ -191,8 +233,7 @@ KinematicsStatus Kinematics::optimize(ModuleHeadingMemory* memory, ModuleStates*
   int robot_sign = memory->robot_drive_sign();
   if (options_.whole_robot_flip && moving_count > 0) {
     // The per-module rule applied to the mean steering error of the unflipped choice.
-    const double mean_error = sum_error / moving_count;
-    const double error_of_unflipped = mean_error;
+    const double error_of_unflipped = sum_error / moving_count;
     if (robot_sign == 0) {
       robot_sign = error_of_unflipped > kPi / 2.0 ? -1 : 1;
     } else {
@@ -203,10 +244,10 @@ KinematicsStatus Kinematics::optimize(ModuleHeadingMemory* memory, ModuleStates*
   }
   const bool scale_by_cosine = options_.cosine_scaling && measured != nullptr;
   for (int i = 0; i < size_; ++i) {
-    ModuleState& s = (*states)[i];
+    ModuleState& state = (*states)[i];
     const auto k = static_cast<std::size_t>(i);
-    if (!moving[k]) {
-      memory->remember(i, s.angle, 0);
+    if (state.speed < options_.hold_speed_threshold) {
+      if (!memory->known(i) || memory->angle(i) != state.angle) memory->remember(i, state.angle, 0);
       continue;
     }
     int sign;
@@ -220,11 +261,10 @@ KinematicsStatus Kinematics::optimize(ModuleHeadingMemory* memory, ModuleStates*
         sign = previous * dot[k] >= keep_cos ? previous : -previous;
       }
     }
-    if (sign < 0) s = ModuleState{-s.speed, wrap_angle(s.angle + kPi)};
-    if (scale_by_cosine) s.speed *= std::max(0.0, sign * dot[k]);
-    memory->remember(i, s.angle, sign);
+    if (sign < 0) state = ModuleState{-state.speed, opposite(state.angle)};
+    if (scale_by_cosine) state.speed *= std::max(0.0, sign * dot[k]);
+    memory->remember(i, state.angle, sign * directions.cos[k], sign * directions.sin[k], sign);
   }
-  return KinematicsStatus::kOk;
 }
 
 KinematicsStatus Kinematics::desaturate(double max_speed, ModuleStates* states) noexcept {

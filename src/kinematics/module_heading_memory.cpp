@@ -28,4 +28,15 @@ void ModuleHeadingMemory::remember(int module, double angle, int drive_sign) noe
   entry.known = true;
 }
 
+void ModuleHeadingMemory::remember(int module, double angle, double cos_angle, double sin_angle,
+                                   int drive_sign) noexcept {
+  SWERVE_DCHECK(std::abs(std::cos(angle) - cos_angle) < 1e-9 && std::abs(std::sin(angle) - sin_angle) < 1e-9);
+  Entry& entry = entries_[module];
+  entry.angle = angle;
+  entry.cos_angle = cos_angle;
+  entry.sin_angle = sin_angle;
+  if (drive_sign != 0) entry.drive_sign = drive_sign > 0 ? 1 : -1;
+  entry.known = true;
+}
+
 }  // namespace swerve

@@ -136,6 +136,14 @@ class Kinematics {
                                                const Eigen::Vector3d& twist_rate_body) noexcept;
 
  private:
+  struct Directions {  // unit direction of each moving module's raw velocity
+    std::array<double, kMaxModules> cos;
+    std::array<double, kMaxModules> sin;
+  };
+  // The flip decision, cosine scaling and memory update shared by command() and optimize();
+  // moving modules of *states hold speed >= threshold along `directions`, the rest are held.
+  void choose_flips(ModuleHeadingMemory* memory, ModuleStates* states, const Directions& directions,
+                    const ModuleStates* measured) const noexcept;
   // Module velocity in the body frame for a twist about centre c.
   Eigen::Vector2d module_velocity(int module, const Eigen::Vector3d& twist_body, const Eigen::Vector2d& c) const {
     const Eigen::Vector2d& r = positions_[static_cast<std::size_t>(module)];

@@ -34,6 +34,9 @@ class ModuleHeadingMemory {
   // Records a command (called by Kinematics::optimize; public so callers that build module
   // commands by other means can keep the memory in step). `drive_sign` 0 keeps the old decision.
   void remember(int module, double angle, int drive_sign) noexcept;
+  // The same with the heading's cosine and sine already known (the per-cycle path avoids the trig);
+  // `angle` must be wrapped and match them.
+  void remember(int module, double angle, double cos_angle, double sin_angle, int drive_sign) noexcept;
   void set_robot_drive_sign(int drive_sign) noexcept { robot_drive_sign_ = drive_sign; }
 
  private:
