@@ -168,12 +168,6 @@ std::vector<double> clamped_spline_second_derivatives(const std::vector<double>&
 
 }  // namespace
 
-double wrap_angle(double angle) {
-  double wrapped = std::remainder(angle, 2.0 * kPiRef);  // in [-pi, pi]
-  if (wrapped <= -kPiRef) wrapped += 2.0 * kPiRef;
-  return wrapped;
-}
-
 std::shared_ptr<const PlanarCurve> make_line_curve(const Eigen::Vector2d& start, double direction, double length) {
   if (!start.allFinite()) reject("line.start is not finite");
   if (!std::isfinite(direction)) reject("line.direction = " + number(direction) + ": must be finite");

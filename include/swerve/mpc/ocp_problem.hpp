@@ -62,6 +62,7 @@ class OcpProblem {
   const Eigen::VectorXd& initial_state() const noexcept { return x0_; }
   const Eigen::VectorXd& previous_input() const noexcept { return u_previous_; }
   const Eigen::Matrix<double, 3, Eigen::Dynamic>& reference_poses() const noexcept { return reference_pose_; }
+  const Eigen::Matrix<double, 3, Eigen::Dynamic>& reference_twists() const noexcept { return reference_twist_; }
 
   // Makes an input sequence (nu x N) feasible in place: clamps each input to its box, then to its
   // step bound from the previous (already feasible) input. Returns the first step it changed

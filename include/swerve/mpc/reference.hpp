@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "swerve/kinematics/module_state.hpp"  // wrap_angle
+
 namespace swerve {
 
 struct ReferenceSample {
@@ -103,8 +105,5 @@ class SampledReference final : public Reference {
 
 // Loads a CSV with a header line naming the columns t,x,y,psi[,vx,vy,r]; errors name file and line.
 std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path);
-
-// Angle helpers shared by references, costs and metrics.
-double wrap_angle(double angle);  // to (-pi, pi]
 
 }  // namespace swerve

@@ -1,0 +1,112 @@
+// Physical models: one derivative evaluation, one RK4 step (1 substep, with the wear quadrature)
+// and the Jet Jacobian of that step (dF/dx, dF/du, wear gradient), for 4, 8 and 16 modules, in
+// double. Goals (issue 6): <= 200 ns per module per derivative; Jacobian <= 15x one step.
+#include <benchmark/benchmark.h>
+
+#include "swerve/models/dynamics_jacobian.hpp"
+#include "swerve/models/integrators.hpp"
+#include "swerve/models/vehicle_model.hpp"
+
+namespace swerve {
+namespace {
+
+VehicleParams bench_params(int modules) {
+  VehicleParams params(ModuleLayout::multi_axle(modules / 2, 1.04, 1.69, 0.325));  // paper-like
+  params.mass = 80.0 * modules;
+  params.yaw_inertia = 290.0 * modules;
+  params.cog_height = 0.6;
+  params.plant.relaxation_length = 0.1;
+  params.plant.load_transfer = true;
+  return params;
+}
+
+// A moving, slipping, steering state (every tire in its nonlinear range somewhere).
+void bench_point(const VehicleModel<double>& model, Eigen::VectorXd* x, Eigen::VectorXd* u) {
+  *x = Eigen::VectorXd::Zero(model.state_size());
+  *u = Eigen::VectorXd::Zero(model.input_size());
+  (*x)(StateIndex::kVx) = 1.0;
+  (*x)(StateIndex::kVy) = 0.1;
+  (*x)(StateIndex::kYawRate) = 0.2;
+  for (int i = 0; i < model.modules(); ++i) {
+    (*x)(StateIndex::steering(i)) = 0.05 * i;
+    (*u)(InputIndex::steering_rate(i)) = 0.3;
+    (*u)(InputIndex::wheel_speed(i)) = 3.2 + 0.05 * i;
+  }
+  if (model.state_size() > StateIndex::prefix_size(model.modules())) {
+    *x = model.complete_state(x->head(StateIndex::prefix_size(model.modules())));
+  }
+}
+
+void BM_Models_Derivative(benchmark::State& state) {
+  const int modules = static_cast<int>(state.range(0));
+  const VehicleModel<double> model(bench_params(modules), Fidelity::kIdeal);
+  Eigen::VectorXd x;
+  Eigen::VectorXd u;
+  bench_point(model, &x, &u);
+  Eigen::VectorXd x_dot(model.state_size());
+  double wear = 0.0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(model.derivative(x, u, x_dot, nullptr, &wear));
+    benchmark::DoNotOptimize(x_dot.data());
+  }
+  state.counters["modules"] = modules;
+  state.counters["module_evals"] = benchmark::Counter(static_cast<double>(modules), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_Models_Derivative)->Arg(4)->Arg(8)->Arg(16);
+
+void BM_Models_DerivativePlant(benchmark::State& state) {
+  const int modules = static_cast<int>(state.range(0));
+  const VehicleModel<double> model(bench_params(modules), Fidelity::kPlant);
+  Eigen::VectorXd x;
+  Eigen::VectorXd u;
+  bench_point(model, &x, &u);
+  Eigen::VectorXd x_dot(model.state_size());
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(model.derivative(x, u, x_dot));
+    benchmark::DoNotOptimize(x_dot.data());
+  }
+  state.counters["module_evals"] = benchmark::Counter(static_cast<double>(modules), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_Models_DerivativePlant)->Arg(4)->Arg(8)->Arg(16);
+
+void BM_Models_Rk4Step(benchmark::State& state) {
+  const int modules = static_cast<int>(state.range(0));
+  const VehicleModel<double> model(bench_params(modules), Fidelity::kIdeal);
+  const DiscreteDynamics<double> dynamics(model);
+  Eigen::VectorXd x;
+  Eigen::VectorXd u;
+  bench_point(model, &x, &u);
+  Eigen::VectorXd next(model.state_size());
+  double wear = 0.0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(dynamics.step(x, u, 0.005, 1, next, &wear));
+    benchmark::DoNotOptimize(next.data());
+  }
+}
+BENCHMARK(BM_Models_Rk4Step)->Arg(4)->Arg(8)->Arg(16);
+
+void BM_Models_Rk4StepJacobian(benchmark::State& state) {
+  const int modules = static_cast<int>(state.range(0));
+  const VehicleParams params = bench_params(modules);
+  const VehicleModel<double> model(params, Fidelity::kIdeal);
+  DynamicsJacobian jacobian(params, Fidelity::kIdeal);
+  Eigen::VectorXd x;
+  Eigen::VectorXd u;
+  bench_point(model, &x, &u);
+  const int nx = model.state_size();
+  const int nu = model.input_size();
+  Eigen::VectorXd next(nx);
+  Eigen::MatrixXd a(nx, nx);
+  Eigen::MatrixXd b(nx, nu);
+  Eigen::VectorXd gradient(nx + nu);
+  double wear = 0.0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(jacobian.discrete(x, u, 0.005, 1, next, a, b, &wear, gradient.data()));
+    benchmark::DoNotOptimize(a.data());
+  }
+  state.counters["directions"] = nx + nu;
+}
+BENCHMARK(BM_Models_Rk4StepJacobian)->Arg(4)->Arg(8)->Arg(16);
+
+}  // namespace
+}  // namespace swerve

@@ -1,0 +1,79 @@
+// The wear-aware receding-horizon controller: each step() updates the optimal control problem in
+// place from the measured state and the reference, solves it from the shifted previous plan and
+// the kinematic baseline's plan before a wall-clock deadline, and returns module commands. On a
+// failed, late or invalid solve it falls back (previous plan while it is fresh, then the baseline,
+// then a safe stop) and says why. step() is noexcept and allocates nothing after construction.
+#pragma once
+
+#include <functional>
+#include <memory>
+
+#include "swerve/models/vehicle_params.hpp"
+#include "swerve/mpc/kinematic_baseline.hpp"
+#include "swerve/mpc/ocp_problem.hpp"
+#include "swerve/mpc/reference.hpp"
+#include "swerve/mpc/tracking_controller.hpp"
+#include "swerve/mpc/vehicle_prediction_model.hpp"
+
+namespace swerve {
+
+struct ControllerOptions {
+  int horizon = 20;                  // N (paper-notes assumption 7)
+  double dt = 0.05;                  // s
+  double solve_budget = 0.02;        // s of wall clock per solve (the deadline)
+  double overrun_grace = 0.002;      // s past the deadline before an answer counts as late
+  Eigen::Vector3d pose_weight{10.0, 10.0, 5.0};
+  Eigen::Vector3d twist_weight{0.0, 0.0, 0.0};
+  double terminal_scale = 10.0;
+  double wear_weight = 1.0;          // lambda; 0 gives the dynamic controller without wear
+  double steering_rate_effort = 0.01;
+  double wheel_speed_effort = 0.0;
+  double steering_rate_smoothness = 0.05;
+  double wheel_speed_smoothness = 0.01;
+  PredictionOptions prediction;
+  bool baseline_guess = true;        // also start the solver from the kinematic baseline's plan
+  int max_plan_age = 5;              // cycles a previous plan may stand in for a failed solve
+  void validate() const;             // throws ConfigError naming the field and value
+};
+
+class Controller final : public TrackingController {
+ public:
+  using SolverFactory = std::function<std::unique_ptr<Solver>(const OcpProblem&)>;
+
+  // Throws ConfigError for invalid options or parameters. The baseline options' horizon and dt
+  // are overridden by the controller's so both plan over the same window.
+  Controller(const VehicleParams& vehicle, std::shared_ptr<const Reference> reference, ControllerOptions options,
+             const SolverFactory& make_solver, BaselineOptions baseline_options = BaselineOptions{},
+             const char* name = "wear_mpc");
+
+  const char* name() const noexcept override { return name_; }
+  const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t) noexcept override;
+  void reset() noexcept override;
+
+  const OcpProblem& problem() const noexcept { return *problem_; }
+  const Solution& plan() const noexcept { return plan_; }
+  const ControllerOptions& options() const noexcept { return options_; }
+  const Solver& solver() const noexcept { return *solver_; }
+
+ private:
+  void apply_column(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int column,
+                    const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
+  void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
+
+  const char* name_;
+  ControllerOptions options_;
+  ModuleLayout layout_;
+  std::unique_ptr<VehiclePredictionModel> model_;
+  std::unique_ptr<OcpProblem> problem_;
+  std::unique_ptr<Solver> solver_;
+  std::shared_ptr<const Reference> reference_;
+  KinematicBaseline baseline_;
+  int modules_;
+  Solution solution_, plan_;
+  int plan_age_ = 0;
+  Eigen::MatrixXd baseline_inputs_;  // 2n x N
+  Eigen::VectorXd applied_input_;    // 2n
+  ControlOutput output_;
+};
+
+}  // namespace swerve

@@ -1,0 +1,72 @@
+// The paper's comparison controller (arXiv 2506.04752; paper-notes assumption 9): the same tracking
+// problem on the kinematic model, without tire dynamics and without wear. A body-twist MPC
+//   min sum_k |pose_k+1 - ref|^2_Q (terminal x terminal_scale) + |u_k - u_ref,k|^2_R + |u_k - u_k-1|^2_S
+//   pose_k+1 = pose_k + dt [R(psi_k) (vx, vy); r]
+// solved exactly each cycle by Gauss-Newton on the heading (the problem is linear-quadratic once
+// the headings are fixed), then per-module inverse kinematics with the 180 deg flip; the steering
+// reaches its target under the module's rate limit and the wheels run at the IK speed. It is
+// tuned for tracking and knows nothing of wear, as the paper defines it.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Dense>
+
+#include <memory>
+
+#include "swerve/kinematics/kinematics.hpp"
+#include "swerve/mpc/reference.hpp"
+#include "swerve/mpc/tracking_controller.hpp"
+
+namespace swerve {
+
+struct BaselineOptions {
+  int horizon = 20;
+  double dt = 0.05;
+  Eigen::Vector3d pose_weight{10.0, 10.0, 5.0};
+  double terminal_scale = 10.0;
+  Eigen::Vector3d twist_weight{0.05, 0.05, 0.05};  // R on the deviation from the reference twist
+  Eigen::Vector3d rate_weight{0.5, 0.5, 0.5};      // S on the change of twist between steps
+  int gauss_newton_iterations = 3;
+  bool cosine_scaling = false;       // the paper's baseline drives at the IK speed
+  double flip_hysteresis = 0.1;      // rad around 90 deg, as in KinematicsOptions
+  void validate() const;             // throws ConfigError naming the field and value
+};
+
+class KinematicBaseline final : public TrackingController {
+ public:
+  KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference, BaselineOptions options);
+  const char* name() const noexcept override { return "kinematic_baseline"; }
+  const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t) noexcept override;
+  void reset() noexcept override;
+
+  // The planning core, also used by the wear-aware controller for its initial guess.
+  // Plans body twists (3 x N) from `pose_world` for reference poses/twists (3 x N, for steps 1..N).
+  bool plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Ref<const Eigen::MatrixXd>& reference_poses,
+                   const Eigen::Ref<const Eigen::MatrixXd>& reference_twists) noexcept;
+  const Eigen::MatrixXd& twist_plan() const noexcept { return twists_; }
+  // Module inputs (2n x N: steering rate, wheel speed per module) that execute the twist plan from
+  // the steering angles `steering_angles` (n), under the steering-rate limit.
+  void module_inputs(const Eigen::Ref<const Eigen::VectorXd>& steering_angles, Eigen::Ref<Eigen::MatrixXd> inputs) noexcept;
+  const BaselineOptions& options() const noexcept { return options_; }
+
+ private:
+  BaselineOptions options_;
+  Kinematics kinematics_;
+  std::shared_ptr<const Reference> reference_;
+  int modules_, horizon_;
+  Eigen::Vector3d previous_twist_ = Eigen::Vector3d::Zero();
+  Eigen::VectorXi drive_sign_;                        // per module, +1 or -1 (flip decision)
+  Eigen::VectorXi planned_first_sign_;                // the decision module_inputs made for step 0
+  Eigen::MatrixXd twists_;                            // 3 x N
+  Eigen::MatrixXd reference_poses_, reference_twists_;  // 3 x N
+  Eigen::MatrixXd inputs_;                            // 2n x N
+  Eigen::MatrixXd prediction_jacobian_;               // 3N x 3N
+  Eigen::MatrixXd weighted_jacobian_;                 // 3N x 3N
+  Eigen::MatrixXd hessian_;                           // 3N x 3N
+  Eigen::VectorXd gradient_, solution_, weights_, free_response_, target_;
+  Eigen::LDLT<Eigen::MatrixXd> factorization_;
+  ModuleStates module_states_;
+  ControlOutput output_;
+};
+
+}  // namespace swerve

@@ -1,0 +1,61 @@
+// The MPC's prediction model of a swerve vehicle: the dynamic model with ideal actuators (the
+// paper's hierarchical design: the drives track steering-rate and wheel-speed commands), as a
+// PredictionModel. Steering end stops are respected by clipping the steering rate.
+//
+// Tire forces make the body velocities very stiff (cornering stiffness B C D ~ 1e4 N/rad per wheel
+// against a few hundred kg: time constants of milliseconds, shorter still near standstill where
+// slip is regularised), so an explicit step at the controller's dt diverges. The default step is
+// therefore semi-implicit: steering angles advance explicitly, the body twist solves the backward
+// Euler equation v+ = v + dt a(v+, delta+, omega) by Newton's method, the pose follows the SE(2)
+// exponential of v+ over dt, and the stage wear is dt times the wear rate at (v+, delta+).
+// Explicit RK4 with substeps is kept for comparison.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <memory>
+
+#include "swerve/models/integrators.hpp"
+#include "swerve/models/vehicle_model.hpp"
+#include "swerve/mpc/prediction_model.hpp"
+
+namespace swerve {
+
+enum class PredictionMethod { kSemiImplicit, kRk4 };
+const char* to_string(PredictionMethod method) noexcept;  // "semi_implicit", "rk4"
+
+struct PredictionOptions {
+  PredictionMethod method = PredictionMethod::kSemiImplicit;
+  int substeps = 1;              // per controller step (both methods)
+  int max_newton_iterations = 8; // semi-implicit only
+  void validate() const;         // throws ConfigError
+};
+
+class VehiclePredictionModel final : public PredictionModel {
+ public:
+  VehiclePredictionModel(const VehicleParams& params, PredictionOptions options = PredictionOptions{});
+
+  int state_size() const noexcept override { return state_size_; }
+  int input_size() const noexcept override { return input_size_; }
+  int input_group_size() const noexcept override { return 2; }  // (steering rate, wheel speed) per module
+  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+            Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override;
+
+  const VehicleModel<double>& vehicle() const noexcept { return model_; }
+  const PredictionOptions& options() const noexcept { return options_; }
+
+ private:
+  bool semi_implicit_substep(const Eigen::Ref<const Eigen::VectorXd>& x, double h, Eigen::Ref<Eigen::VectorXd> x_next,
+                             double* wear) const noexcept;
+  // Body acceleration (vx_dot, vy_dot, r_dot) at trial_state_ with twist `v`.
+  bool body_acceleration(const Eigen::Vector3d& v, Eigen::Vector3d* acceleration, double* wear_rate) const noexcept;
+
+  PredictionOptions options_;
+  VehicleModel<double> model_;
+  DiscreteDynamics<double> rk4_;
+  int modules_, state_size_, input_size_;
+  Eigen::VectorXd min_angle_, max_angle_;
+  mutable Eigen::VectorXd u_applied_, trial_state_, state_dot_, substep_state_;
+};
+
+}  // namespace swerve

@@ -1,0 +1,203 @@
+#include "swerve/mpc/controller.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "swerve/config/config_error.hpp"
+#include "swerve/mpc/safe_stop.hpp"
+
+namespace swerve {
+namespace {
+
+template <typename Value>
+[[noreturn]] void reject(const std::string& field, const Value& value, const char* rule) {
+  std::ostringstream message;
+  message << "ControllerOptions." << field << " = " << value << ": " << rule;
+  throw ConfigError(message.str());
+}
+
+void require_non_negative(const char* field, double value) {
+  if (!std::isfinite(value) || value < 0.0) reject(field, value, "must be finite and >= 0");
+}
+
+CostWeights cost_weights(const ControllerOptions& o, int modules) {
+  CostWeights w;
+  w.pose = o.pose_weight;
+  w.twist = o.twist_weight;
+  w.terminal_scale = o.terminal_scale;
+  w.wear = o.wear_weight;
+  w.effort = Eigen::VectorXd(2 * modules);
+  w.rate = Eigen::VectorXd(2 * modules);
+  for (int i = 0; i < modules; ++i) {
+    w.effort.segment<2>(2 * i) << o.steering_rate_effort, o.wheel_speed_effort;
+    w.rate.segment<2>(2 * i) << o.steering_rate_smoothness, o.wheel_speed_smoothness;
+  }
+  return w;
+}
+
+// Steering rate within its limit, wheel speed within the drive limit, wheel acceleration per step.
+InputBounds input_bounds(const ModuleLayout& layout, double dt) {
+  const ModuleLimits& limits = layout.limits();
+  const int n = layout.size();
+  const double max_wheel_speed = limits.max_drive_speed / layout.wheel_radius();
+  const double max_wheel_step = limits.max_drive_acceleration * dt / layout.wheel_radius();
+  InputBounds b;
+  b.lower = b.upper = b.max_step = Eigen::VectorXd(2 * n);
+  for (int i = 0; i < n; ++i) {
+    b.lower.segment<2>(2 * i) << -limits.max_steering_rate, -max_wheel_speed;
+    b.upper.segment<2>(2 * i) << limits.max_steering_rate, max_wheel_speed;
+    b.max_step.segment<2>(2 * i) << std::numeric_limits<double>::infinity(), max_wheel_step;
+  }
+  return b;
+}
+
+BaselineOptions aligned(BaselineOptions baseline, const ControllerOptions& options) {
+  baseline.horizon = options.horizon;
+  baseline.dt = options.dt;
+  return baseline;
+}
+
+}  // namespace
+
+void ControllerOptions::validate() const {
+  if (horizon < 1) reject("horizon", horizon, "must be >= 1");
+  if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
+  if (!std::isfinite(solve_budget) || solve_budget <= 0.0) reject("solve_budget", solve_budget, "must be finite and > 0");
+  require_non_negative("overrun_grace", overrun_grace);
+  for (int i = 0; i < 3; ++i) {
+    require_non_negative("pose_weight", pose_weight[i]);
+    require_non_negative("twist_weight", twist_weight[i]);
+  }
+  require_non_negative("terminal_scale", terminal_scale);
+  require_non_negative("wear_weight", wear_weight);
+  require_non_negative("steering_rate_effort", steering_rate_effort);
+  require_non_negative("wheel_speed_effort", wheel_speed_effort);
+  require_non_negative("steering_rate_smoothness", steering_rate_smoothness);
+  require_non_negative("wheel_speed_smoothness", wheel_speed_smoothness);
+  if (max_plan_age < 0) reject("max_plan_age", max_plan_age, "must be >= 0");
+  prediction.validate();
+}
+
+Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Reference> reference,
+                       ControllerOptions options, const SolverFactory& make_solver, BaselineOptions baseline_options,
+                       const char* name)
+    : name_(name), options_(options), layout_(vehicle.layout), reference_(std::move(reference)),
+      baseline_(vehicle.layout, reference_, aligned(baseline_options, options)), modules_(vehicle.layout.size()) {
+  options_.validate();
+  if (!reference_) throw ConfigError("Controller.reference: must not be null");
+  if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
+  model_ = std::make_unique<VehiclePredictionModel>(vehicle, options_.prediction);
+  problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, modules_),
+                                          input_bounds(layout_, options_.dt));
+  solver_ = make_solver(*problem_);
+  if (!solver_) throw ConfigError("Controller.solver: the solver factory returned nothing");
+  solution_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
+  plan_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
+  baseline_inputs_ = Eigen::MatrixXd::Zero(2 * modules_, options_.horizon);
+  applied_input_ = Eigen::VectorXd::Zero(2 * modules_);
+  output_.modules = ModuleArray<ModuleCommand>(modules_);
+}
+
+void Controller::reset() noexcept {
+  plan_.valid = false;
+  plan_age_ = 0;
+  applied_input_.setZero();
+  baseline_.reset();
+  for (int i = 0; i < modules_; ++i) output_.modules[i] = ModuleCommand{};
+}
+
+void Controller::apply_column(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int column,
+                              const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept {
+  // The inputs are already feasible (projected); the angle target follows the rate over one step.
+  applied_input_ = inputs.col(column);
+  for (int i = 0; i < modules_; ++i) {
+    ModuleCommand& command = output_.modules[i];
+    command.steering_rate = applied_input_[2 * i];
+    command.wheel_speed = applied_input_[2 * i + 1];
+    command.steering_angle = wrap_angle(steering_angles[i] + options_.dt * command.steering_rate);
+  }
+}
+
+void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable,
+                           const char* why) noexcept {
+  output_.reason = why;
+  const bool measured_usable = is_plausible_state(measured, layout_);
+  if (plan_.valid && plan_age_ <= options_.max_plan_age && plan_age_ < options_.horizon) {
+    // The previous plan, already shifted plan_age_ times, still covers this cycle; without a usable
+    // measurement its own predicted steering angles stand in.
+    if (measured_usable) {
+      apply_column(plan_.inputs, 0, measured.segment(6, modules_));
+    } else {
+      apply_column(plan_.inputs, 0, plan_.states.col(0).segment(6, modules_));
+    }
+    output_.source = CommandSource::kPreviousPlan;
+    return;
+  }
+  if (baseline_usable && measured_usable) {
+    problem_->project(baseline_inputs_);
+    apply_column(baseline_inputs_, 0, measured.segment(6, modules_));
+    output_.source = CommandSource::kBaseline;
+    return;
+  }
+  fill_safe_stop(layout_, options_.dt, measured, &output_.modules);
+  for (int i = 0; i < modules_; ++i) {
+    applied_input_[2 * i] = 0.0;
+    applied_input_[2 * i + 1] = output_.modules[i].wheel_speed;
+  }
+  output_.source = CommandSource::kSafeStop;
+}
+
+const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {
+  output_.solve = SolveSummary{};
+  // The previous plan moves on by one cycle whatever happens now.
+  if (plan_.valid) {
+    plan_.shift();
+    ++plan_age_;
+  }
+  if (!is_plausible_state(measured, layout_) || !std::isfinite(t)) {
+    output_.solve.status = SolveStatus::kInvalidInput;
+    output_.solve.reason = "measured state rejected (wrong size, NaN/inf or implausible)";
+    fall_back(measured, false, output_.solve.reason);
+    return output_;
+  }
+  // Update the problem in place: state, last applied input, reference window.
+  problem_->set_initial_state(measured);
+  problem_->set_previous_input(applied_input_);
+  for (int k = 1; k <= options_.horizon; ++k) {
+    const ReferenceSample sample = reference_->sample(t + k * options_.dt);
+    problem_->set_reference(k, sample.pose_world, sample.twist_body);
+  }
+  bool baseline_usable = false;
+  {  // the baseline plan is both an initial guess and the second fallback
+    baseline_usable =
+        baseline_.plan_twists(measured.head<3>(), problem_->reference_poses(), problem_->reference_twists());
+    if (baseline_usable) baseline_.module_inputs(measured.segment(6, modules_), baseline_inputs_);
+  }
+  InitialGuesses guesses;
+  if (plan_.valid && plan_age_ == 1) guesses.add(&plan_.inputs);
+  if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_inputs_);
+
+  const auto budget = std::chrono::duration_cast<SolverClock::duration>(std::chrono::duration<double>(options_.solve_budget));
+  const auto grace = std::chrono::duration_cast<SolverClock::duration>(std::chrono::duration<double>(options_.overrun_grace));
+  const Deadline deadline = SolverClock::now() + budget;
+  const SolveStatus status = solver_->solve(*problem_, guesses, deadline, &solution_, &output_.solve);
+  const bool late = SolverClock::now() > deadline + grace;
+  if (has_solution(status) && solution_.valid && !late && problem_->is_feasible(solution_.inputs, 1e-6)) {
+    plan_.inputs = solution_.inputs;
+    plan_.states = solution_.states;
+    plan_.cost = solution_.cost;
+    plan_.valid = true;
+    plan_age_ = 0;
+    apply_column(plan_.inputs, 0, measured.segment(6, modules_));
+    output_.source = CommandSource::kOptimizer;
+    output_.reason = output_.solve.reason;
+    return output_;
+  }
+  const char* why = late ? "the solver overran its deadline"
+                         : (has_solution(status) ? "the solver returned an infeasible or invalid plan"
+                                                 : "the solver failed");
+  fall_back(measured, baseline_usable, why);
+  return output_;
+}
+
+}  // namespace swerve
