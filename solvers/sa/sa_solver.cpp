@@ -173,15 +173,24 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   knots_.setZero();
   raw_ = base_;
   inputs_ = base_;
+  const auto rollout_start = SolverClock::now();
   double current_cost = problem.rollout(inputs_, 0, states_, stage_costs_);
+  // The longest a proposal can take (a full rollout). The loop stops while one more proposal and the
+  // final cost evaluation still fit before the deadline, so the solver returns on time.
+  const auto full_rollout = SolverClock::now() - rollout_start;
+  const auto loop_start = SolverClock::now();
+  const double loop_budget = std::chrono::duration<double>(deadline - 2 * full_rollout - loop_start).count();
   ++rollouts;
   summary->initial_cost = current_cost;
   out->inputs = inputs_;
   out->states = states_;
   best_cost = current_cost;
 
-  const double cooling = std::pow(options_.final_temperature_ratio, 1.0 / options_.max_iterations);
-  double temperature = std::numeric_limits<double>::infinity();
+  // Geometric cooling over the schedule's progress: the larger of the share of iterations done and
+  // the share of the time budget used, so a deadline-limited solve still cools all the way.
+  double initial_temperature = std::numeric_limits<double>::infinity();
+  double temperature = initial_temperature;
+  double progress_at_reheat = 0.0;
   double uphill_sum = 0.0;
   int uphill_count = 0;
   int window_proposed = 0, window_accepted = 0;
@@ -190,10 +199,15 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   const int groups = nu_ / group_size_;
 
   for (; iteration < options_.max_iterations; ++iteration) {
-    if (SolverClock::now() >= deadline) {
+    const auto now = SolverClock::now();
+    if (now + 2 * full_rollout >= deadline) {
       deadline_hit = true;
       break;
     }
+    const double time_progress =
+        loop_budget > 0.0 ? std::chrono::duration<double>(now - loop_start).count() / loop_budget : 1.0;
+    const double progress =
+        std::max(static_cast<double>(iteration) / options_.max_iterations, time_progress) - progress_at_reheat;
     // Propose: perturb knot offsets (one group at one knot, all inputs at one knot, or everything).
     candidate_knots_ = knots_;
     const double choice = uniform();
@@ -240,11 +254,11 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
       }
       if (++probes == kProbeMoves) {
         const double typical_uphill = uphill_count > 0 ? uphill_sum / uphill_count : 1e-9 * (1.0 + current_cost);
-        temperature = -typical_uphill / std::log(options_.initial_acceptance);
+        initial_temperature = -typical_uphill / std::log(options_.initial_acceptance);
       }
     } else {
+      temperature = initial_temperature * std::pow(options_.final_temperature_ratio, std::max(0.0, progress));
       accept = delta <= 0.0 || (std::isfinite(delta) && uniform() < std::exp(-delta / temperature));
-      temperature *= cooling;
     }
     ++window_proposed;
     if (accept) {
@@ -275,7 +289,8 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
       inputs_ = out->inputs;
       current_cost = problem.rollout(inputs_, 0, states_, stage_costs_);
       ++rollouts;
-      temperature = std::max(temperature, 0.5 * temperature / std::pow(cooling, options_.reheat_interval));
+      // Warmer again: half of the way back up the schedule.
+      progress_at_reheat += 0.5 * std::max(0.0, progress);
     }
   }
   out->cost = best_cost;

@@ -28,5 +28,7 @@ const std::vector<Command>& all_commands();
 
 // Defined by each command's own file.
 Command make_check_config_command();
+Command make_run_command();
+Command make_sweep_command();
 
 }  // namespace swerve::cli

@@ -1,5 +1,7 @@
 #include "config_kinds.hpp"
 
+#include "swerve/config/controller_config.hpp"
+#include "swerve/config/scenario_config.hpp"
 #include "swerve/config/target_config.hpp"
 #include "swerve/config/vehicle_config.hpp"
 
@@ -64,12 +66,87 @@ nlohmann::json load_vehicle(const config::ConfigNode& section) {
             {"load_transfer", vehicle.plant.load_transfer}}}};
 }
 
+nlohmann::json controller_json(const ControllerConfig& c) {
+  nlohmann::json j = {{"name", c.name}, {"type", to_string(c.kind)}, {"horizon", c.baseline.horizon},
+                      {"dt_s", c.baseline.dt}};
+  const BaselineOptions& b = c.baseline;
+  j["baseline"] = {{"pose_weight", {b.pose_weight.x(), b.pose_weight.y(), b.pose_weight.z()}},
+                   {"twist_weight", {b.twist_weight.x(), b.twist_weight.y(), b.twist_weight.z()}},
+                   {"rate_weight", {b.rate_weight.x(), b.rate_weight.y(), b.rate_weight.z()}},
+                   {"terminal_scale", b.terminal_scale},
+                   {"gauss_newton_iterations", b.gauss_newton_iterations},
+                   {"cosine_scaling", b.cosine_scaling},
+                   {"flip_hysteresis_rad", b.flip_hysteresis}};
+  if (c.kind != ControllerKind::kWearMpc) return j;
+  const ControllerOptions& o = c.mpc;
+  j["solve_budget_s"] = o.solve_budget;
+  j["overrun_grace_s"] = o.overrun_grace;
+  j["baseline_guess"] = o.baseline_guess;
+  j["max_plan_age"] = o.max_plan_age;
+  j["weights"] = {{"pose", {o.pose_weight.x(), o.pose_weight.y(), o.pose_weight.z()}},
+                  {"twist", {o.twist_weight.x(), o.twist_weight.y(), o.twist_weight.z()}},
+                  {"terminal_scale", o.terminal_scale},
+                  {"wear", o.wear_weight},
+                  {"steering_rate_effort", o.steering_rate_effort},
+                  {"wheel_speed_effort", o.wheel_speed_effort},
+                  {"steering_rate_smoothness", o.steering_rate_smoothness},
+                  {"wheel_speed_smoothness", o.wheel_speed_smoothness}};
+  j["prediction"] = {{"method", to_string(o.prediction.method)},
+                     {"substeps", o.prediction.substeps},
+                     {"max_newton_iterations", o.prediction.max_newton_iterations}};
+  const SaOptions& sa = c.solver.sa;
+  j["solver"] = {{"backend", c.solver.backend},
+                 {"sa",
+                  {{"knots", sa.knots},
+                   {"max_iterations", sa.max_iterations},
+                   {"initial_acceptance", sa.initial_acceptance},
+                   {"final_temperature_ratio", sa.final_temperature_ratio},
+                   {"step_fraction", sa.step_fraction},
+                   {"target_acceptance", sa.target_acceptance},
+                   {"adapt_interval", sa.adapt_interval},
+                   {"reheat_interval", sa.reheat_interval},
+                   {"probability_one_group", sa.probability_one_group},
+                   {"probability_one_knot", sa.probability_one_knot},
+                   {"seed", sa.seed}}}};
+  return j;
+}
+
+nlohmann::json load_controller(const config::ConfigNode& section) {
+  return controller_json(load_controller_config(section));
+}
+
+nlohmann::json load_scenario(const config::ConfigNode& section) {
+  const ScenarioConfig s = load_scenario_config(section);
+  nlohmann::json controllers = nlohmann::json::array();
+  for (const ScenarioController& c : s.controllers) {
+    nlohmann::json entry = controller_json(c.config);
+    entry["config_file"] = c.config_file;
+    controllers.push_back(entry);
+  }
+  std::vector<double> initial(s.initial_state.data(), s.initial_state.data() + s.initial_state.size());
+  return {{"name", s.name},
+          {"description", s.description},
+          {"vehicle_file", s.vehicle_file},
+          {"vehicle", s.vehicle.name},
+          {"reference", s.reference_description},
+          {"duration_s", s.duration},
+          {"initial_state", initial},
+          {"control_period_s", s.simulator.control_period},
+          {"simulator", {{"substeps", s.simulator.substeps}, {"seed", s.simulator.seed},
+                         {"measurement_delay_steps", s.simulator.measurement_delay_steps}}},
+          {"controllers", controllers},
+          {"paper_wear_reduction_pct",
+           s.paper_wear_reduction_pct ? nlohmann::json(*s.paper_wear_reduction_pct) : nlohmann::json()}};
+}
+
 }  // namespace
 
 const std::vector<ConfigKind>& all_config_kinds() {
   static const std::vector<ConfigKind> kinds = {
       {"target", "an embedded target's real-time budget (configs/targets/)", &load_target},
       {"vehicle", "a vehicle: body, modules, tires, wear (configs/vehicles/)", &load_vehicle},
+      {"controller", "a controller: wear-aware MPC or kinematic baseline (configs/controllers/)", &load_controller},
+      {"scenario", "a closed-loop scenario: vehicle, reference, controllers (configs/scenarios/)", &load_scenario},
   };
   return kinds;
 }

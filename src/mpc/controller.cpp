@@ -80,8 +80,8 @@ void ControllerOptions::validate() const {
 
 Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Reference> reference,
                        ControllerOptions options, const SolverFactory& make_solver, BaselineOptions baseline_options,
-                       const char* name)
-    : name_(name), options_(options), layout_(vehicle.layout), reference_(std::move(reference)),
+                       std::string name)
+    : name_(std::move(name)), options_(options), layout_(vehicle.layout), reference_(std::move(reference)),
       baseline_(vehicle.layout, reference_, aligned(baseline_options, options)), modules_(vehicle.layout.size()) {
   options_.validate();
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
@@ -170,7 +170,8 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   bool baseline_usable = false;
   {  // the baseline plan is both an initial guess and the second fallback
     baseline_usable =
-        baseline_.plan_twists(measured.head<3>(), problem_->reference_poses(), problem_->reference_twists());
+        baseline_.plan_twists(measured.head<3>(), measured.segment<3>(3), problem_->reference_poses(),
+                              problem_->reference_twists());
     if (baseline_usable) baseline_.module_inputs(measured.segment(6, modules_), baseline_inputs_);
   }
   InitialGuesses guesses;

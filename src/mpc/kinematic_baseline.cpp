@@ -71,10 +71,13 @@ void KinematicBaseline::reset() noexcept {
   twists_.setZero();
 }
 
-bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world,
+bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
                                     const Eigen::Ref<const Eigen::MatrixXd>& reference_poses,
                                     const Eigen::Ref<const Eigen::MatrixXd>& reference_twists) noexcept {
-  if (!pose_world.allFinite() || !reference_poses.allFinite() || !reference_twists.allFinite()) return false;
+  if (!pose_world.allFinite() || !twist_body.allFinite() || !reference_poses.allFinite() ||
+      !reference_twists.allFinite()) {
+    return false;
+  }
   const double dt = options_.dt;
   // Headings for the rotations: the reference's yaw rate first, then the last iterate's.
   double psi = pose_world.z();
@@ -120,14 +123,26 @@ bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world,
     if (!solution_.allFinite()) return false;
     for (int k = 0; k < horizon_; ++k) twists_.col(k) = solution_.segment<3>(3 * k);
   }
-  // Drive limits: the largest twist of the same direction that no module speed exceeds.
-  const double max_speed = kinematics_.layout().limits().max_drive_speed;
+  // Drive limits: the largest twist of the same direction that no module speed exceeds, reached
+  // from the current twist no faster than the drive acceleration limit allows any module (the
+  // plant's drives cannot do more, and a plan that ignores it overshoots).
+  const ModuleLayout& layout = kinematics_.layout();
+  const double max_speed = layout.limits().max_drive_speed;
+  const double max_change = layout.limits().max_drive_acceleration * dt;
+  Eigen::Vector3d previous = twist_body;
   for (int k = 0; k < horizon_; ++k) {
     Eigen::Vector3d limited;
     if (kinematics_.desaturate_twist(twists_.col(k), max_speed, DesaturationPriority::kProportional, &limited) ==
         KinematicsStatus::kOk) {
       twists_.col(k) = limited;
     }
+    const Eigen::Vector3d change = twists_.col(k) - previous;
+    double largest = 0.0;
+    for (const Eigen::Vector2d& p : layout.positions_body()) {
+      largest = std::max(largest, Eigen::Vector2d(change.x() - change.z() * p.y(), change.y() + change.z() * p.x()).norm());
+    }
+    if (largest > max_change) twists_.col(k) = previous + (max_change / largest) * change;
+    previous = twists_.col(k);
   }
   return true;
 }
@@ -187,7 +202,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     reference_poses_.col(k) = sample.pose_world;
     reference_twists_.col(k) = sample.twist_body;
   }
-  if (!plan_twists(measured.head<3>(), reference_poses_, reference_twists_)) {
+  if (!plan_twists(measured.head<3>(), measured.segment<3>(3), reference_poses_, reference_twists_)) {
     fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
     output_.source = CommandSource::kSafeStop;
     output_.reason = "the kinematic plan failed";

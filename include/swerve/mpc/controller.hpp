@@ -7,6 +7,7 @@
 
 #include <functional>
 #include <memory>
+#include <string>
 
 #include "swerve/models/vehicle_params.hpp"
 #include "swerve/mpc/kinematic_baseline.hpp"
@@ -44,9 +45,9 @@ class Controller final : public TrackingController {
   // are overridden by the controller's so both plan over the same window.
   Controller(const VehicleParams& vehicle, std::shared_ptr<const Reference> reference, ControllerOptions options,
              const SolverFactory& make_solver, BaselineOptions baseline_options = BaselineOptions{},
-             const char* name = "wear_mpc");
+             std::string name = "wear_mpc");
 
-  const char* name() const noexcept override { return name_; }
+  const char* name() const noexcept override { return name_.c_str(); }
   const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t) noexcept override;
   void reset() noexcept override;
 
@@ -60,7 +61,7 @@ class Controller final : public TrackingController {
                     const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
 
-  const char* name_;
+  std::string name_;
   ControllerOptions options_;
   ModuleLayout layout_;
   std::unique_ptr<VehiclePredictionModel> model_;

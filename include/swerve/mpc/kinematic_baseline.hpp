@@ -40,8 +40,10 @@ class KinematicBaseline final : public TrackingController {
   void reset() noexcept override;
 
   // The planning core, also used by the wear-aware controller for its initial guess.
-  // Plans body twists (3 x N) from `pose_world` for reference poses/twists (3 x N, for steps 1..N).
-  bool plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Ref<const Eigen::MatrixXd>& reference_poses,
+  // Plans body twists (3 x N) from `pose_world` moving at `twist_body` for reference poses/twists
+  // (3 x N, for steps 1..N), within the drive speed and acceleration limits.
+  bool plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
+                   const Eigen::Ref<const Eigen::MatrixXd>& reference_poses,
                    const Eigen::Ref<const Eigen::MatrixXd>& reference_twists) noexcept;
   const Eigen::MatrixXd& twist_plan() const noexcept { return twists_; }
   // Module inputs (2n x N: steering rate, wheel speed per module) that execute the twist plan from

@@ -1,0 +1,55 @@
+// What one closed-loop run is judged by: tracking error against the reference, tire wear per module
+// and in total, frictional energy, control effort, and the controller's solve times, deadline
+// misses and fallbacks. Computed from the per-step log that the scenario runner keeps.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "swerve/mpc/tracking_controller.hpp"
+#include "swerve/sim/simulator.hpp"
+
+namespace swerve {
+
+// One control period of a run, logged at its start (before the command is applied).
+struct StepRecord {
+  double t = 0.0;
+  Eigen::Vector3d pose_world = Eigen::Vector3d::Zero();      // true plant pose (psi unwrapped)
+  Eigen::Vector3d twist_body = Eigen::Vector3d::Zero();
+  Eigen::Vector3d reference_pose_world = Eigen::Vector3d::Zero();
+  std::vector<PlantModuleSample> modules;                    // plant, at t
+  std::vector<ModuleCommand> commands;                       // what the controller sent at t
+  CommandSource source = CommandSource::kSafeStop;
+  SolveStatus solve_status = SolveStatus::kNotRun;
+  double solve_time_s = 0.0;                                  // < 0 when no solve ran
+  int solve_iterations = -1;
+
+  double position_error() const { return (pose_world.head<2>() - reference_pose_world.head<2>()).norm(); }
+  double heading_error() const;  // wrapped, rad
+};
+
+struct RunMetrics {
+  int steps = 0;
+  double tracking_rmse_m = 0.0, tracking_max_m = 0.0;
+  double heading_rmse_rad = 0.0, heading_max_rad = 0.0;
+  std::vector<double> wear_per_module;
+  double wear_total = 0.0;
+  double wear_imbalance = 0.0;     // max / mean over modules (1: perfectly even)
+  double frictional_energy_J = 0.0;
+  double steering_effort = 0.0;    // integral of sum_i steering_rate_i^2 dt (rad^2/s)
+  double solve_time_mean_ms = 0.0, solve_time_p50_ms = 0.0, solve_time_p99_ms = 0.0, solve_time_max_ms = 0.0;
+  int deadline_misses = 0;         // solves that took longer than the budget
+  int fallbacks = 0;               // periods whose command did not come from the optimiser
+  double solve_iterations_mean = 0.0;
+};
+
+// Nearest-rank percentile (q in [0, 100]) of `values`; 0 for an empty list.
+double percentile(std::vector<double> values, double q);
+
+// `control_period` weights the effort integral; `solve_budget` (s) decides a deadline miss.
+// `wear_per_module` and `frictional_energy` are the simulator's integrals at the end of the run.
+RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector<double>& wear_per_module,
+                           double frictional_energy, double control_period, double solve_budget);
+
+}  // namespace swerve

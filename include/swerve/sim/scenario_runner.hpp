@@ -1,0 +1,48 @@
+// Runs a scenario: each of its controllers closes the loop on its own copy of the same simulated
+// plant, from the same initial state, with the same seed and reference; keeps a per-step log and
+// computes the run's metrics.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "swerve/config/scenario_config.hpp"
+#include "swerve/sim/metrics.hpp"
+
+namespace swerve {
+
+struct ControllerRun {
+  std::string name;
+  ControllerKind kind = ControllerKind::kWearMpc;
+  std::string backend;          // "" for the baseline
+  double wear_weight = 0.0;     // lambda (0 for the baseline)
+  double solve_budget = 0.0;    // s
+  std::vector<StepRecord> log;
+  RunMetrics metrics;
+  bool completed = false;       // false: the plant diverged; `failure` says when
+  std::string failure;
+};
+
+struct RunOverrides {
+  std::vector<std::string> controllers;  // run only these (empty: all); unknown names are errors
+  std::optional<std::uint64_t> seed;     // the simulator's seed
+  std::optional<std::string> backend;    // every wear_mpc controller's backend
+  std::optional<double> wear_weight;     // every wear_mpc controller's lambda (sweeps)
+};
+
+// Called after every control period with (controller index, steps done, steps in the run).
+using ProgressCallback = std::function<void(std::size_t, int, int)>;
+
+// Applies the overrides to a copy of the scenario (ConfigError for unknown names or backends).
+ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverrides& overrides);
+
+// Runs one controller of the scenario on the plant.
+ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioController& controller,
+                             const ProgressCallback& progress = {}, std::size_t index = 0);
+
+// Runs every controller of the scenario, in order.
+std::vector<ControllerRun> run_scenario(const ScenarioConfig& scenario, const ProgressCallback& progress = {});
+
+}  // namespace swerve

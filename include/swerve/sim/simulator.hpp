@@ -1,0 +1,95 @@
+// The plant the controllers are tested against: the vehicle model at plant fidelity (actuator lag
+// and saturation, optional relaxation and load transfer) integrated with RK4 at a fine substep,
+// while the controller runs at its own period; measurement noise and delay from a seeded generator,
+// so identical seeds give identical runs. It also integrates each module's wear and the frictional
+// energy dissipated in every contact.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <deque>
+#include <vector>
+
+#include "swerve/models/integrators.hpp"
+#include "swerve/models/vehicle_model.hpp"
+#include "swerve/mpc/tracking_controller.hpp"
+
+namespace swerve {
+
+struct MeasurementNoise {
+  double position = 0.0;        // m, standard deviation on x and y
+  double heading = 0.0;         // rad
+  double velocity = 0.0;        // m/s on vx, vy
+  double yaw_rate = 0.0;        // rad/s
+  double steering_angle = 0.0;  // rad
+};
+
+struct SimulatorOptions {
+  double control_period = 0.05;  // s between controller calls
+  // Plant RK4 substeps per control period; 0 picks them from the tire-slip time constant of a wheel
+  // at rest (VehicleModel::recommended_substeps), the stiffest case.
+  int substeps = 0;
+  MeasurementNoise noise;
+  int measurement_delay_steps = 0;  // the controller sees the state this many periods old
+  std::uint64_t seed = 1;
+  void validate() const;            // throws ConfigError naming the field and value
+};
+
+// Per-module quantities of the plant at the start of a control period (for logs).
+struct PlantModuleSample {
+  double steering_angle = 0.0, wheel_speed = 0.0;  // rad, rad/s
+  double slip_angle = 0.0, slip_ratio = 0.0;
+  double fx_wheel = 0.0, fy_wheel = 0.0;          // N
+  double wear_rate = 0.0;                         // wear units / s
+  double wear = 0.0;                              // cumulative, wear units
+};
+
+class Simulator {
+ public:
+  // Throws ConfigError for invalid params or options.
+  Simulator(const VehicleParams& vehicle, SimulatorOptions options);
+
+  // Starts a new run from `initial_prefix` (pose, twist, steering angles; size 6 + n), wheels
+  // rolling without slip, time 0, wear and energy 0, the noise generator reseeded.
+  void reset(const Eigen::VectorXd& initial_prefix);
+
+  // The measurement the controller receives now (pose, twist, steering angles), noisy and delayed
+  // as configured.
+  const Eigen::VectorXd& measurement() const noexcept { return measurement_; }
+
+  // Applies module commands (steering rate and wheel speed, through the plant's actuators) for one
+  // control period. Returns false, leaving the state as it was, if the plant produced a non-finite
+  // state (the run should stop and say so).
+  bool advance(const ModuleArray<ModuleCommand>& commands) noexcept;
+
+  double time() const noexcept { return time_; }
+  const Eigen::VectorXd& state() const noexcept { return state_; }  // full plant state
+  int modules() const noexcept { return model_.modules(); }
+  int substeps() const noexcept { return substeps_; }
+  const VehicleModel<double>& model() const noexcept { return model_; }
+  const std::vector<double>& module_wear() const noexcept { return module_wear_; }
+  double frictional_energy() const noexcept { return frictional_energy_; }  // J, all contacts
+  // Per-module slips, forces and wear rate at the current state under the last command.
+  const std::vector<PlantModuleSample>& module_samples() const noexcept { return samples_; }
+
+ private:
+  void refresh_samples() noexcept;
+  void update_measurement() noexcept;
+  double gaussian() noexcept;
+
+  SimulatorOptions options_;
+  VehicleModel<double> model_;
+  DiscreteDynamics<double> dynamics_;
+  int substeps_;
+  double time_ = 0.0;
+  Eigen::VectorXd state_, next_state_, input_, state_dot_, measurement_;
+  std::vector<ModuleDiagnostics<double>> diagnostics_;
+  std::vector<double> module_wear_, step_module_wear_, period_module_wear_;
+  double frictional_energy_ = 0.0;
+  std::vector<PlantModuleSample> samples_;
+  std::deque<Eigen::VectorXd> delayed_;  // true prefixes awaiting their delay
+  std::uint64_t rng_state_ = 0;
+};
+
+}  // namespace swerve

@@ -1,0 +1,27 @@
+// The one place a backend is chosen by name (`controller.solver.backend` in YAML): which backends
+// this build has, and a factory that builds one for a problem's shape. An unbuilt backend is a
+// ConfigError that says which ones were built.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "swerve/solvers/sa_solver.hpp"
+#include "swerve/solvers/solver.hpp"
+
+namespace swerve {
+
+struct SolverConfig {
+  std::string backend = "sa";
+  SaOptions sa;
+  void validate() const;  // unknown or unbuilt backend, invalid backend options: ConfigError
+};
+
+// Backends compiled into this build, in a stable order ("sa", ...).
+const std::vector<std::string>& built_backends();
+
+// Throws ConfigError ("controller.solver.backend: 'ipopt' was not built (built: sa)").
+std::unique_ptr<Solver> make_solver(const SolverConfig& config, const OcpProblem& problem);
+
+}  // namespace swerve

@@ -1,0 +1,37 @@
+#include "swerve/solvers/solver_factory.hpp"
+
+#include <algorithm>
+
+#include "swerve/config/config_error.hpp"
+
+namespace swerve {
+namespace {
+
+std::string built_list() {
+  std::string list;
+  for (const std::string& name : built_backends()) list += (list.empty() ? "" : ", ") + name;
+  return list;
+}
+
+}  // namespace
+
+const std::vector<std::string>& built_backends() {
+  static const std::vector<std::string> backends = {"sa"};
+  return backends;
+}
+
+void SolverConfig::validate() const {
+  const auto& built = built_backends();
+  if (std::find(built.begin(), built.end(), backend) == built.end()) {
+    throw ConfigError("controller.solver.backend: '" + backend + "' was not built (built: " + built_list() + ")");
+  }
+  if (backend == "sa") sa.validate();
+}
+
+std::unique_ptr<Solver> make_solver(const SolverConfig& config, const OcpProblem& problem) {
+  config.validate();
+  if (config.backend == "sa") return std::make_unique<SimulatedAnnealingSolver>(problem, config.sa);
+  throw ConfigError("controller.solver.backend: '" + config.backend + "' has no factory entry");
+}
+
+}  // namespace swerve

@@ -1,0 +1,65 @@
+#include "swerve/sim/metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace swerve {
+
+double StepRecord::heading_error() const { return wrap_angle(pose_world.z() - reference_pose_world.z()); }
+
+double percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const double rank = std::ceil(std::clamp(q, 0.0, 100.0) / 100.0 * static_cast<double>(values.size()));
+  const auto index = static_cast<std::size_t>(std::max(1.0, rank)) - 1;
+  return values[std::min(index, values.size() - 1)];
+}
+
+RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector<double>& wear_per_module,
+                           double frictional_energy, double control_period, double solve_budget) {
+  RunMetrics m;
+  m.steps = static_cast<int>(log.size());
+  double position_sq = 0.0, heading_sq = 0.0;
+  std::vector<double> solve_ms;
+  double iterations_sum = 0.0;
+  solve_ms.reserve(log.size());
+  for (const StepRecord& record : log) {
+    const double e_position = record.position_error();
+    const double e_heading = std::abs(record.heading_error());
+    position_sq += e_position * e_position;
+    heading_sq += e_heading * e_heading;
+    m.tracking_max_m = std::max(m.tracking_max_m, e_position);
+    m.heading_max_rad = std::max(m.heading_max_rad, e_heading);
+    for (const ModuleCommand& command : record.commands) {
+      m.steering_effort += control_period * command.steering_rate * command.steering_rate;
+    }
+    if (record.solve_time_s >= 0.0) {
+      solve_ms.push_back(1e3 * record.solve_time_s);
+      iterations_sum += std::max(0, record.solve_iterations);
+      if (record.solve_time_s > solve_budget) ++m.deadline_misses;
+    }
+    if (record.source != CommandSource::kOptimizer) ++m.fallbacks;
+  }
+  if (!log.empty()) {
+    m.tracking_rmse_m = std::sqrt(position_sq / static_cast<double>(log.size()));
+    m.heading_rmse_rad = std::sqrt(heading_sq / static_cast<double>(log.size()));
+  }
+  m.wear_per_module = wear_per_module;
+  m.wear_total = std::accumulate(wear_per_module.begin(), wear_per_module.end(), 0.0);
+  if (!wear_per_module.empty() && m.wear_total > 0.0) {
+    const double mean = m.wear_total / static_cast<double>(wear_per_module.size());
+    m.wear_imbalance = *std::max_element(wear_per_module.begin(), wear_per_module.end()) / mean;
+  }
+  m.frictional_energy_J = frictional_energy;
+  if (!solve_ms.empty()) {
+    m.solve_time_mean_ms = std::accumulate(solve_ms.begin(), solve_ms.end(), 0.0) / static_cast<double>(solve_ms.size());
+    m.solve_time_p50_ms = percentile(solve_ms, 50.0);
+    m.solve_time_p99_ms = percentile(solve_ms, 99.0);
+    m.solve_time_max_ms = *std::max_element(solve_ms.begin(), solve_ms.end());
+    m.solve_iterations_mean = iterations_sum / static_cast<double>(solve_ms.size());
+  }
+  return m;
+}
+
+}  // namespace swerve

@@ -1,0 +1,154 @@
+#include "swerve/sim/simulator.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "swerve/config/config_error.hpp"
+
+namespace swerve {
+namespace {
+
+template <typename Value>
+[[noreturn]] void reject(const char* field, const Value& value, const char* rule) {
+  std::ostringstream message;
+  message << "SimulatorOptions." << field << " = " << value << ": " << rule;
+  throw ConfigError(message.str());
+}
+
+std::uint64_t splitmix64(std::uint64_t* state) noexcept {
+  std::uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+}  // namespace
+
+void SimulatorOptions::validate() const {
+  if (!std::isfinite(control_period) || control_period <= 0.0) reject("control_period", control_period, "must be > 0");
+  if (substeps < 0) reject("substeps", substeps, "must be >= 0 (0: automatic)");
+  const double sigmas[] = {noise.position, noise.heading, noise.velocity, noise.yaw_rate, noise.steering_angle};
+  const char* names[] = {"noise.position", "noise.heading", "noise.velocity", "noise.yaw_rate", "noise.steering_angle"};
+  for (int i = 0; i < 5; ++i) {
+    if (!std::isfinite(sigmas[i]) || sigmas[i] < 0.0) reject(names[i], sigmas[i], "must be finite and >= 0");
+  }
+  if (measurement_delay_steps < 0) reject("measurement_delay_steps", measurement_delay_steps, "must be >= 0");
+}
+
+Simulator::Simulator(const VehicleParams& vehicle, SimulatorOptions options)
+    : options_(options), model_(vehicle, Fidelity::kPlant), dynamics_(model_, IntegratorMethod::kRk4) {
+  options_.validate();
+  substeps_ = options_.substeps > 0 ? options_.substeps : model_.recommended_substeps(options_.control_period, 0.0);
+  const int n = model_.modules();
+  state_ = next_state_ = state_dot_ = Eigen::VectorXd::Zero(model_.state_size());
+  input_ = Eigen::VectorXd::Zero(model_.input_size());
+  measurement_ = Eigen::VectorXd::Zero(StateIndex::prefix_size(n));
+  diagnostics_.resize(static_cast<std::size_t>(n));
+  module_wear_.assign(static_cast<std::size_t>(n), 0.0);
+  step_module_wear_.assign(static_cast<std::size_t>(n), 0.0);
+  period_module_wear_.assign(static_cast<std::size_t>(n), 0.0);
+  samples_.resize(static_cast<std::size_t>(n));
+}
+
+void Simulator::reset(const Eigen::VectorXd& initial_prefix) {
+  const int n = model_.modules();
+  if (initial_prefix.size() != StateIndex::prefix_size(n) || !initial_prefix.allFinite()) {
+    std::ostringstream message;
+    message << "Simulator.initial_state: expected " << StateIndex::prefix_size(n)
+            << " finite values (pose, twist, steering angles), got " << initial_prefix.size()
+            << (initial_prefix.allFinite() ? "" : " with NaN/inf");
+    throw ConfigError(message.str());
+  }
+  state_ = model_.complete_state(initial_prefix);
+  time_ = 0.0;
+  frictional_energy_ = 0.0;
+  std::fill(module_wear_.begin(), module_wear_.end(), 0.0);
+  input_.setZero();
+  for (int i = 0; i < n; ++i) {  // hold the initial wheel speeds until the first command
+    const int index = model_.wheel_speed_index(i);
+    if (index >= 0) input_[InputIndex::wheel_speed(i)] = state_[index];
+  }
+  rng_state_ = options_.seed;
+  delayed_.clear();
+  update_measurement();
+  refresh_samples();
+}
+
+double Simulator::gaussian() noexcept {
+  // Box-Muller on our own generator: the same numbers on every platform and standard library.
+  const double u1 = (static_cast<double>(splitmix64(&rng_state_) >> 11) + 0.5) * 0x1.0p-53;
+  const double u2 = static_cast<double>(splitmix64(&rng_state_) >> 11) * 0x1.0p-53;
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+}
+
+void Simulator::update_measurement() noexcept {
+  const int n = model_.modules();
+  const Eigen::VectorXd truth = state_.head(StateIndex::prefix_size(n));
+  // A fixed-length queue after the first call: the real-time loop allocates only while filling it.
+  delayed_.push_back(truth);
+  while (static_cast<int>(delayed_.size()) > options_.measurement_delay_steps + 1) delayed_.pop_front();
+  measurement_ = delayed_.front();
+  const MeasurementNoise& noise = options_.noise;
+  const double sigma[6] = {noise.position, noise.position, noise.heading, noise.velocity, noise.velocity, noise.yaw_rate};
+  for (int i = 0; i < 6; ++i) {
+    if (sigma[i] > 0.0) measurement_[i] += sigma[i] * gaussian();
+  }
+  if (noise.steering_angle > 0.0) {
+    for (int i = 0; i < n; ++i) measurement_[StateIndex::steering(i)] += noise.steering_angle * gaussian();
+  }
+}
+
+void Simulator::refresh_samples() noexcept {
+  model_.derivative(state_, input_, state_dot_, diagnostics_.data());
+  for (int i = 0; i < model_.modules(); ++i) {
+    const auto m = static_cast<std::size_t>(i);
+    const ModuleDiagnostics<double>& d = diagnostics_[m];
+    PlantModuleSample& s = samples_[m];
+    s.steering_angle = state_[StateIndex::steering(i)];
+    const int wheel = model_.wheel_speed_index(i);
+    s.wheel_speed = wheel >= 0 ? state_[wheel] : input_[InputIndex::wheel_speed(i)];
+    s.slip_angle = d.slip_angle;
+    s.slip_ratio = d.slip_ratio;
+    s.fx_wheel = d.fx_wheel;
+    s.fy_wheel = d.fy_wheel;
+    s.wear_rate = d.wear_rate;
+    s.wear = module_wear_[m];
+  }
+}
+
+bool Simulator::advance(const ModuleArray<ModuleCommand>& commands) noexcept {
+  const int n = model_.modules();
+  if (commands.size() != n) return false;
+  for (int i = 0; i < n; ++i) {
+    input_[InputIndex::steering_rate(i)] = commands[i].steering_rate;
+    input_[InputIndex::wheel_speed(i)] = commands[i].wheel_speed;
+  }
+  if (!input_.allFinite()) return false;
+  const double h = options_.control_period / substeps_;
+  double energy = 0.0;
+  std::fill(period_module_wear_.begin(), period_module_wear_.end(), 0.0);
+  next_state_ = state_;
+  for (int s = 0; s < substeps_; ++s) {
+    // Frictional energy by the rectangle rule on the substep grid (it is a report, not a state).
+    model_.derivative(next_state_, input_, state_dot_, diagnostics_.data());
+    for (int i = 0; i < n; ++i) energy += h * diagnostics_[static_cast<std::size_t>(i)].frictional_power;
+    state_dot_ = next_state_;  // reuse as the substep's start state (x_next may not alias x)
+    if (dynamics_.step(state_dot_, input_, h, 1, next_state_, nullptr, step_module_wear_.data()) != ModelStatus::kOk ||
+        !next_state_.allFinite()) {
+      return false;
+    }
+    for (int i = 0; i < n; ++i) {
+      const auto m = static_cast<std::size_t>(i);
+      period_module_wear_[m] += step_module_wear_[m];
+    }
+  }
+  for (int i = 0; i < n; ++i) module_wear_[static_cast<std::size_t>(i)] += period_module_wear_[static_cast<std::size_t>(i)];
+  state_ = next_state_;
+  frictional_energy_ += energy;
+  time_ += options_.control_period;
+  update_measurement();
+  refresh_samples();
+  return true;
+}
+
+}  // namespace swerve
