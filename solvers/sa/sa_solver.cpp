@@ -198,14 +198,16 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   bool deadline_hit = false;
   const int groups = nu_ / group_size_;
 
+  auto longest_proposal = full_rollout;  // grows if a proposal ever takes longer than a full rollout
+  auto now = SolverClock::now();
   for (; iteration < options_.max_iterations; ++iteration) {
-    const auto now = SolverClock::now();
-    if (now + 2 * full_rollout >= deadline) {
+    const auto proposal_start = now;
+    if (proposal_start + longest_proposal + full_rollout >= deadline) {
       deadline_hit = true;
       break;
     }
     const double time_progress =
-        loop_budget > 0.0 ? std::chrono::duration<double>(now - loop_start).count() / loop_budget : 1.0;
+        loop_budget > 0.0 ? std::chrono::duration<double>(proposal_start - loop_start).count() / loop_budget : 1.0;
     const double progress =
         std::max(static_cast<double>(iteration) / options_.max_iterations, time_progress) - progress_at_reheat;
     // Propose: perturb knot offsets (one group at one knot, all inputs at one knot, or everything).
@@ -237,11 +239,16 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     for (int k = 0; k < horizon_ && changed == horizon_; ++k) {
       if (candidate_inputs_.col(k) != inputs_.col(k)) changed = k;
     }
-    if (changed == horizon_) continue;  // the projection undid the move
+    if (changed == horizon_) {  // the projection undid the move
+      now = SolverClock::now();
+      continue;
+    }
     candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
     candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
     const double candidate_cost = problem.rollout(candidate_inputs_, changed, candidate_states_, candidate_stage_costs_);
     ++rollouts;
+    now = SolverClock::now();
+    longest_proposal = std::max(longest_proposal, now - proposal_start);
     const double delta = candidate_cost - current_cost;
 
     bool accept = false;
@@ -289,6 +296,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
       inputs_ = out->inputs;
       current_cost = problem.rollout(inputs_, 0, states_, stage_costs_);
       ++rollouts;
+      now = SolverClock::now();
       // Warmer again: half of the way back up the schedule.
       progress_at_reheat += 0.5 * std::max(0.0, progress);
     }

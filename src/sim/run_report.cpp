@@ -171,14 +171,14 @@ std::string comparison_table(const ScenarioConfig& scenario, const std::vector<C
       << scenario.simulator.seed << "\n";
   const ControllerRun* base = find_run(runs, kBaselineName);
   out << std::left << std::setw(20) << "controller" << std::right << std::setw(10) << "rmse [m]" << std::setw(10)
-      << "max [m]" << std::setw(12) << "psi rms[deg]" << std::setw(14) << "wear total" << std::setw(12)
+      << "max [m]" << std::setw(14) << "psi rms [deg]" << std::setw(14) << "wear total" << std::setw(12)
       << "vs base [%]" << std::setw(12) << "p99 [ms]" << std::setw(8) << "misses" << std::setw(11) << "fallbacks"
       << "\n";
   for (const ControllerRun& run : runs) {
     const RunMetrics& m = run.metrics;
     const double reduction = base ? wear_reduction_pct(m, base->metrics) : std::numeric_limits<double>::quiet_NaN();
     out << std::left << std::setw(20) << run.name << std::right << std::setw(10) << fixed(m.tracking_rmse_m, 4)
-        << std::setw(10) << fixed(m.tracking_max_m, 4) << std::setw(12) << fixed(m.heading_rmse_rad * 180.0 / kPi, 3)
+        << std::setw(10) << fixed(m.tracking_max_m, 4) << std::setw(14) << fixed(m.heading_rmse_rad * 180.0 / kPi, 3)
         << std::setw(14) << fixed(m.wear_total, 2) << std::setw(12)
         << (base && &run != base ? fixed(-reduction, 2) : std::string("-")) << std::setw(12)
         << fixed(m.solve_time_p99_ms, 2) << std::setw(8) << m.deadline_misses << std::setw(11) << m.fallbacks;

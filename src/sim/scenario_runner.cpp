@@ -23,16 +23,18 @@ ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverride
     s.controllers = std::move(chosen);
   }
   if (overrides.seed) s.simulator.seed = *overrides.seed;
+  if (overrides.backend) {  // checked even when no controller would use it: a typo must not pass
+    SolverConfig probe;
+    probe.backend = *overrides.backend;
+    try {
+      probe.validate();
+    } catch (const ConfigError& error) {
+      throw ConfigError(std::string("--backend: ") + error.what());
+    }
+  }
   for (ScenarioController& c : s.controllers) {
     if (c.config.kind != ControllerKind::kWearMpc) continue;
-    if (overrides.backend) {
-      c.config.solver.backend = *overrides.backend;
-      try {
-        c.config.solver.validate();
-      } catch (const ConfigError& error) {
-        throw ConfigError(std::string("--backend: ") + error.what());
-      }
-    }
+    if (overrides.backend) c.config.solver.backend = *overrides.backend;
     // A sweep moves the wear-aware controllers' lambda, never a configured lambda = 0 comparison.
     if (overrides.wear_weight && c.config.mpc.wear_weight > 0.0) c.config.mpc.wear_weight = *overrides.wear_weight;
   }

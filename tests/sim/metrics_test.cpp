@@ -1,0 +1,81 @@
+// Run metrics on hand-made logs whose answers are known in closed form.
+#include "swerve/sim/metrics.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace swerve {
+namespace {
+
+StepRecord record(double t, double error_x, double error_psi, double solve_s, CommandSource source) {
+  StepRecord r;
+  r.t = t;
+  r.reference_pose_world << t, 0.0, 0.5;
+  r.pose_world << t + error_x, 0.0, 0.5 + error_psi;
+  r.solve_time_s = solve_s;
+  r.source = source;
+  r.commands.resize(2);
+  r.commands[0].steering_rate = 1.0;
+  r.commands[1].steering_rate = -2.0;
+  return r;
+}
+
+TEST(Metrics, TrackingErrorRmseAndMaxOfAKnownSignal) {
+  // Errors 0.3 and -0.4 alternate: RMSE = sqrt((0.09 + 0.16) / 2), max 0.4.
+  std::vector<StepRecord> log;
+  for (int k = 0; k < 10; ++k) {
+    log.push_back(record(0.1 * k, k % 2 == 0 ? 0.3 : -0.4, k % 2 == 0 ? 0.1 : -0.2, 0.001, CommandSource::kOptimizer));
+  }
+  const RunMetrics m = compute_metrics(log, {1.0, 3.0}, 5.0, 0.1, 0.02);
+  EXPECT_NEAR(m.tracking_rmse_m, std::sqrt(0.125), 1e-12);
+  EXPECT_NEAR(m.tracking_max_m, 0.4, 1e-12);
+  EXPECT_NEAR(m.heading_rmse_rad, std::sqrt((0.01 + 0.04) / 2.0), 1e-12);
+  EXPECT_NEAR(m.heading_max_rad, 0.2, 1e-12);
+  EXPECT_EQ(m.steps, 10);
+}
+
+TEST(Metrics, HeadingErrorIsWrappedAcrossPi) {
+  StepRecord r = record(0.0, 0.0, 0.0, -1.0, CommandSource::kOptimizer);
+  r.reference_pose_world.z() = kPi - 0.05;
+  r.pose_world.z() = -kPi + 0.05;  // 0.1 rad away, not 2 pi - 0.1
+  EXPECT_NEAR(std::abs(r.heading_error()), 0.1, 1e-12);
+}
+
+TEST(Metrics, WearSumImbalanceEffortAndEnergy) {
+  std::vector<StepRecord> log = {record(0.0, 0.0, 0.0, 0.001, CommandSource::kOptimizer),
+                                 record(0.1, 0.0, 0.0, 0.001, CommandSource::kOptimizer)};
+  const RunMetrics m = compute_metrics(log, {1.0, 3.0}, 7.5, 0.1, 0.02);
+  EXPECT_DOUBLE_EQ(m.wear_total, 4.0);
+  EXPECT_DOUBLE_EQ(m.wear_imbalance, 1.5);  // max 3 over mean 2
+  EXPECT_DOUBLE_EQ(m.frictional_energy_J, 7.5);
+  EXPECT_NEAR(m.steering_effort, 2 * 0.1 * (1.0 + 4.0), 1e-12);  // two periods of (1^2 + 2^2) dt
+}
+
+TEST(Metrics, SolveTimesPercentilesDeadlineMissesAndFallbacks) {
+  std::vector<StepRecord> log;
+  for (int k = 1; k <= 100; ++k) {
+    // 1..100 ms; the last five over a 95 ms budget; every tenth from a fallback; one without a solve.
+    const CommandSource source = k % 10 == 0 ? CommandSource::kBaseline : CommandSource::kOptimizer;
+    log.push_back(record(0.01 * k, 0.0, 0.0, 1e-3 * k, source));
+  }
+  log.push_back(record(2.0, 0.0, 0.0, -1.0, CommandSource::kSafeStop));
+  const RunMetrics m = compute_metrics(log, {0.0, 0.0}, 0.0, 0.01, 0.095);
+  EXPECT_NEAR(m.solve_time_p50_ms, 50.0, 1e-9);
+  EXPECT_NEAR(m.solve_time_p99_ms, 99.0, 1e-9);
+  EXPECT_NEAR(m.solve_time_max_ms, 100.0, 1e-9);
+  EXPECT_NEAR(m.solve_time_mean_ms, 50.5, 1e-9);
+  EXPECT_EQ(m.deadline_misses, 5);
+  EXPECT_EQ(m.fallbacks, 11);
+  EXPECT_DOUBLE_EQ(m.wear_imbalance, 0.0);  // no wear: no imbalance rather than 0/0
+}
+
+TEST(Metrics, PercentileIsNearestRank) {
+  EXPECT_DOUBLE_EQ(percentile({}, 99.0), 0.0);
+  EXPECT_DOUBLE_EQ(percentile({3.0, 1.0, 2.0}, 50.0), 2.0);
+  EXPECT_DOUBLE_EQ(percentile({3.0, 1.0, 2.0}, 100.0), 3.0);
+  EXPECT_DOUBLE_EQ(percentile({3.0, 1.0, 2.0}, 0.0), 1.0);
+}
+
+}  // namespace
+}  // namespace swerve

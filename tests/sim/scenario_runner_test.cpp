@@ -1,0 +1,167 @@
+// Scenarios end to end: short runs of the paper's experiments for every controller, determinism by
+// seed, the summary.json contract, overrides and bad scenario files.
+#include "swerve/sim/scenario_runner.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "swerve/sim/run_report.hpp"
+
+namespace swerve {
+namespace {
+
+std::string data_file(const std::string& name) { return std::string(SWERVE_SOURCE_DIR) + "/tests/sim/data/" + name; }
+
+std::string temp_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("swerve_sim_test_" + name);
+  std::filesystem::remove_all(dir);
+  return dir.string();
+}
+
+// The CSV without the columns that measure wall-clock time.
+std::string without_timing(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, out;
+  int skip = -1;
+  while (std::getline(in, line)) {
+    std::stringstream cells(line);
+    std::string cell, kept;
+    for (int column = 0; std::getline(cells, cell, ','); ++column) {
+      if (skip < 0 && cell == "solve_time_ms") skip = column;
+      if (column != skip) kept += cell + ",";
+    }
+    out += kept + "\n";
+  }
+  return out;
+}
+
+TEST(ScenarioRunner, ShortPaperScenarioRunsEveryControllerWithFiniteMetrics) {
+  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  const std::vector<ControllerRun> runs = run_scenario(scenario);
+  ASSERT_EQ(runs.size(), 3u);
+  for (const ControllerRun& run : runs) {
+    SCOPED_TRACE(run.name);
+    EXPECT_TRUE(run.completed) << run.failure;
+    EXPECT_EQ(run.metrics.steps, 30);  // 1.5 s at 20 Hz
+    EXPECT_TRUE(std::isfinite(run.metrics.tracking_rmse_m));
+    EXPECT_GT(run.metrics.wear_total, 0.0);
+    EXPECT_EQ(run.metrics.wear_per_module.size(), 10u);
+    for (const StepRecord& r : run.log) {
+      for (const ModuleCommand& c : r.commands) {
+        ASSERT_TRUE(std::isfinite(c.steering_rate) && std::isfinite(c.wheel_speed));
+      }
+    }
+  }
+  EXPECT_EQ(runs[0].kind, ControllerKind::kWearMpc);
+  EXPECT_GT(runs[0].wear_weight, 0.0);
+  EXPECT_EQ(runs[1].wear_weight, 0.0);  // dynamic_no_wear: configuration only
+  EXPECT_EQ(runs[2].kind, ControllerKind::kKinematicBaseline);
+}
+
+TEST(ScenarioRunner, IdenticalSeedsWriteIdenticalLogs) {
+  const ScenarioConfig scenario = load_scenario_config_file(data_file("deterministic.yaml"));
+  const std::string a = temp_dir("det_a"), b = temp_dir("det_b"), c = temp_dir("det_c");
+  write_run_outputs(scenario, run_scenario(scenario), a);
+  write_run_outputs(scenario, run_scenario(scenario), b);
+  RunOverrides other_seed;
+  other_seed.seed = 12;
+  const ScenarioConfig reseeded = apply_overrides(scenario, other_seed);
+  write_run_outputs(reseeded, run_scenario(reseeded), c);
+  for (const char* name : {"/wear_mpc.csv", "/kinematic_baseline.csv"}) {
+    SCOPED_TRACE(name);
+    const std::string first = without_timing(a + name);
+    EXPECT_GT(first.size(), 1000u);
+    EXPECT_EQ(first, without_timing(b + name));
+    EXPECT_NE(first, without_timing(c + name));
+  }
+}
+
+TEST(ScenarioRunner, SummaryJsonHasEveryDocumentedKeyWithItsType) {
+  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  const std::string dir = temp_dir("summary");
+  write_run_outputs(scenario, run_scenario(scenario), dir);
+  std::ifstream in(dir + "/summary.json");
+  ASSERT_TRUE(in) << "summary.json was not written";
+  const nlohmann::json s = nlohmann::json::parse(in);
+  EXPECT_TRUE(s.at("scenario").is_string());
+  EXPECT_TRUE(s.at("vehicle").is_string());
+  EXPECT_TRUE(s.at("seed").is_number_integer());
+  EXPECT_TRUE(s.at("module_positions_m").is_array());
+  const nlohmann::json& controllers = s.at("controllers");
+  for (const char* name : {"wear_mpc", "dynamic_no_wear", "kinematic_baseline"}) {
+    SCOPED_TRACE(name);
+    const nlohmann::json& c = controllers.at(name);
+    for (const char* key : {"tracking_rmse_m", "tracking_max_m", "heading_rmse_rad", "wear_total",
+                            "frictional_energy_J", "solve_time_p50_ms", "solve_time_p99_ms"}) {
+      EXPECT_TRUE(c.at(key).is_number()) << key;
+    }
+    EXPECT_TRUE(c.at("wear_per_module").is_array());
+    EXPECT_EQ(c.at("wear_per_module").size(), 10u);
+    EXPECT_TRUE(c.at("wear_units").is_string());
+    EXPECT_TRUE(c.at("deadline_misses").is_number_integer());
+    EXPECT_TRUE(c.at("fallbacks").is_number_integer());
+    EXPECT_TRUE(std::filesystem::exists(dir + "/" + c.at("log_csv").get<std::string>()));
+  }
+  const nlohmann::json& comparison = s.at("comparison");
+  for (const char* key : {"wear_reduction_pct", "tracking_rmse_ratio", "wear_reduction_vs_no_wear_pct"}) {
+    EXPECT_TRUE(comparison.at(key).is_number()) << key;
+  }
+  EXPECT_DOUBLE_EQ(comparison.at("paper_wear_reduction_pct").get<double>(), 65.2);
+  // The comparison is computed from the controllers' own numbers.
+  const double w = controllers.at("wear_mpc").at("wear_total"), b = controllers.at("kinematic_baseline").at("wear_total");
+  EXPECT_NEAR(comparison.at("wear_reduction_pct").get<double>(), 100.0 * (b - w) / b, 1e-9);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/.summary.json.tmp"));
+}
+
+TEST(ScenarioRunner, OverridesPickControllersAndRejectUnknownNames) {
+  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  RunOverrides only_baseline;
+  only_baseline.controllers = {"kinematic_baseline"};
+  EXPECT_EQ(apply_overrides(scenario, only_baseline).controllers.size(), 1u);
+  RunOverrides unknown;
+  unknown.controllers = {"no_such_controller"};
+  try {
+    apply_overrides(scenario, unknown);
+    FAIL() << "an unknown controller name was accepted";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("no_such_controller"), std::string::npos) << error.what();
+  }
+  RunOverrides unbuilt;
+  unbuilt.backend = "no_such_backend";
+  EXPECT_THROW(apply_overrides(scenario, unbuilt), ConfigError);
+  RunOverrides sweep;
+  sweep.wear_weight = 7.0;
+  const ScenarioConfig swept = apply_overrides(scenario, sweep);
+  EXPECT_EQ(swept.controllers[0].config.mpc.wear_weight, 7.0);
+  EXPECT_EQ(swept.controllers[1].config.mpc.wear_weight, 0.0);  // the no-wear comparison stays at 0
+}
+
+void expect_config_error(const std::string& file, const std::string& expected) {
+  try {
+    load_scenario_config_file(data_file(file));
+    FAIL() << file << " was accepted";
+  } catch (const ConfigError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find(file), std::string::npos) << message;
+    EXPECT_NE(message.find(expected), std::string::npos) << message;
+  }
+}
+
+TEST(ScenarioConfig, BadFilesNameTheFileTheKeyPathAndTheValue) {
+  expect_config_error("typo_scenario.yaml", "scenario.reference.speeed: unknown key");
+  expect_config_error("missing_vehicle.yaml", "scenario.vehicle");
+  expect_config_error("negative_duration.yaml", "scenario.duration = -3");
+}
+
+TEST(RunReport, AnUnwritableOutputDirectoryIsAClearError) {
+  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_curve_baseline.yaml"));
+  const std::vector<ControllerRun> runs;  // nothing to write but the summary
+  EXPECT_THROW(write_run_outputs(scenario, runs, "/proc/swerve_cannot_write_here"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace swerve

@@ -1,0 +1,149 @@
+// The plant simulator: zero-lag plant against the model's own discrete map, determinism by seed,
+// and the wear/energy integrals it keeps.
+#include "swerve/sim/simulator.hpp"
+
+#include <gtest/gtest.h>
+
+#include "models/model_fixtures.hpp"
+#include "swerve/config/config_error.hpp"
+#include "swerve/models/integrators.hpp"
+
+namespace swerve {
+namespace {
+
+VehicleParams ideal_plant_params() {
+  VehicleParams params = testing::make_params(4);
+  params.plant.actuator_lag = false;
+  params.plant.actuator_saturation = false;
+  return params;
+}
+
+ModuleArray<ModuleCommand> turning_commands(int modules) {
+  ModuleArray<ModuleCommand> commands(modules);
+  for (int i = 0; i < modules; ++i) {
+    commands[i].steering_rate = 0.3 * (i % 2 == 0 ? 1.0 : -0.5);
+    commands[i].wheel_speed = 4.0 + 0.5 * i;
+  }
+  return commands;
+}
+
+TEST(Simulator, ZeroLagPlantFollowsTheModelsOwnDiscreteMap) {
+  const VehicleParams params = ideal_plant_params();
+  SimulatorOptions options;
+  options.control_period = 0.05;
+  options.substeps = 40;
+  Simulator simulator(params, options);
+  Eigen::VectorXd prefix = Eigen::VectorXd::Zero(10);
+  prefix[3] = 0.3;
+  simulator.reset(prefix);
+
+  const VehicleModel<double> model(params, Fidelity::kIdeal);
+  const DiscreteDynamics<double> map(model, IntegratorMethod::kRk4);
+  Eigen::VectorXd x = prefix, x_next(10);
+  Eigen::VectorXd u(8);
+  const ModuleArray<ModuleCommand> commands = turning_commands(4);
+  for (int i = 0; i < 4; ++i) u.segment<2>(2 * i) << commands[i].steering_rate, commands[i].wheel_speed;
+  double wear_total = 0.0;
+  for (int k = 0; k < 10; ++k) {
+    ASSERT_TRUE(simulator.advance(commands));
+    double wear = 0.0;
+    ASSERT_EQ(map.step(x, u, 0.05, 40, x_next, &wear), ModelStatus::kOk);
+    x = x_next;
+    wear_total += wear;
+  }
+  EXPECT_LT((simulator.state().head(10) - x).cwiseAbs().maxCoeff(), 1e-9);
+  double simulated_wear = 0.0;
+  for (double w : simulator.module_wear()) simulated_wear += w;
+  EXPECT_NEAR(simulated_wear, wear_total, 1e-9 * (1.0 + wear_total));
+  EXPECT_GT(wear_total, 0.0);  // the wheels were commanded to slip, so the comparison is not 0 == 0
+  EXPECT_NEAR(simulator.time(), 0.5, 1e-12);
+}
+
+TEST(Simulator, FrictionalEnergyEqualsWearForUnitCoefficientFrictionalPowerWear) {
+  // With w_dot = 1 x frictional power, wear (RK4) and energy (rectangle rule) integrate the same
+  // signal: they agree to the quadrature error.
+  VehicleParams params = ideal_plant_params();
+  SimulatorOptions options;
+  options.substeps = 200;
+  Simulator simulator(params, options);
+  simulator.reset(Eigen::VectorXd::Zero(10));
+  for (int k = 0; k < 20; ++k) ASSERT_TRUE(simulator.advance(turning_commands(4)));
+  double wear = 0.0;
+  for (double w : simulator.module_wear()) wear += w;
+  EXPECT_GT(wear, 0.0);
+  EXPECT_NEAR(simulator.frictional_energy(), wear, 0.02 * wear);
+}
+
+TEST(Simulator, IdenticalSeedsGiveIdenticalMeasurementsAndOtherSeedsDiffer) {
+  VehicleParams params = testing::make_params(4);
+  SimulatorOptions options;
+  options.noise.position = 0.01;
+  options.noise.steering_angle = 0.01;
+  options.seed = 42;
+  auto measurements = [&](std::uint64_t seed) {
+    SimulatorOptions o = options;
+    o.seed = seed;
+    Simulator simulator(params, o);
+    simulator.reset(Eigen::VectorXd::Zero(10));
+    std::vector<Eigen::VectorXd> seen;
+    for (int k = 0; k < 5; ++k) {
+      EXPECT_TRUE(simulator.advance(turning_commands(4)));
+      seen.push_back(simulator.measurement());
+    }
+    return seen;
+  };
+  const auto a = measurements(42), b = measurements(42), c = measurements(43);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k], b[k]);
+    EXPECT_NE(a[k], c[k]);
+  }
+}
+
+TEST(Simulator, MeasurementDelayShowsTheStateFromEarlierPeriods) {
+  VehicleParams params = ideal_plant_params();
+  SimulatorOptions options;
+  options.measurement_delay_steps = 2;
+  Simulator simulator(params, options);
+  Eigen::VectorXd prefix = Eigen::VectorXd::Zero(10);
+  simulator.reset(prefix);
+  std::vector<Eigen::VectorXd> truth = {simulator.state().head(10)};
+  for (int k = 0; k < 4; ++k) {
+    ASSERT_TRUE(simulator.advance(turning_commands(4)));
+    truth.push_back(simulator.state().head(10));
+    const std::size_t shown = truth.size() >= 3 ? truth.size() - 3 : 0;
+    EXPECT_EQ(simulator.measurement(), truth[shown]) << "after period " << k + 1;
+  }
+}
+
+TEST(Simulator, NonFiniteCommandsAreRefusedAndLeaveTheStateAsItWas) {
+  Simulator simulator(ideal_plant_params(), SimulatorOptions{});
+  simulator.reset(Eigen::VectorXd::Zero(10));
+  const Eigen::VectorXd before = simulator.state();
+  ModuleArray<ModuleCommand> commands = turning_commands(4);
+  commands[2].wheel_speed = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(simulator.advance(commands));
+  EXPECT_EQ(simulator.state(), before);
+  EXPECT_EQ(simulator.time(), 0.0);
+}
+
+TEST(Simulator, InvalidOptionsAndInitialStatesNameTheField) {
+  SimulatorOptions options;
+  options.control_period = -0.05;
+  try {
+    Simulator simulator(ideal_plant_params(), options);
+    FAIL() << "a negative control period was accepted";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("control_period = -0.05"), std::string::npos) << error.what();
+  }
+  options = SimulatorOptions{};
+  options.noise.heading = -1.0;
+  EXPECT_THROW(Simulator(ideal_plant_params(), options), ConfigError);
+  Simulator simulator(ideal_plant_params(), SimulatorOptions{});
+  EXPECT_THROW(simulator.reset(Eigen::VectorXd::Zero(7)), ConfigError);
+  Eigen::VectorXd nan_state = Eigen::VectorXd::Zero(10);
+  nan_state[4] = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(simulator.reset(nan_state), ConfigError);
+}
+
+}  // namespace
+}  // namespace swerve
