@@ -82,6 +82,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
   j["solve_budget_s"] = o.solve_budget;
   j["overrun_grace_s"] = o.overrun_grace;
   j["baseline_guess"] = o.baseline_guess;
+  j["inputs"] = to_string(o.parameterization);
   j["max_plan_age"] = o.max_plan_age;
   j["weights"] = {{"pose", {o.pose_weight.x(), o.pose_weight.y(), o.pose_weight.z()}},
                   {"twist", {o.twist_weight.x(), o.twist_weight.y(), o.twist_weight.z()}},
@@ -90,7 +91,8 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                   {"steering_rate_effort", o.steering_rate_effort},
                   {"wheel_speed_effort", o.wheel_speed_effort},
                   {"steering_rate_smoothness", o.steering_rate_smoothness},
-                  {"wheel_speed_smoothness", o.wheel_speed_smoothness}};
+                  {"wheel_speed_smoothness", o.wheel_speed_smoothness},
+                  {"twist_smoothness", o.twist_smoothness}};
   j["prediction"] = {{"method", to_string(o.prediction.method)},
                      {"substeps", o.prediction.substeps},
                      {"max_newton_iterations", o.prediction.max_newton_iterations}};

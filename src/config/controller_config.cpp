@@ -51,6 +51,7 @@ void load_weights(const ConfigNode& node, ControllerOptions* o) {
       node.get_double_or("steering_rate_smoothness", o->steering_rate_smoothness, Bound::non_negative());
   o->wheel_speed_smoothness =
       node.get_double_or("wheel_speed_smoothness", o->wheel_speed_smoothness, Bound::non_negative());
+  o->twist_smoothness = node.get_double_or("twist_smoothness", o->twist_smoothness, Bound::non_negative());
 }
 
 }  // namespace
@@ -83,6 +84,9 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
     c.mpc.baseline_guess = node.get_bool_or("baseline_guess", c.mpc.baseline_guess);
     c.mpc.max_plan_age = node.get_int_or("max_plan_age", c.mpc.max_plan_age, 0);
     if (const auto weights = node.optional_child("weights")) load_weights(*weights, &c.mpc);
+    c.mpc.parameterization = node.get_choice_or("inputs", {"body_twist", "module_rates"}, "body_twist") == "module_rates"
+                                 ? InputParameterization::kModuleRates
+                                 : InputParameterization::kBodyTwist;
     if (const auto prediction = node.optional_child("prediction")) {
       const std::string method = prediction->get_choice_or("method", {"semi_implicit", "rk4"}, "semi_implicit");
       c.mpc.prediction.method = method == "rk4" ? PredictionMethod::kRk4 : PredictionMethod::kSemiImplicit;

@@ -26,6 +26,11 @@ CostWeights cost_weights(const ControllerOptions& o, int modules) {
   w.twist = o.twist_weight;
   w.terminal_scale = o.terminal_scale;
   w.wear = o.wear_weight;
+  if (o.parameterization == InputParameterization::kBodyTwist) {
+    w.effort = Eigen::VectorXd::Zero(3);
+    w.rate = Eigen::VectorXd::Constant(3, o.twist_smoothness);
+    return w;
+  }
   w.effort = Eigen::VectorXd(2 * modules);
   w.rate = Eigen::VectorXd(2 * modules);
   for (int i = 0; i < modules; ++i) {
@@ -33,6 +38,20 @@ CostWeights cost_weights(const ControllerOptions& o, int modules) {
     w.rate.segment<2>(2 * i) << o.steering_rate_smoothness, o.wheel_speed_smoothness;
   }
   return w;
+}
+
+// Body twist: translation within the drive speed, rotation within what the outermost module can
+// drive, and no module asked to change its velocity faster than the drive acceleration (per axis).
+InputBounds twist_bounds(const ModuleLayout& layout, double dt) {
+  const ModuleLimits& limits = layout.limits();
+  double max_radius = 0.0;
+  for (const Eigen::Vector2d& p : layout.positions_body()) max_radius = std::max(max_radius, p.norm());
+  InputBounds b;
+  b.upper = Eigen::Vector3d(limits.max_drive_speed, limits.max_drive_speed, limits.max_drive_speed / max_radius);
+  b.lower = -b.upper;
+  const double step = limits.max_drive_acceleration * dt;
+  b.max_step = Eigen::Vector3d(step, step, step / max_radius);
+  return b;
 }
 
 // Steering rate within its limit, wheel speed within the drive limit, wheel acceleration per step.
@@ -59,6 +78,10 @@ BaselineOptions aligned(BaselineOptions baseline, const ControllerOptions& optio
 
 }  // namespace
 
+const char* to_string(InputParameterization parameterization) noexcept {
+  return parameterization == InputParameterization::kBodyTwist ? "body_twist" : "module_rates";
+}
+
 void ControllerOptions::validate() const {
   if (horizon < 1) reject("horizon", horizon, "must be >= 1");
   if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
@@ -74,6 +97,7 @@ void ControllerOptions::validate() const {
   require_non_negative("wheel_speed_effort", wheel_speed_effort);
   require_non_negative("steering_rate_smoothness", steering_rate_smoothness);
   require_non_negative("wheel_speed_smoothness", wheel_speed_smoothness);
+  require_non_negative("twist_smoothness", twist_smoothness);
   if (max_plan_age < 0) reject("max_plan_age", max_plan_age, "must be >= 0");
   prediction.validate();
 }
@@ -86,15 +110,25 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   options_.validate();
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
-  model_ = std::make_unique<VehiclePredictionModel>(vehicle, options_.prediction);
+  const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
+  if (twist) {
+    auto twist_model = std::make_unique<TwistPredictionModel>(vehicle, options_.prediction);
+    twist_model_ = twist_model.get();
+    model_ = std::move(twist_model);
+  } else {
+    model_ = std::make_unique<VehiclePredictionModel>(vehicle, options_.prediction);
+  }
   problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, modules_),
-                                          input_bounds(layout_, options_.dt));
+                                          twist ? twist_bounds(layout_, options_.dt) : input_bounds(layout_, options_.dt));
   solver_ = make_solver(*problem_);
   if (!solver_) throw ConfigError("Controller.solver: the solver factory returned nothing");
   solution_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
   plan_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
   baseline_inputs_ = Eigen::MatrixXd::Zero(2 * modules_, options_.horizon);
+  baseline_guess_ = Eigen::MatrixXd::Zero(problem_->input_size(), options_.horizon);
+  applied_decision_ = Eigen::VectorXd::Zero(problem_->input_size());
   applied_input_ = Eigen::VectorXd::Zero(2 * modules_);
+  state_buffer_ = Eigen::VectorXd::Zero(problem_->state_size());
   output_.modules = ModuleArray<ModuleCommand>(modules_);
 }
 
@@ -102,19 +136,31 @@ void Controller::reset() noexcept {
   plan_.valid = false;
   plan_age_ = 0;
   applied_input_.setZero();
+  applied_decision_.setZero();
   baseline_.reset();
   for (int i = 0; i < modules_; ++i) output_.modules[i] = ModuleCommand{};
 }
 
-void Controller::apply_column(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int column,
-                              const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept {
-  // The inputs are already feasible (projected); the angle target follows the rate over one step.
-  applied_input_ = inputs.col(column);
+void Controller::apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
+                                     const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept {
+  // The inputs are already feasible; the angle target follows the rate over one step.
+  applied_input_ = module_inputs;
   for (int i = 0; i < modules_; ++i) {
     ModuleCommand& command = output_.modules[i];
     command.steering_rate = applied_input_[2 * i];
     command.wheel_speed = applied_input_[2 * i + 1];
     command.steering_angle = wrap_angle(steering_angles[i] + options_.dt * command.steering_rate);
+  }
+}
+
+void Controller::apply_decision(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
+                                const Eigen::Ref<const Eigen::VectorXd>& state) noexcept {
+  applied_decision_ = plan.col(column);
+  if (twist_model_ != nullptr) {
+    twist_model_->module_inputs(state, applied_decision_.head<3>(), options_.dt, applied_input_);
+    apply_module_inputs(applied_input_, state.segment(StateIndex::kFirstSteering, modules_));
+  } else {
+    apply_module_inputs(applied_decision_, state.segment(StateIndex::kFirstSteering, modules_));
   }
 }
 
@@ -126,16 +172,16 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
     // The previous plan, already shifted plan_age_ times, still covers this cycle; without a usable
     // measurement its own predicted steering angles stand in.
     if (measured_usable) {
-      apply_column(plan_.inputs, 0, measured.segment(6, modules_));
+      apply_decision(plan_.inputs, 0, measured);
     } else {
-      apply_column(plan_.inputs, 0, plan_.states.col(0).segment(6, modules_));
+      apply_decision(plan_.inputs, 0, plan_.states.col(0));
     }
     output_.source = CommandSource::kPreviousPlan;
     return;
   }
   if (baseline_usable && measured_usable) {
-    problem_->project(baseline_inputs_);
-    apply_column(baseline_inputs_, 0, measured.segment(6, modules_));
+    apply_module_inputs(baseline_inputs_.col(0), measured.segment(StateIndex::kFirstSteering, modules_));
+    applied_decision_ = baseline_guess_.col(0);
     output_.source = CommandSource::kBaseline;
     return;
   }
@@ -144,6 +190,9 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
     applied_input_[2 * i] = 0.0;
     applied_input_[2 * i + 1] = output_.modules[i].wheel_speed;
   }
+  // The twist these commands come closest to is unknown here; the smoothness term restarts from rest.
+  if (twist_model_ != nullptr) applied_decision_.setZero();
+  else applied_decision_ = applied_input_;
   output_.source = CommandSource::kSafeStop;
 }
 
@@ -162,7 +211,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   }
   // Update the problem in place: state, last applied input, reference window.
   problem_->set_initial_state(measured);
-  problem_->set_previous_input(applied_input_);
+  problem_->set_previous_input(applied_decision_);
   for (int k = 1; k <= options_.horizon; ++k) {
     const ReferenceSample sample = reference_->sample(t + k * options_.dt);
     problem_->set_reference(k, sample.pose_world, sample.twist_body);
@@ -172,11 +221,19 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     baseline_usable =
         baseline_.plan_twists(measured.head<3>(), measured.segment<3>(3), problem_->reference_poses(),
                               problem_->reference_twists());
-    if (baseline_usable) baseline_.module_inputs(measured.segment(6, modules_), baseline_inputs_);
+    if (baseline_usable) {
+      baseline_.module_inputs(measured.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
+      if (twist_model_ != nullptr) {
+        baseline_guess_ = baseline_.twist_plan();
+      } else {
+        baseline_guess_ = baseline_inputs_;
+      }
+      problem_->project(baseline_guess_);
+    }
   }
   InitialGuesses guesses;
   if (plan_.valid && plan_age_ == 1) guesses.add(&plan_.inputs);
-  if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_inputs_);
+  if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_guess_);
 
   const auto budget = std::chrono::duration_cast<SolverClock::duration>(std::chrono::duration<double>(options_.solve_budget));
   const auto grace = std::chrono::duration_cast<SolverClock::duration>(std::chrono::duration<double>(options_.overrun_grace));
@@ -189,7 +246,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     plan_.cost = solution_.cost;
     plan_.valid = true;
     plan_age_ = 0;
-    apply_column(plan_.inputs, 0, measured.segment(6, modules_));
+    apply_decision(plan_.inputs, 0, measured);
     output_.source = CommandSource::kOptimizer;
     output_.reason = output_.solve.reason;
     return output_;

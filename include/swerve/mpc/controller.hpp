@@ -14,9 +14,16 @@
 #include "swerve/mpc/ocp_problem.hpp"
 #include "swerve/mpc/reference.hpp"
 #include "swerve/mpc/tracking_controller.hpp"
+#include "swerve/mpc/twist_prediction_model.hpp"
 #include "swerve/mpc/vehicle_prediction_model.hpp"
 
 namespace swerve {
+
+// What the optimiser searches over. kBodyTwist (default): a body twist per step, turned into module
+// commands by TwistPredictionModel, so every candidate is kinematically consistent. kModuleRates:
+// the paper's inputs, a steering rate and a wheel speed per module (2n per step).
+enum class InputParameterization { kBodyTwist, kModuleRates };
+const char* to_string(InputParameterization parameterization) noexcept;  // "body_twist", "module_rates"
 
 struct ControllerOptions {
   int horizon = 20;                  // N (paper-notes assumption 7)
@@ -32,6 +39,8 @@ struct ControllerOptions {
   double steering_rate_smoothness = 0.05;
   double wheel_speed_smoothness = 0.01;
   PredictionOptions prediction;
+  InputParameterization parameterization = InputParameterization::kBodyTwist;
+  double twist_smoothness = 1.0;     // S on the change of the body twist per step (kBodyTwist)
   bool baseline_guess = true;        // also start the solver from the kinematic baseline's plan
   int max_plan_age = 5;              // cycles a previous plan may stand in for a failed solve
   void validate() const;             // throws ConfigError naming the field and value
@@ -57,14 +66,19 @@ class Controller final : public TrackingController {
   const Solver& solver() const noexcept { return *solver_; }
 
  private:
-  void apply_column(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int column,
-                    const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
+  // Sends decision column `column` of `plan` (twist or module rates) from `state` (a measured or
+  // predicted state, read for its steering angles).
+  void apply_decision(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
+                      const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
+  void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
+                           const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
 
   std::string name_;
   ControllerOptions options_;
   ModuleLayout layout_;
-  std::unique_ptr<VehiclePredictionModel> model_;
+  std::unique_ptr<PredictionModel> model_;
+  const TwistPredictionModel* twist_model_ = nullptr;  // model_ when parameterised by the body twist
   std::unique_ptr<OcpProblem> problem_;
   std::unique_ptr<Solver> solver_;
   std::shared_ptr<const Reference> reference_;
@@ -73,7 +87,10 @@ class Controller final : public TrackingController {
   Solution solution_, plan_;
   int plan_age_ = 0;
   Eigen::MatrixXd baseline_inputs_;  // 2n x N
-  Eigen::VectorXd applied_input_;    // 2n
+  Eigen::MatrixXd baseline_guess_;   // nu x N: the baseline plan in the optimiser's inputs
+  Eigen::VectorXd applied_decision_; // nu: the decision applied last cycle
+  Eigen::VectorXd applied_input_;    // 2n: the module inputs sent last cycle
+  Eigen::VectorXd state_buffer_;     // 6 + n
   ControlOutput output_;
 };
 

@@ -1,0 +1,460 @@
+// Controller: the fallback chain (previous plan, baseline, safe stop) driven by a scripted test
+// solver, validation of every option through the constructor, closed-loop convergence with the SA
+// solver on the prediction model itself as the plant, the wear term lowering the wear, and no
+// allocation in step().
+#include "swerve/mpc/controller.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "mpc/closed_loop.hpp"
+#include "support/allocation_counter.hpp"  // the one .cpp of mpc_tests that includes it
+#include "swerve/config/config_error.hpp"
+#include "swerve/solvers/sa_solver.hpp"
+
+namespace swerve {
+namespace {
+
+using testing::all_finite;
+using testing::run_closed_loop;
+using testing::small_robot;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// ---------------------------------------------------------------------------------------------
+// A solver whose behaviour the test scripts cycle by cycle.
+
+enum class FakeMode { kGood, kFail, kNanPlan, kOverrun };
+
+struct FakeScript {
+  FakeMode mode = FakeMode::kGood;
+  double overrun_s = 0.0;  // kOverrun: how far past the deadline it returns
+  int calls = 0;
+};
+
+// The plan it returns when it works: every module steers at 0.01 (k + 1) rad/s at step k with the
+// wheels at rest, so which column a command came from is readable off its steering rate.
+double planned_rate(int step) { return 0.01 * (step + 1); }
+
+class FakeSolver final : public Solver {
+ public:
+  FakeSolver(const OcpProblem& shape, FakeScript* script)
+      : script_(script), stage_costs_(Eigen::VectorXd::Zero(shape.horizon())) {}
+  const char* name() const noexcept override { return "fake"; }
+
+ private:
+  SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses&, Deadline deadline, Solution* out,
+                       SolveSummary* summary) noexcept override {
+    ++script_->calls;
+    switch (script_->mode) {
+      case FakeMode::kFail:
+        summary->reason = "fake: scripted failure";
+        return SolveStatus::kNumericalError;
+      case FakeMode::kNanPlan:
+        out->inputs.setConstant(kNaN);
+        out->cost = 1.0;
+        return SolveStatus::kConverged;
+      case FakeMode::kOverrun:
+        std::this_thread::sleep_until(deadline + std::chrono::duration_cast<SolverClock::duration>(
+                                                     std::chrono::duration<double>(script_->overrun_s)));
+        break;
+      case FakeMode::kGood:
+        break;
+    }
+    for (int k = 0; k < problem.horizon(); ++k) {
+      for (int i = 0; i < problem.input_size(); i += 2) {
+        out->inputs(i, k) = planned_rate(k);
+        out->inputs(i + 1, k) = 0.0;
+      }
+    }
+    out->cost = problem.rollout(out->inputs, 0, out->states, stage_costs_);
+    summary->reason = "fake: scripted plan";
+    return SolveStatus::kConverged;
+  }
+
+  FakeScript* script_;
+  Eigen::VectorXd stage_costs_;
+};
+
+ControllerOptions fast_options() {
+  ControllerOptions options;
+  options.solve_budget = 0.005;
+  options.overrun_grace = 0.002;
+  options.max_plan_age = 3;
+  return options;
+}
+
+Controller make_fake_controller(FakeScript* script, ControllerOptions options = fast_options()) {
+  return Controller(small_robot(), testing::line_reference(0.5), options,
+                    [script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, script); });
+}
+
+// At rest on the start of the line reference, steering straight ahead.
+Eigen::VectorXd at_rest() { return Eigen::VectorXd::Zero(10); }
+
+std::string reason_of(const ControlOutput& out) { return out.reason != nullptr ? out.reason : "(null)"; }
+
+// Good cycle, then failures: the shifted previous plan for max_plan_age cycles, then the baseline,
+// then back to the optimizer once the solver works again.
+void expect_fallback_chain(FakeMode failure, SolveStatus expected_status, const std::string& expected_reason) {
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.overrun_grace = 0.002;
+  script.overrun_s = options.overrun_grace + 0.004;
+  Controller controller = make_fake_controller(&script, options);
+  const Eigen::VectorXd state = at_rest();
+  double t = 0.0;
+
+  const ControlOutput& first = controller.step(state, t);
+  ASSERT_EQ(first.source, CommandSource::kOptimizer) << reason_of(first);
+  EXPECT_TRUE(all_finite(first));
+  for (int i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(first.modules[i].steering_rate, planned_rate(0));
+
+  script.mode = failure;
+  for (int age = 1; age <= options.max_plan_age; ++age) {
+    t += options.dt;
+    const ControlOutput& out = controller.step(state, t);
+    SCOPED_TRACE("plan age " + std::to_string(age));
+    EXPECT_EQ(out.source, CommandSource::kPreviousPlan) << to_string(out.source);
+    EXPECT_EQ(out.solve.status, expected_status) << to_string(out.solve.status);
+    EXPECT_EQ(reason_of(out), expected_reason);
+    EXPECT_TRUE(all_finite(out));
+    // The plan moved on one step per cycle: column `age` of the original plan.
+    for (int i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(out.modules[i].steering_rate, planned_rate(age));
+  }
+  for (int extra = 0; extra < 2; ++extra) {
+    t += options.dt;
+    const ControlOutput& out = controller.step(state, t);
+    EXPECT_EQ(out.source, CommandSource::kBaseline) << to_string(out.source);
+    EXPECT_EQ(reason_of(out), expected_reason);
+    EXPECT_TRUE(all_finite(out));
+  }
+  EXPECT_EQ(script.calls, options.max_plan_age + 3);
+
+  script.mode = FakeMode::kGood;
+  t += options.dt;
+  const ControlOutput& recovered = controller.step(state, t);
+  EXPECT_EQ(recovered.source, CommandSource::kOptimizer) << reason_of(recovered);
+  EXPECT_TRUE(all_finite(recovered));
+  for (int i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(recovered.modules[i].steering_rate, planned_rate(0));
+}
+
+TEST(Controller, FallsBackToThePreviousPlanThenTheBaselineWhenTheSolverFails) {
+  expect_fallback_chain(FakeMode::kFail, SolveStatus::kNumericalError, "the solver failed");
+}
+
+TEST(Controller, TreatsANaNPlanAsANumericalErrorAndFallsBack) {
+  expect_fallback_chain(FakeMode::kNanPlan, SolveStatus::kNumericalError, "the solver failed");
+}
+
+TEST(Controller, DiscardsAPlanThatArrivesAfterTheDeadlineAndFallsBack) {
+  // The late solver still reports kConverged with a valid plan; lateness alone rejects it.
+  expect_fallback_chain(FakeMode::kOverrun, SolveStatus::kConverged, "the solver overran its deadline");
+}
+
+TEST(Controller, BaseSolverReportsANaNPlanAsNumericalError) {
+  FakeScript script;
+  script.mode = FakeMode::kNanPlan;
+  Controller controller = make_fake_controller(&script);
+  const ControlOutput& out = controller.step(at_rest(), 0.0);
+  EXPECT_EQ(out.solve.status, SolveStatus::kNumericalError);
+  EXPECT_EQ(std::string(out.solve.reason), "the backend returned a non-finite plan");
+  EXPECT_FALSE(controller.plan().valid);
+}
+
+TEST(Controller, UsesTheBaselineWhenTheFirstSolveFails) {
+  FakeScript script;
+  script.mode = FakeMode::kFail;
+  Controller controller = make_fake_controller(&script);
+  const ControlOutput& out = controller.step(at_rest(), 0.0);
+  EXPECT_EQ(out.source, CommandSource::kBaseline) << to_string(out.source);
+  EXPECT_TRUE(all_finite(out));
+  // The baseline starts the vehicle along the line: the wheels turn forwards.
+  for (int i = 0; i < 4; ++i) EXPECT_GT(out.modules[i].wheel_speed, 0.0) << "module " << i;
+}
+
+TEST(Controller, ResetForgetsThePreviousPlan) {
+  FakeScript script;
+  Controller controller = make_fake_controller(&script);
+  ASSERT_EQ(controller.step(at_rest(), 0.0).source, CommandSource::kOptimizer);
+  controller.reset();
+  script.mode = FakeMode::kFail;
+  EXPECT_EQ(controller.step(at_rest(), 0.05).source, CommandSource::kBaseline);
+}
+
+TEST(Controller, NeverCommandsNaNForANaNOrImplausibleMeasuredState) {
+  FakeScript script;
+  const ControllerOptions options = fast_options();
+  Controller controller = make_fake_controller(&script, options);
+  double t = 0.0;
+  ASSERT_EQ(controller.step(at_rest(), t).source, CommandSource::kOptimizer);
+  const int calls_after_good_cycle = script.calls;
+
+  Eigen::VectorXd nan_state = at_rest();
+  nan_state[1] = kNaN;
+  Eigen::VectorXd inf_state = at_rest();
+  inf_state[7] = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd too_fast = at_rest();
+  too_fast[3] = 1000.0;  // 500 x the drive speed limit: a sensor fault
+  const Eigen::VectorXd wrong_size = Eigen::VectorXd::Zero(7);
+  const std::vector<std::pair<std::string, Eigen::VectorXd>> bad_states = {
+      {"nan", nan_state}, {"inf", inf_state}, {"implausible", too_fast}, {"wrong size", wrong_size},
+      {"nan again", nan_state}};
+  for (std::size_t j = 0; j < bad_states.size(); ++j) {
+    t += options.dt;
+    SCOPED_TRACE(bad_states[j].first);
+    const ControlOutput& out = controller.step(bad_states[j].second, t);
+    const int age = static_cast<int>(j) + 1;
+    EXPECT_EQ(out.solve.status, SolveStatus::kInvalidInput);
+    EXPECT_TRUE(all_finite(out));
+    if (age <= options.max_plan_age) {
+      EXPECT_EQ(out.source, CommandSource::kPreviousPlan) << to_string(out.source);
+      for (int i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(out.modules[i].steering_rate, planned_rate(age));
+    } else {
+      EXPECT_EQ(out.source, CommandSource::kSafeStop) << to_string(out.source);
+      for (int i = 0; i < 4; ++i) EXPECT_EQ(out.modules[i].steering_rate, 0.0);
+    }
+  }
+  EXPECT_EQ(script.calls, calls_after_good_cycle) << "a rejected state must not reach the solver";
+  // A NaN time is as bad as a NaN state.
+  t += options.dt;
+  const ControlOutput& nan_time = controller.step(at_rest(), kNaN);
+  EXPECT_NE(nan_time.source, CommandSource::kOptimizer);
+  EXPECT_TRUE(all_finite(nan_time));
+
+  t += options.dt;
+  const ControlOutput& recovered = controller.step(at_rest(), t);
+  EXPECT_EQ(recovered.source, CommandSource::kOptimizer) << reason_of(recovered);
+  EXPECT_TRUE(all_finite(recovered));
+}
+
+TEST(Controller, SafeStopsOnANaNStateBeforeAnyPlan) {
+  FakeScript script;
+  Controller controller = make_fake_controller(&script);
+  Eigen::VectorXd state = at_rest();
+  state[5] = kNaN;
+  const ControlOutput& out = controller.step(state, 0.0);
+  EXPECT_EQ(out.source, CommandSource::kSafeStop) << to_string(out.source);
+  EXPECT_TRUE(all_finite(out));
+  EXPECT_EQ(script.calls, 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Options: every field is validated, and the error names it.
+
+struct BadOption {
+  std::string field;
+  std::function<void(ControllerOptions&)> apply;
+};
+
+TEST(Controller, RejectsEveryInvalidOptionNamingTheField) {
+  const std::vector<BadOption> cases = {
+      {"horizon", [](ControllerOptions& o) { o.horizon = 0; }},
+      {"horizon", [](ControllerOptions& o) { o.horizon = -3; }},
+      {"dt", [](ControllerOptions& o) { o.dt = 0.0; }},
+      {"dt", [](ControllerOptions& o) { o.dt = -0.05; }},
+      {"dt", [](ControllerOptions& o) { o.dt = kNaN; }},
+      {"solve_budget", [](ControllerOptions& o) { o.solve_budget = 0.0; }},
+      {"solve_budget", [](ControllerOptions& o) { o.solve_budget = -0.01; }},
+      {"solve_budget", [](ControllerOptions& o) { o.solve_budget = kNaN; }},
+      {"overrun_grace", [](ControllerOptions& o) { o.overrun_grace = -0.001; }},
+      {"pose_weight", [](ControllerOptions& o) { o.pose_weight.y() = -1.0; }},
+      {"twist_weight", [](ControllerOptions& o) { o.twist_weight.z() = -1.0; }},
+      {"terminal_scale", [](ControllerOptions& o) { o.terminal_scale = -1.0; }},
+      {"wear_weight", [](ControllerOptions& o) { o.wear_weight = -0.5; }},
+      {"wear_weight", [](ControllerOptions& o) { o.wear_weight = std::numeric_limits<double>::infinity(); }},
+      {"steering_rate_effort", [](ControllerOptions& o) { o.steering_rate_effort = -1.0; }},
+      {"wheel_speed_effort", [](ControllerOptions& o) { o.wheel_speed_effort = -1.0; }},
+      {"steering_rate_smoothness", [](ControllerOptions& o) { o.steering_rate_smoothness = -1.0; }},
+      {"wheel_speed_smoothness", [](ControllerOptions& o) { o.wheel_speed_smoothness = -1.0; }},
+      {"max_plan_age", [](ControllerOptions& o) { o.max_plan_age = -1; }},
+  };
+  FakeScript script;
+  for (const BadOption& bad : cases) {
+    ControllerOptions options;
+    bad.apply(options);
+    SCOPED_TRACE(bad.field);
+    // Directly and through the constructor (what a user of a config file sees).
+    try {
+      options.validate();
+      ADD_FAILURE() << "validate() accepted an invalid " << bad.field;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("ControllerOptions." + bad.field), std::string::npos) << e.what();
+    }
+    try {
+      make_fake_controller(&script, options);
+      ADD_FAILURE() << "the constructor accepted an invalid " << bad.field;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("ControllerOptions." + bad.field), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Controller, AcceptsTheDefaultOptions) {
+  FakeScript script;
+  EXPECT_NO_THROW(ControllerOptions{}.validate());
+  EXPECT_NO_THROW(make_fake_controller(&script, ControllerOptions{}));
+}
+
+TEST(Controller, RejectsAFactoryThatReturnsNoSolver) {
+  try {
+    Controller controller(small_robot(), testing::line_reference(0.5), ControllerOptions{},
+                          [](const OcpProblem&) { return std::unique_ptr<Solver>(); });
+    ADD_FAILURE() << "accepted a null solver";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("solver"), std::string::npos) << e.what();
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Closed loop: the SA controller on the model it predicts with.
+
+Controller::SolverFactory sa_factory(std::uint64_t seed) {
+  return [seed](const OcpProblem& problem) {
+    SaOptions options;
+    options.seed = seed;
+    return std::make_unique<SimulatedAnnealingSolver>(problem, options);
+  };
+}
+
+ControllerOptions closed_loop_options(double wear_weight) {
+  ControllerOptions options;
+  options.solve_budget = 0.05;  // generous: the test checks the controller, not the solver's speed
+  options.overrun_grace = 0.02;  // a loaded test machine must not turn slow solves into fallbacks
+  options.wear_weight = wear_weight;
+  return options;
+}
+
+Eigen::VectorXd offset_start(double lateral) {
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(10);
+  x[1] = lateral;
+  return x;
+}
+
+// Convergence: from 0.3 m off, within 5 cm (a sixth of the offset, ~1 vehicle-length percent of
+// the distance travelled) and 0.05 rad over the whole last second. The model is the plant, so
+// the remaining error is what the anytime solver leaves, not model mismatch.
+constexpr double kConvergedPosition = 0.05;
+constexpr double kConvergedHeading = 0.05;
+
+TEST(Controller, ConvergesOntoAStraightLineFromALateralOffset) {
+  const VehicleParams params = small_robot();
+  const auto reference = testing::line_reference(0.5);
+  Controller controller(params, reference, closed_loop_options(1.0), sa_factory(7));
+  const auto result = run_closed_loop(controller, *reference, params, 0.05, offset_start(0.3), 6.0);
+  ASSERT_TRUE(result.model_ok);
+  EXPECT_TRUE(result.commands_finite);
+  EXPECT_LT(result.worst_late_position_error, kConvergedPosition);
+  EXPECT_LT(result.final_heading_error, kConvergedHeading);
+  EXPECT_GE(result.optimizer_cycles, result.cycles - 3) << "fallbacks: " << result.cycles - result.optimizer_cycles;
+  std::printf("[          ] line: final error %.4f m, worst last 1 s %.4f m, heading %.4f rad, wear %.4f J, "
+              "optimizer %d/%d\n",
+              result.final_position_error, result.worst_late_position_error, result.final_heading_error,
+              result.total_wear, result.optimizer_cycles, result.cycles);
+}
+
+TEST(Controller, ConvergesOntoAnArcFromALateralOffset) {
+  const VehicleParams params = small_robot();
+  const auto reference = testing::arc_reference(0.5);
+  Controller controller(params, reference, closed_loop_options(1.0), sa_factory(7));
+  const auto result = run_closed_loop(controller, *reference, params, 0.05, offset_start(-0.3), 6.0);
+  ASSERT_TRUE(result.model_ok);
+  EXPECT_TRUE(result.commands_finite);
+  EXPECT_LT(result.worst_late_position_error, kConvergedPosition);
+  EXPECT_LT(result.final_heading_error, kConvergedHeading);
+  EXPECT_GE(result.optimizer_cycles, result.cycles - 3) << "fallbacks: " << result.cycles - result.optimizer_cycles;
+  std::printf("[          ] arc: final error %.4f m, worst last 1 s %.4f m, heading %.4f rad, wear %.4f J, "
+              "optimizer %d/%d\n",
+              result.final_position_error, result.worst_late_position_error, result.final_heading_error,
+              result.total_wear, result.optimizer_cycles, result.cycles);
+}
+
+TEST(Controller, WearTermLowersTheWearOnAnArc) {
+  const VehicleParams params = small_robot();
+  const auto reference = testing::arc_reference(0.5);
+  const Eigen::VectorXd start = offset_start(0.0);
+  Controller without_wear(params, reference, closed_loop_options(0.0), sa_factory(7));
+  Controller with_wear(params, reference, closed_loop_options(1.0), sa_factory(7));
+  const auto plain = run_closed_loop(without_wear, *reference, params, 0.05, start, 4.0);
+  const auto aware = run_closed_loop(with_wear, *reference, params, 0.05, start, 4.0);
+  ASSERT_TRUE(plain.model_ok && aware.model_ok);
+  std::printf("[          ] wear on arc: lambda 0 %.5f J (error %.4f m), lambda 1 %.5f J (error %.4f m)\n",
+              plain.total_wear, plain.final_position_error, aware.total_wear, aware.final_position_error);
+  EXPECT_LT(aware.total_wear, plain.total_wear);
+  // Both still track (the wear term must not buy its saving by leaving the path).
+  EXPECT_LT(aware.worst_late_position_error, 0.1);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Real time: step() allocates nothing once running.
+
+TEST(Controller, StepAllocatesNothingAfterTheFirstCycles) {
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (ASan)";
+  {  // the instrument works in this executable: it sees an Eigen allocation
+    const testing::AllocationCounter counter;
+    Eigen::VectorXd probe(64);
+    probe.setZero();
+    ASSERT_GT(counter.count(), 0);
+  }
+  const VehicleParams params = small_robot();
+  const auto reference = testing::line_reference(0.5);
+  ControllerOptions options = closed_loop_options(1.0);
+  options.solve_budget = 0.005;
+  Controller controller(params, reference, options, sa_factory(3));
+  testing::ModelPlant plant(params, options.dt);
+  Eigen::VectorXd state = offset_start(0.1);
+  Eigen::VectorXd nan_state = state;
+  nan_state[0] = kNaN;
+  double t = 0.0;
+  for (int k = 0; k < 3; ++k, t += options.dt) {
+    ASSERT_TRUE(plant.step(controller.step(state, t).modules, &state, nullptr));
+  }
+  long allocations = 0;
+  for (int k = 0; k < 10; ++k, t += options.dt) {
+    const ControlOutput* out = nullptr;
+    {
+      const testing::AllocationCounter counter;
+      if (k == 5) controller.step(nan_state, t);  // the fallback path too
+      out = &controller.step(state, t);
+      allocations += counter.count();
+    }
+    ASSERT_TRUE(plant.step(out->modules, &state, nullptr));
+  }
+  EXPECT_EQ(allocations, 0);
+}
+
+}  // namespace
+}  // namespace swerve
+// SCRATCH-BEGIN
+namespace swerve { namespace {
+TEST(Scratch, Iterations) {
+  const VehicleParams params = small_robot();
+  for (int iters : {300, 300, 200}) {
+    for (int which = 0; which < 2; ++which) {
+      const auto line = which == 0 ? testing::line_reference(0.5) : testing::arc_reference(0.5);
+      ControllerOptions o = closed_loop_options(1.0);
+      o.solve_budget = 0.1;
+      Controller c(params, line, o, [iters](const OcpProblem& p) { SaOptions so; so.seed = 7; so.max_iterations = iters; return std::make_unique<SimulatedAnnealingSolver>(p, so); });
+      testing::ModelPlant plant(params, 0.05);
+      Eigen::VectorXd x = offset_start(which == 0 ? 0.3 : -0.3);
+      double tmax = 0, tsum = 0; int itmax = 0, budget_hits = 0;
+      for (int k = 0; k < 120; ++k) {
+        const auto& out = c.step(x, 0.05 * k);
+        tmax = std::max(tmax, out.solve.solve_time_s); tsum += out.solve.solve_time_s;
+        itmax = std::max(itmax, out.solve.iterations);
+        if (out.solve.status == SolveStatus::kBudgetExhausted) ++budget_hits;
+        plant.step(out.modules, &x, nullptr);
+      }
+      const auto ref = line->sample(6.0);
+      std::printf("iters %d %s: mean solve %.4f s max %.4f s, max it %d, budget hits %d, final err %.5f\n", iters, which ? "arc" : "line", tsum / 120, tmax, itmax, budget_hits, (x.head<2>() - ref.pose_world.head<2>()).norm());
+    }
+  }
+}
+}}
+// SCRATCH-END

@@ -1,0 +1,208 @@
+// KinematicBaseline: closed-loop tracking on the dynamic model as the plant, the exact plan for a
+// reference that is already met, the drive acceleration and steering-rate limits of the plan, and
+// the safe stop on a NaN state.
+#include "swerve/mpc/kinematic_baseline.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "mpc/closed_loop.hpp"
+#include "swerve/config/config_error.hpp"
+
+namespace swerve {
+namespace {
+
+using testing::all_finite;
+using testing::small_robot;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// The velocity of the module at `p` for a body twist (vx, vy, r): v + r x p.
+Eigen::Vector2d module_velocity(const Eigen::Vector3d& twist, const Eigen::Vector2d& p) {
+  return {twist.x() - twist.z() * p.y(), twist.y() + twist.z() * p.x()};
+}
+
+// Reference window (steps 1..N) that a vehicle at `pose` moving at the constant `twist` follows
+// exactly under the baseline's own prediction pose_k+1 = pose_k + dt [R(psi_k) (vx, vy); r].
+void met_reference(const Eigen::Vector3d& pose, const Eigen::Vector3d& twist, int horizon, double dt,
+                   Eigen::MatrixXd* poses, Eigen::MatrixXd* twists) {
+  poses->resize(3, horizon);
+  twists->resize(3, horizon);
+  Eigen::Vector3d p = pose;
+  for (int k = 0; k < horizon; ++k) {
+    const double c = std::cos(p.z()), s = std::sin(p.z());
+    p += dt * Eigen::Vector3d(c * twist.x() - s * twist.y(), s * twist.x() + c * twist.y(), twist.z());
+    poses->col(k) << p.x(), p.y(), wrap_angle(p.z());
+    twists->col(k) = twist;
+  }
+}
+
+TEST(KinematicBaseline, TracksAStraightLineFromRestOnTheModelPlant) {
+  const VehicleParams params = small_robot();
+  const auto reference = testing::line_reference(0.5);
+  KinematicBaseline baseline(params.layout, reference, BaselineOptions{});
+  const auto result =
+      testing::run_closed_loop(baseline, *reference, params, 0.05, Eigen::VectorXd::Zero(10), 4.0);
+  ASSERT_TRUE(result.model_ok);
+  EXPECT_TRUE(result.commands_finite);
+  EXPECT_EQ(result.optimizer_cycles, result.cycles);
+  // Aligned and on the path from the start: only the 0.25 s speed ramp (1 m/s^2 reference against
+  // a 2 m/s^2 drive) separates it from the reference, and that is recovered within the run.
+  EXPECT_LT(result.worst_late_position_error, 0.02);
+  EXPECT_LT(result.final_heading_error, 0.01);
+  std::printf("[          ] baseline line: final error %.5f m, worst last 1 s %.5f m, heading %.5f rad\n",
+              result.final_position_error, result.worst_late_position_error, result.final_heading_error);
+}
+
+TEST(KinematicBaseline, PlansTheReferenceTwistWhenTheReferenceIsAlreadyMet) {
+  // Pose on the reference and twist equal to it: every cost term is zero at the reference twist
+  // (pose error, deviation from the reference twist, change from the current twist), and the
+  // problem is strictly convex once the headings are fixed, so that is the plan. Driving straight,
+  // and turning (the headings then come from the reference yaw rate, which is exact). Run with the
+  // default smoothness weight and without it (S = 0 isolates the change-of-twist term).
+  const ModuleLayout layout = small_robot().layout;
+  const auto reference = testing::line_reference(0.5);
+  for (const double rate_weight : {BaselineOptions{}.rate_weight.x(), 0.0}) {
+    BaselineOptions options;
+    options.rate_weight.setConstant(rate_weight);
+    for (const Eigen::Vector3d& twist : {Eigen::Vector3d(0.5, 0.0, 0.0), Eigen::Vector3d(0.4, 0.1, 0.3)}) {
+      SCOPED_TRACE(::testing::Message() << "rate_weight " << rate_weight << ", twist " << twist.transpose());
+      KinematicBaseline baseline(layout, reference, options);
+      const Eigen::Vector3d pose(1.0, -2.0, 0.7);
+      Eigen::MatrixXd poses, twists;
+      met_reference(pose, twist, options.horizon, options.dt, &poses, &twists);
+      ASSERT_TRUE(baseline.plan_twists(pose, twist, poses, twists));
+      const Eigen::MatrixXd& plan = baseline.twist_plan();
+      double worst = 0.0;
+      for (int k = 0; k < options.horizon; ++k) worst = std::max(worst, (plan.col(k) - twist).norm());
+      EXPECT_LT(worst, 1e-6) << "planned twists 0 and 1: " << plan.col(0).transpose() << " | "
+                             << plan.col(1).transpose();
+    }
+  }
+}
+
+TEST(KinematicBaseline, PlanRespectsTheDriveAccelerationLimit) {
+  const ModuleLayout layout = small_robot().layout;
+  const double max_change = layout.limits().max_drive_acceleration * 0.05;  // 0.1 m/s per step
+  const double max_speed = layout.limits().max_drive_speed;
+  const auto reference = testing::line_reference(0.5);
+  BaselineOptions options;
+  options.dt = 0.05;
+  // Far behind a fast reference that also turns: the unconstrained plan wants large jumps.
+  Eigen::MatrixXd poses, twists;
+  met_reference(Eigen::Vector3d(1.5, 1.0, 1.0), Eigen::Vector3d(1.8, -0.5, 2.0), options.horizon, options.dt, &poses,
+                &twists);
+  for (const Eigen::Vector3d& start : {Eigen::Vector3d::Zero().eval(), Eigen::Vector3d(-0.6, 0.4, -1.5)}) {
+    SCOPED_TRACE(::testing::Message() << "from twist " << start.transpose());
+    KinematicBaseline baseline(layout, reference, options);
+    ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), start, poses, twists));
+    const Eigen::MatrixXd& plan = baseline.twist_plan();
+    Eigen::Vector3d previous = start;
+    double largest_change = 0.0;
+    for (int k = 0; k < options.horizon; ++k) {
+      for (const Eigen::Vector2d& p : layout.positions_body()) {
+        const double change = (module_velocity(plan.col(k), p) - module_velocity(previous, p)).norm();
+        largest_change = std::max(largest_change, change);
+        EXPECT_LE(change, max_change * (1.0 + 1e-9)) << "step " << k;
+        EXPECT_LE(module_velocity(plan.col(k), p).norm(), max_speed * (1.0 + 1e-9)) << "step " << k;
+      }
+      previous = plan.col(k);
+    }
+    // The limit is active (the test would not notice a missing limit otherwise).
+    EXPECT_GT(largest_change, 0.99 * max_change);
+  }
+}
+
+TEST(KinematicBaseline, ModuleInputsNeverExceedTheSteeringRateLimit) {
+  const ModuleLayout layout = small_robot().layout;
+  const double max_rate = layout.limits().max_steering_rate;  // 3 rad/s
+  const double max_wheel_speed = layout.limits().max_drive_speed / layout.wheel_radius();
+  const auto reference = testing::line_reference(0.5);
+  const BaselineOptions options;
+  KinematicBaseline baseline(layout, reference, options);
+  Eigen::MatrixXd poses, twists;
+  met_reference(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.2, 0.6, 1.5), options.horizon, options.dt, &poses,
+                &twists);
+  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.2, 0.6, 1.5), poses, twists));
+  Eigen::MatrixXd inputs(2 * layout.size(), options.horizon);
+  // Steering far from where the plan needs it (so the unlimited rate would be large).
+  const Eigen::Vector4d angles(3.0, -2.0, 1.2, -0.4);
+  baseline.module_inputs(angles, inputs);
+  ASSERT_TRUE(inputs.allFinite());
+  double largest_rate = 0.0;
+  for (int i = 0; i < layout.size(); ++i) {
+    for (int k = 0; k < options.horizon; ++k) {
+      EXPECT_LE(std::abs(inputs(2 * i, k)), max_rate * (1.0 + 1e-12)) << "module " << i << " step " << k;
+      EXPECT_LE(std::abs(inputs(2 * i + 1, k)), max_wheel_speed * (1.0 + 1e-9)) << "module " << i << " step " << k;
+      largest_rate = std::max(largest_rate, std::abs(inputs(2 * i, k)));
+    }
+  }
+  EXPECT_DOUBLE_EQ(largest_rate, max_rate);  // the limit is active
+}
+
+TEST(KinematicBaseline, SafeStopsWithFiniteCommandsOnANaNState) {
+  const VehicleParams params = small_robot();
+  const auto reference = testing::line_reference(0.5);
+  KinematicBaseline baseline(params.layout, reference, BaselineOptions{});
+  // Drive for a few cycles so the wheels are turning, then lose the measurement.
+  testing::ModelPlant plant(params, 0.05);
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(10);
+  for (int k = 0; k < 10; ++k) ASSERT_TRUE(plant.step(baseline.step(state, 0.05 * k).modules, &state, nullptr));
+  const ModuleArray<ModuleCommand> before = baseline.step(state, 0.5).modules;
+  Eigen::VectorXd nan_state = state;
+  nan_state[4] = kNaN;
+  const ControlOutput& out = baseline.step(nan_state, 0.55);
+  EXPECT_EQ(out.source, CommandSource::kSafeStop);
+  EXPECT_TRUE(all_finite(out));
+  // One acceleration-limited step towards rest: 2 m/s^2 * 0.05 s / 0.1 m = 1 rad/s of wheel speed.
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(out.modules[i].steering_rate, 0.0);
+    EXPECT_NEAR(out.modules[i].wheel_speed, std::max(0.0, before[i].wheel_speed - 1.0), 1e-12) << "module " << i;
+    EXPECT_NEAR(out.modules[i].steering_angle, wrap_angle(nan_state[6 + i]), 1e-12);
+  }
+  EXPECT_GT(before[0].wheel_speed, 1.0);  // the vehicle was moving, so the ramp is tested
+  const ControlOutput& nan_time = baseline.step(state, kNaN);
+  EXPECT_EQ(nan_time.source, CommandSource::kSafeStop);
+  EXPECT_TRUE(all_finite(nan_time));
+}
+
+TEST(KinematicBaseline, RejectsInvalidOptionsNamingTheField) {
+  const ModuleLayout layout = small_robot().layout;
+  const auto reference = testing::line_reference(0.5);
+  auto expect_named = [&](BaselineOptions options, const std::string& field) {
+    SCOPED_TRACE(field);
+    try {
+      KinematicBaseline baseline(layout, reference, options);
+      ADD_FAILURE() << "accepted an invalid " << field;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("BaselineOptions." + field), std::string::npos) << e.what();
+    }
+  };
+  BaselineOptions o;
+  o.horizon = 0;
+  expect_named(o, "horizon");
+  o = {};
+  o.dt = -1.0;
+  expect_named(o, "dt");
+  o = {};
+  o.pose_weight.x() = -1.0;
+  expect_named(o, "pose_weight");
+  o = {};
+  o.twist_weight.setZero();
+  o.rate_weight.setZero();
+  expect_named(o, "twist_weight");
+  o = {};
+  o.terminal_scale = -1.0;
+  expect_named(o, "terminal_scale");
+  o = {};
+  o.gauss_newton_iterations = 0;
+  expect_named(o, "gauss_newton_iterations");
+  o = {};
+  o.flip_hysteresis = 2.0;
+  expect_named(o, "flip_hysteresis");
+}
+
+}  // namespace
+}  // namespace swerve
