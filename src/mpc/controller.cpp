@@ -70,6 +70,12 @@ InputBounds input_bounds(const ModuleLayout& layout, double dt) {
   return b;
 }
 
+// Validated before any member is built from them, so errors name ControllerOptions' own fields.
+ControllerOptions validated(ControllerOptions options) {
+  options.validate();
+  return options;
+}
+
 BaselineOptions aligned(BaselineOptions baseline, const ControllerOptions& options) {
   baseline.horizon = options.horizon;
   baseline.dt = options.dt;
@@ -105,9 +111,8 @@ void ControllerOptions::validate() const {
 Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Reference> reference,
                        ControllerOptions options, const SolverFactory& make_solver, BaselineOptions baseline_options,
                        std::string name)
-    : name_(std::move(name)), options_(options), layout_(vehicle.layout), reference_(std::move(reference)),
-      baseline_(vehicle.layout, reference_, aligned(baseline_options, options)), modules_(vehicle.layout.size()) {
-  options_.validate();
+    : name_(std::move(name)), options_(validated(options)), layout_(vehicle.layout), reference_(std::move(reference)),
+      baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()) {
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
@@ -128,7 +133,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   baseline_guess_ = Eigen::MatrixXd::Zero(problem_->input_size(), options_.horizon);
   applied_decision_ = Eigen::VectorXd::Zero(problem_->input_size());
   applied_input_ = Eigen::VectorXd::Zero(2 * modules_);
-  state_buffer_ = Eigen::VectorXd::Zero(problem_->state_size());
+  fallback_input_ = Eigen::VectorXd::Zero(2 * modules_);
+  module_bounds_ = input_bounds(layout_, options_.dt);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
 }
 
@@ -137,6 +143,7 @@ void Controller::reset() noexcept {
   plan_age_ = 0;
   applied_input_.setZero();
   applied_decision_.setZero();
+  previous_input_known_ = false;
   baseline_.reset();
   for (int i = 0; i < modules_; ++i) output_.modules[i] = ModuleCommand{};
 }
@@ -151,6 +158,31 @@ void Controller::apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& mo
     command.wheel_speed = applied_input_[2 * i + 1];
     command.steering_angle = wrap_angle(steering_angles[i] + options_.dt * command.steering_rate);
   }
+}
+
+void Controller::assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
+  // Without a command of our own yet (start, reset, after a safe stop), the input the step bounds
+  // and the smoothness cost start from is the one that keeps the vehicle doing what it does now:
+  // its measured twist, or each wheel rolling at its contact speed with the steering at rest.
+  const Eigen::Vector3d twist = measured.segment<3>(StateIndex::kVx);
+  const double radius = layout_.wheel_radius();
+  for (int i = 0; i < modules_; ++i) {
+    const Eigen::Vector2d& p = layout_.position_body(i);
+    const double angle = measured[StateIndex::steering(i)];
+    const double contact_speed =
+        std::cos(angle) * (twist.x() - twist.z() * p.y()) + std::sin(angle) * (twist.y() + twist.z() * p.x());
+    applied_input_[InputIndex::steering_rate(i)] = 0.0;
+    applied_input_[InputIndex::wheel_speed(i)] = contact_speed / radius;
+  }
+  if (twist_model_ != nullptr) {
+    applied_decision_ = twist;
+  } else {
+    applied_decision_ = applied_input_;
+  }
+  // Keep it inside the box so the projection of every guess stays consistent with it.
+  const InputBounds& bounds = problem_->bounds();
+  applied_decision_ = applied_decision_.cwiseMax(bounds.lower).cwiseMin(bounds.upper);
+  previous_input_known_ = true;
 }
 
 void Controller::apply_decision(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
@@ -180,7 +212,11 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
     return;
   }
   if (baseline_usable && measured_usable) {
-    apply_module_inputs(baseline_inputs_.col(0), measured.segment(StateIndex::kFirstSteering, modules_));
+    // Within the drives' limits from the last command, as the optimiser's plans are.
+    fallback_input_ = baseline_inputs_.col(0).cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
+    fallback_input_ = fallback_input_.cwiseMax(applied_input_ - module_bounds_.max_step)
+                          .cwiseMin(applied_input_ + module_bounds_.max_step);
+    apply_module_inputs(fallback_input_, measured.segment(StateIndex::kFirstSteering, modules_));
     applied_decision_ = baseline_guess_.col(0);
     output_.source = CommandSource::kBaseline;
     return;
@@ -190,9 +226,8 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
     applied_input_[2 * i] = 0.0;
     applied_input_[2 * i + 1] = output_.modules[i].wheel_speed;
   }
-  // The twist these commands come closest to is unknown here; the smoothness term restarts from rest.
-  if (twist_model_ != nullptr) applied_decision_.setZero();
-  else applied_decision_ = applied_input_;
+  // What the drives do after a safe stop is best read from the next measurement.
+  previous_input_known_ = false;
   output_.source = CommandSource::kSafeStop;
 }
 
@@ -211,6 +246,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   }
   // Update the problem in place: state, last applied input, reference window.
   problem_->set_initial_state(measured);
+  if (!previous_input_known_) assume_previous_input(measured);
   problem_->set_previous_input(applied_decision_);
   for (int k = 1; k <= options_.horizon; ++k) {
     const ReferenceSample sample = reference_->sample(t + k * options_.dt);
@@ -223,6 +259,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
                               problem_->reference_twists());
     if (baseline_usable) {
       baseline_.module_inputs(measured.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
+      baseline_.commit_first_step();
       if (twist_model_ != nullptr) {
         baseline_guess_ = baseline_.twist_plan();
       } else {

@@ -66,7 +66,6 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
 }
 
 void KinematicBaseline::reset() noexcept {
-  previous_twist_.setZero();
   drive_sign_.setOnes();
   twists_.setZero();
 }
@@ -113,7 +112,7 @@ bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eig
           hessian_(i + 3, i) -= options_.rate_weight[a];
         }
         gradient_[i] += options_.twist_weight[a] * reference_twists(a, k);
-        if (k == 0) gradient_[i] += options_.rate_weight[a] * previous_twist_[a];
+        if (k == 0) gradient_[i] += options_.rate_weight[a] * twist_body[a];
       }
     }
     factorization_.compute(hessian_);
@@ -209,8 +208,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     return output_;
   }
   module_inputs(measured.segment(6, modules_), inputs_);
-  drive_sign_ = planned_first_sign_;
-  previous_twist_ = twists_.col(0);
+  commit_first_step();
   for (int i = 0; i < modules_; ++i) {
     ModuleCommand& command = output_.modules[i];
     command.steering_rate = inputs_(2 * i, 0);

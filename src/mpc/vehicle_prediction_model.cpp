@@ -35,6 +35,16 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   trial_state_ = Eigen::VectorXd::Zero(state_size_);
   state_dot_ = Eigen::VectorXd::Zero(state_size_);
   substep_state_ = Eigen::VectorXd::Zero(state_size_);
+  diagnostics_.resize(static_cast<std::size_t>(modules_));
+  energy_wear_ = params.casters.empty() && params.wear.model == WearModelKind::kFrictionalPower;
+}
+
+double VehiclePredictionModel::kinetic_energy(const Eigen::Vector3d& v) const noexcept {
+  const VehicleParams& p = model_.params();
+  const Eigen::Vector2d& c = p.center_of_mass_body;
+  const double vcx = v.x() - v.z() * c.y();
+  const double vcy = v.y() + v.z() * c.x();
+  return 0.5 * p.mass * (vcx * vcx + vcy * vcy) + 0.5 * p.yaw_inertia * v.z() * v.z();
 }
 
 bool VehiclePredictionModel::body_acceleration(const Eigen::Vector3d& v, Eigen::Vector3d* acceleration,
@@ -84,12 +94,26 @@ bool VehiclePredictionModel::semi_implicit_substep(const Eigen::Ref<const Eigen:
     }
   }
   if (!body_acceleration(v, &a, &wear_rate)) return false;
+  double step_wear = h * wear_rate;
+  if (energy_wear_) {
+    // Forces at v+ (the implicit step's) for the drives' work; see the header for why.
+    trial_state_.segment<3>(StateIndex::kVx) = v;
+    if (model_.derivative(trial_state_, u_applied_, state_dot_, diagnostics_.data()) != ModelStatus::kOk) return false;
+    const VehicleParams& p = model_.params();
+    double drive_work = 0.0;
+    for (int i = 0; i < modules_; ++i) {
+      drive_work += h * diagnostics_[static_cast<std::size_t>(i)].fx_wheel * p.layout.wheel_radius() *
+                    u_applied_[InputIndex::wheel_speed(i)];
+    }
+    const double dissipated = drive_work - (kinetic_energy(v) - kinetic_energy(v0));
+    step_wear = p.wear.coefficient * std::max(0.0, dissipated);
+  }
   // Pose: the body moves with the constant twist v over h (exact on arcs).
   const Eigen::Vector3d pose = compose_pose(x.head<3>(), h * v);
   x_next = trial_state_;
   x_next.head<3>() = pose;
   x_next.segment<3>(StateIndex::kVx) = v;
-  if (wear != nullptr) *wear += h * wear_rate;
+  if (wear != nullptr) *wear += step_wear;
   return x_next.allFinite();
 }
 

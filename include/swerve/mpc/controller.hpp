@@ -70,6 +70,7 @@ class Controller final : public TrackingController {
   // predicted state, read for its steering angles).
   void apply_decision(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
                       const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
+  void assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                            const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
@@ -90,7 +91,9 @@ class Controller final : public TrackingController {
   Eigen::MatrixXd baseline_guess_;   // nu x N: the baseline plan in the optimiser's inputs
   Eigen::VectorXd applied_decision_; // nu: the decision applied last cycle
   Eigen::VectorXd applied_input_;    // 2n: the module inputs sent last cycle
-  Eigen::VectorXd state_buffer_;     // 6 + n
+  Eigen::VectorXd fallback_input_;   // 2n
+  InputBounds module_bounds_;        // the drives' limits on module inputs
+  bool previous_input_known_ = false;  // false until a command of ours reaches the drives
   ControlOutput output_;
 };
 

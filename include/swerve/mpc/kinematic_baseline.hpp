@@ -1,6 +1,7 @@
 // The paper's comparison controller (arXiv 2506.04752; paper-notes assumption 9): the same tracking
 // problem on the kinematic model, without tire dynamics and without wear. A body-twist MPC
 //   min sum_k |pose_k+1 - ref|^2_Q (terminal x terminal_scale) + |u_k - u_ref,k|^2_R + |u_k - u_k-1|^2_S
+//   (u_-1: the measured twist)
 //   pose_k+1 = pose_k + dt [R(psi_k) (vx, vy); r]
 // solved exactly each cycle by Gauss-Newton on the heading (the problem is linear-quadratic once
 // the headings are fixed), then per-module inverse kinematics with the 180 deg flip; the steering
@@ -49,6 +50,8 @@ class KinematicBaseline final : public TrackingController {
   // Module inputs (2n x N: steering rate, wheel speed per module) that execute the twist plan from
   // the steering angles `steering_angles` (n), under the steering-rate limit.
   void module_inputs(const Eigen::Ref<const Eigen::VectorXd>& steering_angles, Eigen::Ref<Eigen::MatrixXd> inputs) noexcept;
+  // The plan's first step was sent: its drive directions become the flip hysteresis' memory.
+  void commit_first_step() noexcept { drive_sign_ = planned_first_sign_; }
   const BaselineOptions& options() const noexcept { return options_; }
 
  private:
@@ -56,7 +59,6 @@ class KinematicBaseline final : public TrackingController {
   Kinematics kinematics_;
   std::shared_ptr<const Reference> reference_;
   int modules_, horizon_;
-  Eigen::Vector3d previous_twist_ = Eigen::Vector3d::Zero();
   Eigen::VectorXi drive_sign_;                        // per module, +1 or -1 (flip decision)
   Eigen::VectorXi planned_first_sign_;                // the decision module_inputs made for step 0
   Eigen::MatrixXd twists_;                            // 3 x N
