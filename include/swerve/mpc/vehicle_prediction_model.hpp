@@ -15,7 +15,9 @@
 // casters) the stage wear is therefore k times the energy balance of the step: the drives' work
 // minus the body's kinetic-energy gain, sum_i h Fx_i(v+) r omega_i - [KE(v+) - KE(v0)], exact for
 // steady motion and equal to the linear-damper limit 1/2 m dv^2 for an impulsive change (the
-// implicit forces' impulse h F(v+) is the body's momentum change). Otherwise: dt times the rate.
+// implicit forces' impulse h F(v+) is the body's momentum change), and never below dt times the
+// rate at (v+, delta+). Near standstill (contact speeds below 5 slip-regularisation speeds) the
+// balance is ill-conditioned and the rate alone is used; so it is for Archard wear or with casters.
 // Explicit RK4 with substeps is kept for comparison.
 #pragma once
 
@@ -68,6 +70,7 @@ class VehiclePredictionModel final : public PredictionModel {
   double kinetic_energy(const Eigen::Vector3d& v) const noexcept;
 
   bool energy_wear_;  // stage wear from the energy balance (see above)
+  double max_radius_ = 0.0;  // m, the farthest module from the body origin
   mutable Eigen::VectorXd u_applied_, trial_state_, state_dot_, substep_state_;
   mutable std::vector<ModuleDiagnostics<double>> diagnostics_;
 };

@@ -16,9 +16,9 @@ struct SaOptions {
   int max_iterations = 3000;               // proposals per solve; the deadline may stop it earlier
   double initial_acceptance = 0.3;         // T0 so that a typical uphill probe is accepted this often
   double final_temperature_ratio = 1e-3;   // T at max_iterations / T0 (geometric cooling)
-  double step_fraction = 0.1;              // initial proposal sigma / each input's half-range
+  double step_fraction = 0.02;             // initial proposal sigma / each input's half-range
   double target_acceptance = 0.3;          // sigma grows above it and shrinks below it
-  int adapt_interval = 50;                 // proposals between sigma updates
+  int adapt_interval = 10;                 // proposals between sigma updates (a 20 ms solve makes ~100)
   int reheat_interval = 0;                 // proposals between restarts from the best (0: never)
   double probability_one_group = 0.6;      // move one knot of one input group (one module)
   double probability_one_knot = 0.3;       // move one knot of every input; else the whole sequence
