@@ -9,12 +9,6 @@
 #include "swerve/kinematics/se2.hpp"
 
 namespace swerve {
-namespace {
-
-// The energy balance is used above this many slip-regularisation speeds (epsilon = 0.05 m/s: 0.25 m/s).
-constexpr double kEnergyBalanceMinSpeedFactor = 5.0;
-
-}  // namespace
 
 const char* to_string(PredictionMethod method) noexcept {
   return method == PredictionMethod::kSemiImplicit ? "semi_implicit" : "rk4";
@@ -43,7 +37,6 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   substep_state_ = Eigen::VectorXd::Zero(state_size_);
   diagnostics_.resize(static_cast<std::size_t>(modules_));
   energy_wear_ = params.casters.empty() && params.wear.model == WearModelKind::kFrictionalPower;
-  for (const Eigen::Vector2d& p : params.layout.positions_body()) max_radius_ = std::max(max_radius_, p.norm());
 }
 
 double VehiclePredictionModel::kinetic_energy(const Eigen::Vector3d& v) const noexcept {
@@ -102,11 +95,7 @@ bool VehiclePredictionModel::semi_implicit_substep(const Eigen::Ref<const Eigen:
   }
   if (!body_acceleration(v, &a, &wear_rate)) return false;
   double step_wear = h * wear_rate;
-  // Near standstill the slip regularisation makes the tires so stiff that the implicit step's
-  // residual dominates the balance (measured 8-50x high below 0.2 m/s against the RK4 plant):
-  // there the rate alone serves, and wear is small anyway.
-  const double slowest_trusted = kEnergyBalanceMinSpeedFactor * model_.params().tire.slip_speed_epsilon;
-  if (energy_wear_ && std::max(v.head<2>().norm(), v0.head<2>().norm()) + max_radius_ * std::abs(v.z()) > slowest_trusted) {
+  if (energy_wear_) {
     // Forces at v+ (the implicit step's) for the drives' work; see the header for why.
     trial_state_.segment<3>(StateIndex::kVx) = v;
     if (model_.derivative(trial_state_, u_applied_, state_dot_, diagnostics_.data()) != ModelStatus::kOk) return false;
@@ -117,10 +106,7 @@ bool VehiclePredictionModel::semi_implicit_substep(const Eigen::Ref<const Eigen:
                     u_applied_[InputIndex::wheel_speed(i)];
     }
     const double dissipated = drive_work - (kinetic_energy(v) - kinetic_energy(v0));
-    // The balance is a difference of two large terms; where it falls below the end-of-step rate (a
-    // smooth step, where that rate is accurate) the rate wins, so the optimiser cannot exploit the
-    // balance's round-off to buy "free" slip.
-    step_wear = std::max(step_wear, p.wear.coefficient * dissipated);
+    step_wear = p.wear.coefficient * std::max(0.0, dissipated);
   }
   // Pose: the body moves with the constant twist v over h (exact on arcs).
   const Eigen::Vector3d pose = compose_pose(x.head<3>(), h * v);
