@@ -39,7 +39,7 @@ struct ScenarioConfig {
 };
 
 // Keys (defaults in brackets; SI units, radians):
-//   name, description [""], vehicle (file), duration [reference duration + 2 s]
+//   name, description [""], vehicle (file), duration [the reference's duration]
 //   reference: {type: line | arc | sine | figure_eight | csv, speed [1], acceleration [0],
 //     stop_at_end [false], heading_offset [0]; line: start [[0,0]], direction [0], length;
 //     arc: start [[0,0]], direction [0], radius, sweep; sine: amplitude, wavelength, length;
