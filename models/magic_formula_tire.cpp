@@ -12,9 +12,7 @@ namespace {
 constexpr double kHalfPi = 1.57079632679489661923;
 
 [[noreturn]] void reject(const std::string& field, double value, const std::string& rule) {
-  std::ostringstream message;
-  message << "MagicFormulaParams." << field << " = " << value << ": " << rule;
-  throw ConfigError(message.str());
+  throw_invalid_field("MagicFormulaParams", field, value, rule);
 }
 
 void check_channel(const std::string& name, const MagicFormulaCoefficients& k) {

@@ -7,22 +7,14 @@
 #include <utility>
 
 #include "swerve/config/config_error.hpp"
+#include "swerve/random.hpp"
 
 namespace swerve {
 namespace {
 
 template <typename Value>
 [[noreturn]] void reject(const char* field, const Value& value, const char* rule) {
-  std::ostringstream message;
-  message << "SaOptions." << field << " = " << value << ": " << rule;
-  throw ConfigError(message.str());
-}
-
-std::uint64_t splitmix64(std::uint64_t* state) {
-  std::uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
+  throw_invalid_field("SaOptions", field, value, rule);
 }
 
 std::uint64_t rotate_left(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }

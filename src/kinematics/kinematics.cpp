@@ -11,9 +11,7 @@ namespace {
 
 template <typename Value>
 [[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
-  std::ostringstream message;
-  message << field << " = " << value << ": " << rule;
-  throw ConfigError(message.str());
+  throw_invalid_field("", field, value, rule);
 }
 
 bool finite3(const Eigen::Vector3d& v) {

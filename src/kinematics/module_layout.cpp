@@ -12,9 +12,7 @@ constexpr double kMinModuleSeparation = 1e-3;  // m; closer than this two module
 
 template <typename Value>
 [[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
-  std::ostringstream message;
-  message << field << " = " << value << ": " << rule;
-  throw ConfigError(message.str());
+  throw_invalid_field("", field, value, rule);
 }
 
 void require_positive(const std::string& field, double value) {

@@ -11,9 +11,7 @@ namespace {
 
 template <typename Value>
 [[noreturn]] void reject(const std::string& field, const Value& value, const char* rule) {
-  std::ostringstream message;
-  message << "ControllerOptions." << field << " = " << value << ": " << rule;
-  throw ConfigError(message.str());
+  throw_invalid_field("ControllerOptions", field, value, rule);
 }
 
 void require_non_negative(const char* field, double value) {

@@ -11,9 +11,7 @@ namespace {
 
 template <typename Value>
 [[noreturn]] void reject(const std::string& field, const Value& value, const char* rule) {
-  std::ostringstream message;
-  message << "BaselineOptions." << field << " = " << value << ": " << rule;
-  throw ConfigError(message.str());
+  throw_invalid_field("BaselineOptions", field, value, rule);
 }
 
 Eigen::Matrix3d planar_rotation(double heading) {

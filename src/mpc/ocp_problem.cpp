@@ -14,9 +14,7 @@ constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 template <typename Value>
 [[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
-  std::ostringstream message;
-  message << "OcpProblem." << field << " = " << value << ": " << rule;
-  throw ConfigError(message.str());
+  throw_invalid_field("OcpProblem", field, value, rule);
 }
 
 void require_non_negative(const std::string& field, double value) {

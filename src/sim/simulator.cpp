@@ -4,22 +4,14 @@
 #include <sstream>
 
 #include "swerve/config/config_error.hpp"
+#include "swerve/random.hpp"
 
 namespace swerve {
 namespace {
 
 template <typename Value>
 [[noreturn]] void reject(const char* field, const Value& value, const char* rule) {
-  std::ostringstream message;
-  message << "SimulatorOptions." << field << " = " << value << ": " << rule;
-  throw ConfigError(message.str());
-}
-
-std::uint64_t splitmix64(std::uint64_t* state) noexcept {
-  std::uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
+  throw_invalid_field("SimulatorOptions", field, value, rule);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // (file and key path, or the struct field), the offending value and the rule it broke.
 #pragma once
 
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -12,5 +13,16 @@ class ConfigError : public std::runtime_error {
  public:
   explicit ConfigError(const std::string& message) : std::runtime_error(message) {}
 };
+
+// Throws ConfigError "<owner>.<field> = <value>: <rule>" (without "<owner>." when owner is empty),
+// the one message format of every parameter struct's validate().
+template <typename Value>
+[[noreturn]] void throw_invalid_field(const std::string& owner, const std::string& field, const Value& value,
+                                      const std::string& rule) {
+  std::ostringstream message;
+  if (!owner.empty()) message << owner << '.';
+  message << field << " = " << value << ": " << rule;
+  throw ConfigError(message.str());
+}
 
 }  // namespace swerve
