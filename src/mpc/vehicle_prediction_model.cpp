@@ -9,13 +9,6 @@
 #include "swerve/kinematics/se2.hpp"
 
 namespace swerve {
-namespace {
-
-// m/s of body translation below which the stage wear is the end-of-step rate, not the energy
-// balance: 5 slip-regularisation speeds (epsilon = 0.05 m/s) of the paper's tire.
-constexpr double kEnergyBalanceMinSpeed = 0.25;
-
-}  // namespace
 
 const char* to_string(PredictionMethod method) noexcept {
   return method == PredictionMethod::kSemiImplicit ? "semi_implicit" : "rk4";
@@ -102,8 +95,7 @@ bool VehiclePredictionModel::semi_implicit_substep(const Eigen::Ref<const Eigen:
   }
   if (!body_acceleration(v, &a, &wear_rate)) return false;
   double step_wear = h * wear_rate;
-  // Near standstill the balance is ill-conditioned (see the header): the rate alone serves there.
-  if (energy_wear_ && std::max(v.head<2>().norm(), v0.head<2>().norm()) > kEnergyBalanceMinSpeed) {
+  if (energy_wear_) {
     // Forces at v+ (the implicit step's) for the drives' work; see the header for why.
     trial_state_.segment<3>(StateIndex::kVx) = v;
     if (model_.derivative(trial_state_, u_applied_, state_dot_, diagnostics_.data()) != ModelStatus::kOk) return false;

@@ -15,14 +15,13 @@
 // casters) the stage wear is therefore k times the energy balance of the step: the drives' work
 // minus the body's kinetic-energy gain, sum_i h Fx_i(v+) r omega_i - [KE(v+) - KE(v0)], exact for
 // steady motion and equal to the linear-damper limit 1/2 m dv^2 for an impulsive change (the
-// implicit forces' impulse h F(v+) is the body's momentum change). Below 0.25 m/s of body
-// translation, where the slip regularisation makes the tires stiffest and the balance (a difference
-// of two large terms) was up to 8x high against the RK4 plant, and for Archard wear or vehicles with
-// casters: dt times the rate. Without that gate the controller over-feared slow motion: on a
-// smoothly ramped curve it lagged at the start and wore twice the baseline's wear (20.5 J against
-// 10.4 J; 12.4 J with the gate). Accuracy against the RK4 plant with one substep: start-ups and
+// implicit forces' impulse h F(v+) is the body's momentum change). Otherwise (Archard wear, or
+// casters): dt times the rate. Accuracy against the RK4 plant with one substep: start-ups and
 // large command changes within ~15 %; small changes and slow motion off by up to 6-20x either way
-// (five substeps: within 2.5x, at five times the cost; the closed loop did worse with them).
+// (five substeps: within 2.5x at five times the cost, and the closed loop did worse with them). A
+// gate to the rate below 0.25 m/s helped a smoothly ramped curve (20.5 J -> 12.4 J, baseline
+// 10.4 J) but blinded the optimiser to wheel fight at low speed (one offset60 run: 18.6 J in its
+// first 0.5 s), so it is not in.
 // Explicit RK4 with substeps is kept for comparison.
 #pragma once
 
