@@ -30,5 +30,6 @@ const std::vector<Command>& all_commands();
 Command make_check_config_command();
 Command make_run_command();
 Command make_sweep_command();
+Command make_tune_command();
 
 }  // namespace swerve::cli

@@ -39,4 +39,11 @@ TargetConfig load_target_config(const config::ConfigNode& node) {
   return target;
 }
 
+TargetConfig load_target_config_file(const std::string& file_path) {
+  const config::ConfigNode root = config::ConfigNode::load_file(file_path);
+  TargetConfig target = load_target_config(root.child("target"));
+  root.expect_all_read();
+  return target;
+}
+
 }  // namespace swerve

@@ -23,5 +23,7 @@ struct TargetConfig {
 
 // Reads the `target:` map of a config document (keys must all be known; see configs/targets/).
 TargetConfig load_target_config(const config::ConfigNode& target_node);
+// Loads a whole file with a top-level `target:` section and rejects unknown keys.
+TargetConfig load_target_config_file(const std::string& file_path);
 
 }  // namespace swerve
