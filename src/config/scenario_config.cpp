@@ -144,6 +144,11 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
     const ConfigNode entry = controllers.at(j);
     ScenarioController c;
     c.name = entry.get_string("name");
+    // The name becomes a file name (<out>/<name>.csv) and a JSON key: keep it to a plain word.
+    if (c.name.empty() || c.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
+                              std::string::npos) {
+      entry.fail_at("name", "'" + c.name + "': use letters, digits, '_' and '-' only");
+    }
     for (const ScenarioController& other : s.controllers) {
       if (other.name == c.name) entry.fail_at("name", "'" + c.name + "' appears twice");
     }

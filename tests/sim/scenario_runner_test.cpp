@@ -155,6 +155,8 @@ TEST(ScenarioConfig, BadFilesNameTheFileTheKeyPathAndTheValue) {
   expect_config_error("typo_scenario.yaml", "scenario.reference.speeed: unknown key");
   expect_config_error("missing_vehicle.yaml", "scenario.vehicle");
   expect_config_error("negative_duration.yaml", "scenario.duration = -3");
+  // A controller's name becomes its log's file name: no path may escape the output directory.
+  expect_config_error("bad_controller_name.yaml", "scenario.controllers[0].name: '../escape'");
 }
 
 TEST(RunReport, AnUnwritableOutputDirectoryIsAClearError) {
