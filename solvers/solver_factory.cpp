@@ -16,7 +16,7 @@ std::string built_list() {
 }  // namespace
 
 const std::vector<std::string>& built_backends() {
-  static const std::vector<std::string> backends = {"sa"};
+  static const std::vector<std::string> backends = {"sa", "nlopt"};
   return backends;
 }
 
@@ -26,11 +26,13 @@ void SolverConfig::validate() const {
     throw ConfigError("controller.solver.backend: '" + backend + "' was not built (built: " + built_list() + ")");
   }
   if (backend == "sa") sa.validate();
+  if (backend == "nlopt") nlopt.validate();
 }
 
 std::unique_ptr<Solver> make_solver(const SolverConfig& config, const OcpProblem& problem) {
   config.validate();
   if (config.backend == "sa") return std::make_unique<SimulatedAnnealingSolver>(problem, config.sa);
+  if (config.backend == "nlopt") return std::make_unique<NloptSolver>(problem, config.nlopt);
   throw ConfigError("controller.solver.backend: '" + config.backend + "' has no factory entry");
 }
 

@@ -109,7 +109,13 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                    {"reheat_interval", sa.reheat_interval},
                    {"probability_one_group", sa.probability_one_group},
                    {"probability_one_knot", sa.probability_one_knot},
-                   {"seed", sa.seed}}}};
+                   {"seed", sa.seed}}},
+                 {"nlopt",
+                  {{"algorithm", c.solver.nlopt.algorithm},
+                   {"xtol_rel", c.solver.nlopt.xtol_rel},
+                   {"ftol_rel", c.solver.nlopt.ftol_rel},
+                   {"max_evaluations", c.solver.nlopt.max_evaluations},
+                   {"initial_step_fraction", c.solver.nlopt.initial_step_fraction}}}};
   return j;
 }
 

@@ -97,6 +97,15 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
     if (const auto solver = node.optional_child("solver")) {
       c.solver.backend = solver->get_choice_or("backend", {"sa", "ipopt", "nlopt", "ceres"}, "sa");
       if (const auto sa = solver->optional_child("sa")) c.solver.sa = load_sa(*sa);
+      if (const auto nlopt = solver->optional_child("nlopt")) {
+        NloptOptions& o = c.solver.nlopt;
+        o.algorithm = nlopt->get_string_or("algorithm", o.algorithm);
+        o.xtol_rel = nlopt->get_double_or("xtol_rel", o.xtol_rel, Bound::non_negative());
+        o.ftol_rel = nlopt->get_double_or("ftol_rel", o.ftol_rel, Bound::non_negative());
+        o.max_evaluations = nlopt->get_int_or("max_evaluations", o.max_evaluations, 1);
+        o.initial_step_fraction =
+            nlopt->get_double_or("initial_step_fraction", o.initial_step_fraction, Bound::half_open(0.0, 1.0));
+      }
       try {
         c.solver.validate();
       } catch (const ConfigError& error) {

@@ -38,7 +38,9 @@ struct ControllerConfig {
 //     prediction: {method [semi_implicit] (semi_implicit | rk4), substeps [1], max_newton_iterations [8]}
 //     solver: {backend [sa], sa: {knots, max_iterations, initial_acceptance, final_temperature_ratio,
 //              step_fraction, target_acceptance, adapt_interval, reheat_interval,
-//              probability_one_group, probability_one_knot, seed}}
+//              probability_one_group, probability_one_knot, seed},
+//              nlopt: {algorithm [LN_BOBYQA], xtol_rel [1e-8], ftol_rel [1e-12], max_evaluations [200000],
+//                      initial_step_fraction [0.1]}}
 //   baseline [defaults of BaselineOptions]: {pose_weight, twist_weight, rate_weight, terminal_scale,
 //              gauss_newton_iterations, cosine_scaling, flip_hysteresis}
 ControllerConfig load_controller_config(const config::ConfigNode& controller_node);

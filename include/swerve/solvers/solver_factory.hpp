@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "swerve/solvers/nlopt_solver.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 #include "swerve/solvers/solver.hpp"
 
@@ -15,6 +16,7 @@ namespace swerve {
 struct SolverConfig {
   std::string backend = "sa";
   SaOptions sa;
+  NloptOptions nlopt;
   void validate() const;  // unknown or unbuilt backend, invalid backend options: ConfigError
 };
 

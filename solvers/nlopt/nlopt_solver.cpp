@@ -1,0 +1,214 @@
+#include "swerve/solvers/nlopt_solver.hpp"
+
+#include <nlopt.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "swerve/config/config_error.hpp"
+
+namespace swerve {
+namespace {
+
+struct AlgorithmName {
+  const char* name;
+  nlopt::algorithm algorithm;
+};
+constexpr AlgorithmName kAlgorithms[] = {{"LN_BOBYQA", nlopt::LN_BOBYQA},
+                                         {"LN_COBYLA", nlopt::LN_COBYLA},
+                                         {"LN_SBPLX", nlopt::LN_SBPLX},
+                                         {"LN_NELDERMEAD", nlopt::LN_NELDERMEAD}};
+
+const AlgorithmName* find_algorithm(const std::string& name) {
+  for (const AlgorithmName& a : kAlgorithms) {
+    if (name == a.name) return &a;
+  }
+  return nullptr;
+}
+
+// A bound NLopt can hold: infinite boxes become large finite ones (BOBYQA needs finite bounds).
+constexpr double kLargeBound = 1e6;
+
+}  // namespace
+
+void NloptOptions::validate() const {
+  if (find_algorithm(algorithm) == nullptr) {
+    throw_invalid_field("NloptOptions", "algorithm", algorithm,
+                        algorithm.rfind("LD_", 0) == 0
+                            ? "gradient algorithms need exact model derivatives, not built yet; use LN_BOBYQA, "
+                              "LN_COBYLA, LN_SBPLX or LN_NELDERMEAD"
+                            : "must be LN_BOBYQA, LN_COBYLA, LN_SBPLX or LN_NELDERMEAD");
+  }
+  if (!(xtol_rel >= 0.0) || !std::isfinite(xtol_rel)) throw_invalid_field("NloptOptions", "xtol_rel", xtol_rel, "must be >= 0");
+  if (!(ftol_rel >= 0.0) || !std::isfinite(ftol_rel)) throw_invalid_field("NloptOptions", "ftol_rel", ftol_rel, "must be >= 0");
+  if (max_evaluations < 1) throw_invalid_field("NloptOptions", "max_evaluations", max_evaluations, "must be >= 1");
+  if (!(initial_step_fraction > 0.0 && initial_step_fraction <= 1.0)) {
+    throw_invalid_field("NloptOptions", "initial_step_fraction", initial_step_fraction, "must be in (0, 1]");
+  }
+}
+
+// What the objective needs: the problem, the deadline, buffers, and the best point seen.
+struct NloptSolver::Evaluation {
+  const OcpProblem* problem = nullptr;
+  Deadline deadline;
+  Eigen::MatrixXd inputs, states, best_inputs, best_states;  // nu x N, nx x N+1
+  Eigen::VectorXd stage_costs;                               // N
+  double best_cost = std::numeric_limits<double>::infinity();
+  long evaluations = 0;
+  bool deadline_hit = false;
+  SolverClock::duration longest{};  // the longest evaluation so far
+
+  // f(x): the cost of the projected input sequence; NaN-free (a failed rollout costs +huge).
+  static double objective(unsigned n, const double* x, double* gradient, void* data) {
+    auto* self = static_cast<Evaluation*>(data);
+    (void)gradient;  // derivative-free algorithms only (validated)
+    // Room for this evaluation, the final one in do_solve and one more of slack (as SA does).
+    const auto start = SolverClock::now();
+    if (start + 3 * self->longest >= self->deadline) {
+      self->deadline_hit = true;
+      throw nlopt::forced_stop();
+    }
+    std::copy(x, x + n, self->inputs.data());
+    self->problem->project(self->inputs);
+    const double cost = self->problem->rollout(self->inputs, 0, self->states, self->stage_costs);
+    self->longest = std::max(self->longest, SolverClock::now() - start);
+    ++self->evaluations;
+    if (!std::isfinite(cost)) return std::numeric_limits<double>::max();
+    if (cost < self->best_cost) {
+      self->best_cost = cost;
+      self->best_inputs = self->inputs;
+      self->best_states = self->states;
+    }
+    return cost;
+  }
+};
+
+NloptSolver::NloptSolver(const OcpProblem& problem, NloptOptions options)
+    : options_(std::move(options)), nx_(problem.state_size()), nu_(problem.input_size()), horizon_(problem.horizon()),
+      evaluation_(std::make_unique<Evaluation>()) {
+  options_.validate();
+  const auto size = static_cast<std::size_t>(nu_ * horizon_);
+  x_.resize(size);
+  lower_.resize(size);
+  upper_.resize(size);
+  step_.resize(size);
+  evaluation_->inputs = evaluation_->best_inputs = Eigen::MatrixXd::Zero(nu_, horizon_);
+  evaluation_->states = evaluation_->best_states = Eigen::MatrixXd::Zero(nx_, horizon_ + 1);
+  evaluation_->stage_costs = Eigen::VectorXd::Zero(horizon_);
+}
+
+NloptSolver::~NloptSolver() = default;
+
+SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
+                                  Solution* out, SolveSummary* summary) noexcept {
+  if (problem.state_size() != nx_ || problem.input_size() != nu_ || problem.horizon() != horizon_) {
+    summary->reason = "the problem's shape differs from the one the solver was built for";
+    return SolveStatus::kInvalidInput;
+  }
+  Evaluation& e = *evaluation_;
+  e.problem = &problem;
+  e.deadline = deadline;
+  e.best_cost = std::numeric_limits<double>::infinity();
+  e.evaluations = 0;
+  e.deadline_hit = false;
+  const auto first_rollout = SolverClock::now();
+  // Start from the cheapest usable guess (projected); zeros projected when none is usable.
+  e.inputs.setZero();
+  problem.project(e.inputs);
+  Eigen::MatrixXd::Map(x_.data(), nu_, horizon_) = e.inputs;
+  double start_cost = problem.rollout(e.inputs, 0, e.states, e.stage_costs);
+  e.longest = SolverClock::now() - first_rollout;
+  for (int g = 0; g < guesses.count; ++g) {
+    const Eigen::MatrixXd* guess = guesses.sequences[g];
+    if (guess == nullptr || guess->rows() != nu_ || guess->cols() != horizon_ || !guess->allFinite()) continue;
+    e.inputs = *guess;
+    problem.project(e.inputs);
+    const double cost = problem.rollout(e.inputs, 0, e.states, e.stage_costs);
+    if (cost < start_cost || !std::isfinite(start_cost)) {
+      start_cost = cost;
+      Eigen::MatrixXd::Map(x_.data(), nu_, horizon_) = e.inputs;
+    }
+  }
+  summary->initial_cost = start_cost;
+  const InputBounds& bounds = problem.bounds();
+  for (int k = 0; k < horizon_; ++k) {
+    for (int i = 0; i < nu_; ++i) {
+      const auto j = static_cast<std::size_t>(k * nu_ + i);
+      lower_[j] = bounds.lower.size() == nu_ ? std::max(-kLargeBound, bounds.lower[i]) : -kLargeBound;
+      upper_[j] = bounds.upper.size() == nu_ ? std::min(kLargeBound, bounds.upper[i]) : kLargeBound;
+      const double half_range = 0.5 * (upper_[j] - lower_[j]);
+      step_[j] = options_.initial_step_fraction * std::min(half_range, 1.0);
+      x_[j] = std::clamp(x_[j], lower_[j], upper_[j]);
+    }
+  }
+  nlopt::result result = nlopt::FAILURE;
+  try {
+    nlopt::opt opt(find_algorithm(options_.algorithm)->algorithm, static_cast<unsigned>(x_.size()));
+    opt.set_lower_bounds(lower_);
+    opt.set_upper_bounds(upper_);
+    opt.set_min_objective(&Evaluation::objective, &e);
+    opt.set_xtol_rel(options_.xtol_rel);
+    opt.set_ftol_rel(options_.ftol_rel);
+    opt.set_maxeval(options_.max_evaluations);
+    opt.set_initial_step(step_);
+    const double remaining = std::chrono::duration<double>(deadline - SolverClock::now()).count();
+    opt.set_maxtime(std::max(1e-6, remaining));
+    double minimum = 0.0;
+    result = opt.optimize(x_, minimum);
+  } catch (const nlopt::forced_stop&) {
+    result = nlopt::FORCED_STOP;
+  } catch (const nlopt::roundoff_limited&) {
+    result = nlopt::ROUNDOFF_LIMITED;  // the best point so far is still a usable plan
+  } catch (const std::bad_alloc&) {
+    summary->reason = "nlopt: out of memory";
+    return SolveStatus::kNumericalError;
+  } catch (const std::invalid_argument&) {
+    summary->reason = "nlopt rejected its arguments (bounds or options)";
+    return SolveStatus::kInvalidInput;
+  } catch (const std::exception&) {
+    summary->reason = "nlopt failed (generic failure)";
+    result = nlopt::FAILURE;
+  }
+  summary->iterations = static_cast<int>(std::min<long>(e.evaluations, std::numeric_limits<int>::max()));
+  summary->rollouts = e.evaluations;
+  if (!std::isfinite(e.best_cost)) {
+    // Not one evaluation finished: the initial point stands if it was usable.
+    e.best_inputs = Eigen::MatrixXd::Map(x_.data(), nu_, horizon_);
+    problem.project(e.best_inputs);
+    e.best_cost = problem.rollout(e.best_inputs, 0, e.best_states, e.stage_costs);
+    if (!std::isfinite(e.best_cost)) {
+      summary->reason = "the model failed on the initial point";
+      return SolveStatus::kNumericalError;
+    }
+  }
+  out->inputs = e.best_inputs;
+  out->states = e.best_states;
+  out->cost = e.best_cost;
+  summary->cost = problem.evaluate(out->inputs, e.states);
+  switch (result) {
+    case nlopt::SUCCESS:
+    case nlopt::STOPVAL_REACHED:
+    case nlopt::FTOL_REACHED:
+    case nlopt::XTOL_REACHED:
+      summary->reason = "nlopt converged (tolerance reached)";
+      return SolveStatus::kConverged;
+    case nlopt::MAXEVAL_REACHED:
+      summary->reason = "nlopt stopped at max_evaluations with the best point seen";
+      return SolveStatus::kBudgetExhausted;
+    case nlopt::MAXTIME_REACHED:
+    case nlopt::FORCED_STOP:
+      summary->reason = "nlopt stopped at the deadline with the best point seen";
+      return SolveStatus::kBudgetExhausted;
+    case nlopt::ROUNDOFF_LIMITED:
+      summary->reason = "nlopt stopped by round-off with the best point seen";
+      return SolveStatus::kBudgetExhausted;
+    default:
+      if (summary->reason == nullptr || std::string(summary->reason) == "solve() not called") {
+        summary->reason = "nlopt failed with the best point seen";
+      }
+      return SolveStatus::kBudgetExhausted;
+  }
+}
+
+}  // namespace swerve
