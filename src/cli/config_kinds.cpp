@@ -95,6 +95,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                   {"twist_smoothness", o.twist_smoothness}};
   j["prediction"] = {{"method", to_string(o.prediction.method)},
                      {"substeps", o.prediction.substeps},
+                     {"slow_substeps", o.prediction.slow_substeps},
                      {"max_newton_iterations", o.prediction.max_newton_iterations}};
   const SaOptions& sa = c.solver.sa;
   j["solver"] = {{"backend", c.solver.backend},

@@ -35,7 +35,8 @@ struct ControllerConfig {
 //     weights: {pose [10,10,5], twist [0,0,0], terminal_scale [10], wear [1], steering_rate_effort [0.01],
 //               wheel_speed_effort [0], steering_rate_smoothness [0.05], wheel_speed_smoothness [0.01],
 //               twist_smoothness [1] (body_twist inputs; the effort/smoothness keys above are for module_rates)}
-//     prediction: {method [semi_implicit] (semi_implicit | rk4), substeps [1], max_newton_iterations [8]}
+//     prediction: {method [semi_implicit] (semi_implicit | rk4), substeps [1], slow_substeps [5],
+//                   max_newton_iterations [8]}
 //     solver: {backend [sa], sa: {knots, max_iterations, initial_acceptance, final_temperature_ratio,
 //              step_fraction, target_acceptance, adapt_interval, reheat_interval,
 //              probability_one_group, probability_one_knot, seed},

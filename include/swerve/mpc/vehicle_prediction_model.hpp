@@ -16,12 +16,14 @@
 // minus the body's kinetic-energy gain, sum_i h Fx_i(v+) r omega_i - [KE(v+) - KE(v0)], exact for
 // steady motion and equal to the linear-damper limit 1/2 m dv^2 for an impulsive change (the
 // implicit forces' impulse h F(v+) is the body's momentum change). Otherwise (Archard wear, or
-// casters): dt times the rate. Accuracy against the RK4 plant with one substep: start-ups and
-// large command changes within ~15 %; small changes and slow motion off by up to 6-20x either way
-// (five substeps: within 2.5x at five times the cost, and the closed loop did worse with them). A
-// gate to the rate below 0.25 m/s helped a smoothly ramped curve (20.5 J -> 12.4 J, baseline
-// 10.4 J) but blinded the optimiser to wheel fight at low speed (one offset60 run: 18.6 J in its
-// first 0.5 s), so it is not in.
+// casters): dt times the rate.
+//
+// Slow motion (body and every commanded contact speed under 0.25 m/s, five slip-regularisation
+// speeds) takes `slow_substeps` (5) shorter steps: with one step there the stage wear was off by
+// 6-20x either way against the RK4 plant (within 2 % with five), and the controller, fearing the
+// wrong things at a start, lagged and wore twice the baseline's wear on a smoothly ramped curve
+// (20.5 J against 10.4 J; 11.4 J with them). Faster motion keeps one step: start-ups and large
+// command changes are within ~15 %, and five steps everywhere cost too many optimiser proposals.
 // Explicit RK4 with substeps is kept for comparison.
 #pragma once
 
@@ -42,6 +44,7 @@ const char* to_string(PredictionMethod method) noexcept;  // "semi_implicit", "r
 struct PredictionOptions {
   PredictionMethod method = PredictionMethod::kSemiImplicit;
   int substeps = 1;              // per controller step (both methods)
+  int slow_substeps = 5;         // semi-implicit, when body and commanded wheels are under 0.25 m/s
   int max_newton_iterations = 8; // semi-implicit only
   void validate() const;         // throws ConfigError
 };
@@ -74,6 +77,7 @@ class VehiclePredictionModel final : public PredictionModel {
   double kinetic_energy(const Eigen::Vector3d& v) const noexcept;
 
   bool energy_wear_;  // stage wear from the energy balance (see above)
+  double wheel_radius_;
   mutable Eigen::VectorXd u_applied_, trial_state_, state_dot_, substep_state_;
   mutable std::vector<ModuleDiagnostics<double>> diagnostics_;
 };
