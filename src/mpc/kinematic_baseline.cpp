@@ -21,6 +21,12 @@ Eigen::Matrix3d planar_rotation(double heading) {
   return m;
 }
 
+// Validated before any member is sized from them (a horizon < 1 must throw, not allocate).
+BaselineOptions validated(BaselineOptions options) {
+  options.validate();
+  return options;
+}
+
 }  // namespace
 
 void BaselineOptions::validate() const {
@@ -43,9 +49,8 @@ void BaselineOptions::validate() const {
 
 KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference,
                                      BaselineOptions options)
-    : options_(options), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
-      horizon_(options.horizon) {
-  options_.validate();
+    : options_(validated(options)), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
+      horizon_(options_.horizon), factorization_(3 * options_.horizon) {
   if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
   const int n3 = 3 * horizon_;
   drive_sign_ = planned_first_sign_ = Eigen::VectorXi::Ones(modules_);
@@ -54,7 +59,6 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
   inputs_ = Eigen::MatrixXd::Zero(2 * modules_, horizon_);
   prediction_jacobian_ = weighted_jacobian_ = hessian_ = Eigen::MatrixXd::Zero(n3, n3);
   gradient_ = solution_ = weights_ = free_response_ = target_ = Eigen::VectorXd::Zero(n3);
-  factorization_ = Eigen::LDLT<Eigen::MatrixXd>(n3);
   module_states_ = ModuleStates(modules_);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
   for (int k = 0; k < horizon_; ++k) {

@@ -18,6 +18,7 @@
 
 #include "mpc/closed_loop.hpp"
 #include "support/allocation_counter.hpp"  // the one .cpp of mpc_tests that includes it
+#include "support/time_scale.hpp"
 #include "swerve/config/config_error.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 
@@ -111,8 +112,8 @@ constexpr InputParameterization kParameterizations[] = {InputParameterization::k
 ControllerOptions fast_options(InputParameterization parameterization = InputParameterization::kBodyTwist) {
   ControllerOptions options;
   options.parameterization = parameterization;
-  options.solve_budget = 0.005;
-  options.overrun_grace = 0.002;
+  options.solve_budget = 0.005 * testing::kTimeScale;
+  options.overrun_grace = 0.002 * testing::kTimeScale;
   options.max_plan_age = 3;
   return options;
 }
@@ -378,8 +379,10 @@ Controller::SolverFactory sa_factory(std::uint64_t seed, int max_iterations = kS
 ControllerOptions closed_loop_options(double wear_weight, InputParameterization parameterization) {
   ControllerOptions options;
   options.parameterization = parameterization;
-  options.solve_budget = 0.1;    // generous: the iteration cap, not the clock, ends a solve
-  options.overrun_grace = 0.02;  // a loaded test machine must not turn slow solves into fallbacks
+  // Generous: the iteration cap, not the clock, ends a solve (scaled for slow sanitizer builds),
+  // and a loaded test machine must not turn slow solves into fallbacks.
+  options.solve_budget = 0.1 * testing::kTimeScale;
+  options.overrun_grace = 0.02 * testing::kTimeScale;
   options.wear_weight = wear_weight;
   return options;
 }
