@@ -18,19 +18,6 @@ namespace {
 using namespace std::chrono_literals;
 using testing::DoubleIntegratorModel;
 
-// From rest at the origin, follow a line (as in the SA tests), N = 6.
-OcpProblem lq_problem(const DoubleIntegratorModel& model, InputBounds bounds = {}) {
-  CostWeights w;
-  w.pose = {10.0, 10.0, 5.0};
-  w.terminal_scale = 10.0;
-  w.effort = Eigen::Vector3d::Constant(0.1);
-  w.rate = Eigen::Vector3d::Constant(0.5);
-  w.wear = 1.0;
-  OcpProblem problem(model, 6, 0.1, w, bounds);
-  for (int k = 1; k <= 6; ++k) problem.set_reference(k, {0.1 * k, 0.05 * k, 0.01 * k}, Eigen::Vector3d::Zero());
-  return problem;
-}
-
 SolverConfig config_for(const std::string& backend) {
   SolverConfig config;
   config.backend = backend;
@@ -47,7 +34,7 @@ class BackendConformance : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(BackendConformance, ReachesTheClosedFormOptimumOfALinearQuadraticProblem) {
   const DoubleIntegratorModel model(0.5);
-  const OcpProblem problem = lq_problem(model);
+  const OcpProblem problem = testing::make_lq_problem(model, 6);
   const Eigen::MatrixXd optimum = testing::double_integrator_optimum(problem, model);
   Eigen::MatrixXd states(6, 7);
   const double optimal_cost = problem.evaluate(optimum, states).total();
@@ -68,7 +55,7 @@ TEST_P(BackendConformance, KeepsEveryInputInsideItsBounds) {
   bounds.lower = Eigen::Vector3d::Constant(-0.2);
   bounds.upper = Eigen::Vector3d::Constant(0.2);
   bounds.max_step = Eigen::Vector3d::Constant(0.1);
-  const OcpProblem problem = lq_problem(model, bounds);
+  const OcpProblem problem = testing::make_lq_problem(model, 6, bounds);
   std::unique_ptr<Solver> solver = make_solver(config_for(GetParam()), problem);
   Solution solution;
   solution.resize(6, 3, 6);

@@ -14,22 +14,8 @@ namespace swerve {
 namespace {
 
 using testing::DoubleIntegratorModel;
+using testing::make_lq_problem;
 using namespace std::chrono_literals;
-
-// A tracking problem on the double integrator: from rest at the origin, follow a line.
-OcpProblem make_lq_problem(const DoubleIntegratorModel& model, int horizon, InputBounds bounds = {}) {
-  CostWeights w;
-  w.pose = {10.0, 10.0, 5.0};
-  w.terminal_scale = 10.0;
-  w.effort = Eigen::Vector3d::Constant(0.1);
-  w.rate = Eigen::Vector3d::Constant(0.5);
-  w.wear = 1.0;
-  OcpProblem problem(model, horizon, 0.1, w, bounds);
-  for (int k = 1; k <= horizon; ++k) {
-    problem.set_reference(k, {0.1 * k, 0.05 * k, 0.01 * k}, Eigen::Vector3d::Zero());
-  }
-  return problem;
-}
 
 Deadline far_deadline() { return SolverClock::now() + 60s; }
 

@@ -40,6 +40,20 @@ class DoubleIntegratorModel final : public PredictionModel {
   double wear_scale_;
 };
 
+// The known-answer tracking problem every backend is tested on: from rest at the origin, follow a
+// line at (0.1, 0.05, 0.01) per step, with effort, rate and wear terms all active.
+inline OcpProblem make_lq_problem(const DoubleIntegratorModel& model, int horizon, InputBounds bounds = {}) {
+  CostWeights w;
+  w.pose = {10.0, 10.0, 5.0};
+  w.terminal_scale = 10.0;
+  w.effort = Eigen::Vector3d::Constant(0.1);
+  w.rate = Eigen::Vector3d::Constant(0.5);
+  w.wear = 1.0;
+  OcpProblem problem(model, horizon, 0.1, w, bounds);
+  for (int k = 1; k <= horizon; ++k) problem.set_reference(k, {0.1 * k, 0.05 * k, 0.01 * k}, Eigen::Vector3d::Zero());
+  return problem;
+}
+
 // The unconstrained optimum of an OcpProblem over a DoubleIntegratorModel, from the normal
 // equations of the stacked quadratic (heading errors must stay small: no wrapping).
 inline Eigen::MatrixXd double_integrator_optimum(const OcpProblem& problem, const DoubleIntegratorModel& model) {
