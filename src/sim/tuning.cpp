@@ -2,8 +2,7 @@
 
 #include <algorithm>
 
-#include "swerve/sim/metrics.hpp"
-#include "swerve/sim/simulator.hpp"
+#include "swerve/sim/scenario_runner.hpp"
 
 namespace swerve {
 
@@ -24,44 +23,40 @@ TuningResult tune_horizon(const VehicleParams& vehicle, const ControllerConfig& 
     throw ConfigError("tune: controller '" + controller.name + "' is a " + to_string(controller.kind) +
                       "; tuning sizes the wear_mpc controller");
   }
+  // One scenario per horizon: on a straight line at half the drive speed limit, already moving at
+  // that speed (the common case), run through the same closed loop as `swerve-mpc run`.
   SpeedProfile profile;
   profile.speed = 0.5 * vehicle.layout.limits().max_drive_speed;
-
-  const auto reference = std::make_shared<PathReference>(make_line_curve({0.0, 0.0}, 0.0, 1000.0), profile, 0.0);
+  ScenarioConfig scenario(vehicle);
+  scenario.name = "tune";
+  scenario.reference = std::make_shared<PathReference>(make_line_curve({0.0, 0.0}, 0.0, 1000.0), profile, 0.0);
+  scenario.duration = options.cycles * target.control_period;
+  scenario.initial_state = Eigen::VectorXd::Zero(6 + vehicle.layout.size());
+  scenario.initial_state[StateIndex::kVx] = profile.speed;
+  scenario.simulator.control_period = target.control_period;
   const double budget_here = target.solve_budget / target.cpu_slowdown;
 
   TuningResult result;
   for (const int horizon : options.horizons) {
-    ControllerConfig config = controller;
-    config.mpc.horizon = config.baseline.horizon = horizon;
-    config.mpc.dt = config.baseline.dt = target.control_period;
-    config.mpc.solve_budget = budget_here;
-    std::unique_ptr<TrackingController> tracker = make_controller(config, vehicle, reference);
-    SimulatorOptions sim;
-    sim.control_period = target.control_period;
-    Simulator plant(vehicle, sim);
-    Eigen::VectorXd cruising = Eigen::VectorXd::Zero(6 + vehicle.layout.size());
-    cruising[StateIndex::kVx] = profile.speed;  // already on the line at its speed: the common case
-    plant.reset(cruising);
-    std::vector<double> proposals, solve_ms;
-    HorizonMeasurement row;
-    for (int k = 0; k < options.cycles; ++k) {
-      const ControlOutput& out = tracker->step(plant.measurement(), k * target.control_period);
-      if (out.solve.status != SolveStatus::kNotRun) {
-        proposals.push_back(std::max(0, out.solve.iterations));
-        solve_ms.push_back(1e3 * out.solve.solve_time_s);
-      }
-      if (out.source != CommandSource::kOptimizer) ++row.fallbacks;
-      if (!plant.advance(out.modules)) break;
+    ScenarioController entry{controller.name, "", controller};
+    entry.config.mpc.horizon = entry.config.baseline.horizon = horizon;
+    entry.config.mpc.dt = entry.config.baseline.dt = target.control_period;
+    entry.config.mpc.solve_budget = budget_here;
+    const ControllerRun run = run_controller(scenario, entry);
+    std::vector<double> proposals;
+    for (const StepRecord& record : run.log) {
+      if (record.solve_time_s >= 0.0) proposals.push_back(std::max(0, record.solve_iterations));
     }
+    HorizonMeasurement row;
     row.horizon = horizon;
     row.lookahead_s = horizon * target.control_period;
     row.budget_here_ms = 1e3 * budget_here;
     row.proposals_median = percentile(proposals, 50.0);
-    row.solve_p99_ms = percentile(solve_ms, 99.0);
+    row.solve_p99_ms = run.metrics.solve_time_p99_ms;
     row.target_p99_ms = row.solve_p99_ms * target.cpu_slowdown;
+    row.fallbacks = run.metrics.fallbacks;
     // A late solve is a fallback (the controller's own rule), so "no fallback" covers the deadline.
-    row.qualifies = row.proposals_median >= options.min_proposals && row.fallbacks == 0;
+    row.qualifies = run.completed && row.proposals_median >= options.min_proposals && row.fallbacks == 0;
     if (row.qualifies) result.recommended_horizon = std::max(result.recommended_horizon, horizon);
     result.rows.push_back(row);
   }
