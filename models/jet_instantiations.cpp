@@ -1,8 +1,7 @@
 // Every ceres::Jet instantiation of the models lives in this one translation unit (its compile time
 // is the whole build-time cost of automatic differentiation), plus DynamicsJacobian, its user.
 #include "swerve/models/jet.hpp"
-
-#include <algorithm>
+#include "swerve/models/jet_chunks.hpp"
 
 #include "integrators_impl.hpp"
 #include "magic_formula_tire_impl.hpp"
@@ -26,36 +25,6 @@ struct DynamicsJacobian::Impl {
         u(nu),
         out(nx) {}
 
-  // Seeds directions [start, start + kModelJetSize) of the stacked (x, u) with unit vectors.
-  void seed(const Eigen::Ref<const Eigen::VectorXd>& x_value, const Eigen::Ref<const Eigen::VectorXd>& u_value,
-            int start) {
-    for (int k = 0; k < nx; ++k) {
-      x[k] = ModelJet(x_value[k]);
-      const int d = k - start;
-      if (d >= 0 && d < kModelJetSize) x[k].v[d] = 1.0;
-    }
-    for (int k = 0; k < nu; ++k) {
-      u[k] = ModelJet(u_value[k]);
-      const int d = nx + k - start;
-      if (d >= 0 && d < kModelJetSize) u[k].v[d] = 1.0;
-    }
-  }
-
-  // Copies the derivative parts of `out` (and of `scalar`) for the chunk starting at `start`.
-  void scatter(int start, Eigen::Ref<Eigen::MatrixXd>& a, Eigen::Ref<Eigen::MatrixXd>& b,
-               const ModelJet& scalar, double* gradient) const {
-    const int end = std::min(start + kModelJetSize, nx + nu);
-    for (int column = start; column < end; ++column) {
-      const int d = column - start;
-      if (column < nx) {
-        for (int row = 0; row < nx; ++row) a(row, column) = out[row].v[d];
-      } else {
-        for (int row = 0; row < nx; ++row) b(row, column - nx) = out[row].v[d];
-      }
-      if (gradient != nullptr) gradient[column] = scalar.v[d];
-    }
-  }
-
   template <typename Evaluate>
   ModelStatus run(const Eigen::Ref<const Eigen::VectorXd>& x_value, const Eigen::Ref<const Eigen::VectorXd>& u_value,
                   Eigen::Ref<Eigen::VectorXd>& value, Eigen::Ref<Eigen::MatrixXd>& a,
@@ -64,28 +33,19 @@ struct DynamicsJacobian::Impl {
         a.cols() != nx || b.rows() != nx || b.cols() != nu) {
       return ModelStatus::kInvalidArgument;
     }
-    ModelJet scalar;
-    for (int start = 0; start < nx + nu; start += kModelJetSize) {
-      seed(x_value, u_value, start);
-      const ModelStatus status = evaluate(&scalar);
-      if (status != ModelStatus::kOk) {
-        value.setConstant(detail::kQuietNaN);
-        a.setConstant(detail::kQuietNaN);
-        b.setConstant(detail::kQuietNaN);
-        return status;
-      }
-      scatter(start, a, b, scalar, gradient);
-    }
-    for (int row = 0; row < nx; ++row) value[row] = out[row].a;
-    if (scalar_value != nullptr) *scalar_value = scalar.a;
-    return ModelStatus::kOk;
+    ModelStatus status = ModelStatus::kOk;
+    jet_jacobian(x_value, u_value, x, u, out, value, a, b, scalar_value, gradient, [&](ModelJet* scalar) {
+      status = evaluate(scalar);
+      return status == ModelStatus::kOk;
+    });
+    return status;
   }
 
   VehicleModel<ModelJet> model;
   DiscreteDynamics<ModelJet> dynamics;
   int nx;
   int nu;
-  VehicleModel<ModelJet>::Vector x, u, out;
+  ModelJetVector x, u, out;
 };
 
 DynamicsJacobian::DynamicsJacobian(const VehicleParams& params, Fidelity fidelity, IntegratorMethod method)

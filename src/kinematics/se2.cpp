@@ -5,35 +5,18 @@
 namespace swerve {
 namespace {
 
-// Below this rotation the closed forms lose digits to cancellation; the Taylor series used instead
-// are accurate to O(theta^6) ~ 1e-24 there.
-constexpr double kSmallAngle = 1e-4;
-
 bool finite(const Eigen::Vector3d& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
 }  // namespace
 
-Eigen::Vector3d se2_exp(const Eigen::Vector3d& delta_body) noexcept {
-  const double theta = delta_body.z();
-  double a;  // sin(theta) / theta
-  double b;  // (1 - cos(theta)) / theta
-  if (std::abs(theta) < kSmallAngle) {
-    const double t2 = theta * theta;
-    a = 1.0 - t2 / 6.0 + t2 * t2 / 120.0;
-    b = theta * (0.5 - t2 / 24.0);
-  } else {
-    a = std::sin(theta) / theta;
-    b = (1.0 - std::cos(theta)) / theta;
-  }
-  return {a * delta_body.x() - b * delta_body.y(), b * delta_body.x() + a * delta_body.y(), theta};
-}
+Eigen::Vector3d se2_exp(const Eigen::Vector3d& delta_body) noexcept { return se2_exp_of<double>(delta_body); }
 
 Eigen::Vector3d se2_log(const Eigen::Vector3d& pose_delta) noexcept {
   const double theta = pose_delta.z();
   const double half = 0.5 * theta;
   // half * cot(half) is the diagonal of the inverse of se2_exp's 2x2 block [[a, -b], [b, a]].
   double c;
-  if (std::abs(theta) < kSmallAngle) {
+  if (std::abs(theta) < kSe2SmallAngle) {
     c = 1.0 - theta * theta / 12.0;
   } else {
     c = half * std::cos(half) / std::sin(half);
@@ -42,11 +25,7 @@ Eigen::Vector3d se2_log(const Eigen::Vector3d& pose_delta) noexcept {
 }
 
 Eigen::Vector3d compose_pose(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& delta_body) noexcept {
-  const Eigen::Vector3d step = se2_exp(delta_body);
-  const double c = std::cos(pose_world.z());
-  const double s = std::sin(pose_world.z());
-  return {pose_world.x() + c * step.x() - s * step.y(), pose_world.y() + s * step.x() + c * step.y(),
-          wrap_angle(pose_world.z() + step.z())};
+  return compose_pose_of<double>(pose_world, delta_body);
 }
 
 Eigen::Vector3d twist_world_to_body(const Eigen::Vector3d& twist_world, double heading_world) noexcept {

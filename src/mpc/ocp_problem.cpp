@@ -158,6 +158,24 @@ double OcpProblem::stage_cost(int k, const Eigen::Ref<const Eigen::VectorXd>& x_
   return tracking + wear_cost + effort + rate;
 }
 
+double OcpProblem::stage_cost_without_wear(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next,
+                                           const Eigen::Ref<const Eigen::VectorXd>& u,
+                                           const Eigen::Ref<const Eigen::VectorXd>& u_before,
+                                           Eigen::Ref<Eigen::VectorXd> d_x_next, Eigen::Ref<Eigen::VectorXd> d_u,
+                                           Eigen::Ref<Eigen::VectorXd> d_u_before) const noexcept {
+  const auto kk = static_cast<Eigen::Index>(k);
+  Eigen::Vector3d pose_error = x_next.head<3>() - reference_pose_.col(kk);
+  pose_error.z() = wrap_angle(pose_error.z());
+  const Eigen::Vector3d twist_error = x_next.segment<3>(3) - reference_twist_.col(kk);
+  const double scale = (k == horizon_ - 1) ? weights_.terminal_scale : 1.0;
+  d_x_next.setZero();
+  d_x_next.head<3>() = 2.0 * scale * weights_.pose.cwiseProduct(pose_error);
+  d_x_next.segment<3>(3) = 2.0 * weights_.twist.cwiseProduct(twist_error);
+  d_u = 2.0 * weights_.effort.cwiseProduct(u) + 2.0 * weights_.rate.cwiseProduct(u - u_before);
+  d_u_before = -2.0 * weights_.rate.cwiseProduct(u - u_before);
+  return stage_cost(k, x_next, u, u_before, 0.0, nullptr);
+}
+
 double OcpProblem::rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
                            Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept {
   if (first_step <= 0) {

@@ -24,6 +24,17 @@ class DoubleIntegratorModel final : public PredictionModel {
     if (stage_wear != nullptr) *stage_wear = wear_scale_ * dt * u.squaredNorm();
     return x_next.allFinite();
   }
+  bool has_jacobians() const noexcept override { return true; }
+  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                      Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b,
+                      double* stage_wear, Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override {
+    if (a.rows() != 6 || a.cols() != 6 || b.rows() != 6 || b.cols() != 3 || wear_gradient.size() != 9) return false;
+    a = a_matrix(dt);
+    b = b_matrix(dt);
+    wear_gradient.head<6>().setZero();
+    wear_gradient.tail<3>() = 2.0 * wear_scale_ * dt * u;
+    return step(x, u, dt, x_next, stage_wear);
+  }
   Eigen::Matrix<double, 6, 6> a_matrix(double dt) const {
     Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Identity();
     a.topRightCorner<3, 3>() = dt * Eigen::Matrix3d::Identity();

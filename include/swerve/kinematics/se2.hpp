@@ -5,6 +5,8 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
+
 #include "swerve/kinematics/module_state.hpp"
 
 namespace swerve {
@@ -31,5 +33,53 @@ Eigen::Vector3d twist_body_to_world(const Eigen::Vector3d& twist_body, double he
 // Removes the translational skew that appears when a robot translates and rotates at once.
 // kInvalidDt for dt <= 0, kNonFiniteInput for NaN/inf; on error *twist_out is zero.
 KinematicsStatus discretize(const Eigen::Vector3d& twist_body, double dt, Eigen::Vector3d* twist_out) noexcept;
+
+// The exponential map and pose composition for any scalar type (ceres::Jet in the prediction
+// model's derivatives); se2_exp and compose_pose above are these at double. The wrap of the heading
+// shifts by whole turns chosen on the value, so derivatives pass through unchanged.
+// Below this rotation the closed forms of se2_exp and se2_log lose digits to cancellation; the
+// Taylor series used instead are accurate to O(theta^6) ~ 1e-24 there.
+inline constexpr double kSe2SmallAngle = 1e-4;
+
+inline double scalar_value(double v) { return v; }
+template <typename Jet>
+double scalar_value(const Jet& j) {
+  return scalar_value(j.a);
+}
+
+template <typename T>
+T wrap_angle_of(const T& angle) {
+  return angle + (wrap_angle(scalar_value(angle)) - scalar_value(angle));
+}
+
+template <typename T>
+Eigen::Matrix<T, 3, 1> se2_exp_of(const Eigen::Matrix<T, 3, 1>& delta_body) {
+  using std::abs;
+  using std::cos;
+  using std::sin;
+  const T& theta = delta_body.z();
+  T a;  // sin(theta) / theta
+  T b;  // (1 - cos(theta)) / theta
+  if (abs(theta) < T(kSe2SmallAngle)) {
+    const T t2 = theta * theta;
+    a = T(1.0) - t2 / 6.0 + t2 * t2 / 120.0;
+    b = theta * (T(0.5) - t2 / 24.0);
+  } else {
+    a = sin(theta) / theta;
+    b = (T(1.0) - cos(theta)) / theta;
+  }
+  return {a * delta_body.x() - b * delta_body.y(), b * delta_body.x() + a * delta_body.y(), theta};
+}
+
+template <typename T>
+Eigen::Matrix<T, 3, 1> compose_pose_of(const Eigen::Matrix<T, 3, 1>& pose_world, const Eigen::Matrix<T, 3, 1>& delta_body) {
+  using std::cos;
+  using std::sin;
+  const Eigen::Matrix<T, 3, 1> step = se2_exp_of<T>(delta_body);
+  const T c = cos(pose_world.z());
+  const T s = sin(pose_world.z());
+  return {pose_world.x() + c * step.x() - s * step.y(), pose_world.y() + s * step.x() + c * step.y(),
+          wrap_angle_of<T>(pose_world.z() + step.z())};
+}
 
 }  // namespace swerve

@@ -76,6 +76,15 @@ class OcpProblem {
   double rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step, Eigen::Ref<Eigen::MatrixXd> states,
                  Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept;
 
+  // Cost of stage k without its wear term: tracking at x_{k+1}, effort on u_k and rate on
+  // u_k - u_{k-1} (u_{-1}: previous_input()). Its gradient is written (not added) to d_x_next (nx),
+  // d_u and d_u_before (nu); the heading error is wrapped, so its derivative is 1. Used by the
+  // gradient backends with the wear term's derivative from the model. noexcept, no allocation.
+  double stage_cost_without_wear(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next,
+                                 const Eigen::Ref<const Eigen::VectorXd>& u,
+                                 const Eigen::Ref<const Eigen::VectorXd>& u_before, Eigen::Ref<Eigen::VectorXd> d_x_next,
+                                 Eigen::Ref<Eigen::VectorXd> d_u, Eigen::Ref<Eigen::VectorXd> d_u_before) const noexcept;
+
   // One full evaluation with the cost split into its parts (for reports, not the hot loop).
   CostBreakdown evaluate(const Eigen::Ref<const Eigen::MatrixXd>& inputs, Eigen::Ref<Eigen::MatrixXd> states) const noexcept;
 

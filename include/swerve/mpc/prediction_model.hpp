@@ -1,6 +1,7 @@
 // The discrete map x_{k+1} = F(x_k, u_k) over one controller step, as the optimal control problem
 // and every solver backend see it. The swerve vehicle implements it on top of the dynamic model;
-// tests implement it with systems whose optimum is known in closed form.
+// tests implement it with systems whose optimum is known in closed form. Gradient-based backends
+// also need its exact Jacobians (step_jacobians).
 #pragma once
 
 #include <Eigen/Core>
@@ -22,6 +23,19 @@ class PredictionModel {
   // reads. noexcept and allocation-free; returns false when the result is not finite.
   virtual bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                     double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept = 0;
+
+  // Whether step_jacobians() gives exact derivatives (gradient-based backends need them).
+  virtual bool has_jacobians() const noexcept { return false; }
+  // step() with its exact Jacobians: a = dx_next/dx (nx x nx), b = dx_next/du (nx x nu), the stage
+  // wear and its gradient [dW/dx; dW/du] (nx + nu). noexcept and allocation-free; false when the
+  // model has none (the default), on wrong sizes, or when the result is not finite.
+  virtual bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                              double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                              Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                              Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+    (void)x, (void)u, (void)dt, (void)x_next, (void)a, (void)b, (void)stage_wear, (void)wear_gradient;
+    return false;
+  }
 };
 
 }  // namespace swerve

@@ -10,7 +10,6 @@
 
 #include <Eigen/Core>
 
-#include "swerve/kinematics/module_state.hpp"
 #include "swerve/mpc/vehicle_prediction_model.hpp"
 
 namespace swerve {
@@ -23,18 +22,23 @@ class TwistPredictionModel final : public PredictionModel {
   int input_size() const noexcept override { return 3; }
   bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& twist_body,
             double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override;
+  bool has_jacobians() const noexcept override { return true; }
+  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& twist_body,
+                      double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                      Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                      Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override;
 
   // The module inputs (2n: steering rate, wheel speed per module) that carry out `twist_body` over
   // the next `dt` from state `x` (steering angles read from x). noexcept, no allocation.
   void module_inputs(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
-                     Eigen::Ref<Eigen::VectorXd> inputs) const noexcept;
+                     Eigen::Ref<Eigen::VectorXd> inputs) const noexcept {
+    modules_.module_inputs(x, twist_body, dt, inputs);
+  }
 
   const VehiclePredictionModel& module_model() const noexcept { return modules_; }
 
  private:
   VehiclePredictionModel modules_;
-  ModuleLayout layout_;
-  mutable Eigen::VectorXd inputs_;
 };
 
 }  // namespace swerve

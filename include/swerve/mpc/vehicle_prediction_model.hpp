@@ -30,7 +30,6 @@
 #include <Eigen/Core>
 
 #include <memory>
-#include <vector>
 
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/vehicle_model.hpp"
@@ -49,37 +48,54 @@ struct PredictionOptions {
   void validate() const;         // throws ConfigError
 };
 
+namespace detail {
+template <typename T>
+class PredictionStep;
+struct PredictionJets;
+}  // namespace detail
+
 class VehiclePredictionModel final : public PredictionModel {
  public:
   VehiclePredictionModel(const VehicleParams& params, PredictionOptions options = PredictionOptions{});
+  ~VehiclePredictionModel() override;
+  VehiclePredictionModel(const VehiclePredictionModel&) = delete;
+  VehiclePredictionModel& operator=(const VehiclePredictionModel&) = delete;
 
   int state_size() const noexcept override { return state_size_; }
   int input_size() const noexcept override { return input_size_; }
   int input_group_size() const noexcept override { return 2; }  // (steering rate, wheel speed) per module
   bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
             Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override;
+  bool has_jacobians() const noexcept override { return true; }
+  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                      Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b,
+                      double* stage_wear, Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override;
 
-  const VehicleModel<double>& vehicle() const noexcept { return model_; }
+  // The same step with the body twist (vx, vy, r) as its input, mapped to module inputs by
+  // module_inputs() first (TwistPredictionModel is this as a PredictionModel), and its Jacobians
+  // (b: nx x 3, wear_gradient: nx + 3).
+  bool twist_step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
+                  Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
+  bool twist_step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
+                            Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                            Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                            Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept;
+  // The module inputs (2n: steering rate, wheel speed per module) that carry out `twist_body` over
+  // the next `dt` from state `x`: inverse kinematics, the 180 deg choice nearest the current
+  // steering angle, the steering-rate limit, and the wheel speed scaled by the cosine of the
+  // steering error still left. noexcept, no allocation.
+  void module_inputs(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
+                     Eigen::Ref<Eigen::VectorXd> inputs) const noexcept;
+
+  const VehicleModel<double>& vehicle() const noexcept;
   const PredictionOptions& options() const noexcept { return options_; }
 
  private:
-  bool semi_implicit_substep(const Eigen::Ref<const Eigen::VectorXd>& x, double h, Eigen::Ref<Eigen::VectorXd> x_next,
-                             double* wear) const noexcept;
-  // Body acceleration (vx_dot, vy_dot, r_dot) at trial_state_ with twist `v`.
-  bool body_acceleration(const Eigen::Vector3d& v, Eigen::Vector3d* acceleration, double* wear_rate) const noexcept;
-
   PredictionOptions options_;
-  VehicleModel<double> model_;
-  DiscreteDynamics<double> rk4_;
   int modules_, state_size_, input_size_;
-  Eigen::VectorXd min_angle_, max_angle_;
-  // Kinetic energy of the body (CoM translation + rotation) moving with twist v of the body origin.
-  double kinetic_energy(const Eigen::Vector3d& v) const noexcept;
-
-  bool energy_wear_;  // stage wear from the energy balance (see above)
-  double wheel_radius_;
-  mutable Eigen::VectorXd u_applied_, trial_state_, state_dot_, substep_state_;
-  mutable std::vector<ModuleDiagnostics<double>> diagnostics_;
+  std::unique_ptr<detail::PredictionStep<double>> values_;
+  std::unique_ptr<detail::PredictionJets> jets_;  // the Jet twin of values_ (prediction_jacobians.cpp)
+  mutable Eigen::VectorXd inputs_;                 // module inputs of twist_step
 };
 
 }  // namespace swerve

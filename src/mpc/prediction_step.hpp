@@ -1,0 +1,309 @@
+// The swerve prediction step for any scalar type: double for the optimiser's rollouts, ceres::Jet
+// for their exact Jacobians. Internal to the library; vehicle_prediction_model.hpp says what the
+// step does and why. Branches (the 180 deg flip, clamps, the slow-motion substeps) are chosen on
+// the values, so the Jet evaluation differentiates the branch the double evaluation takes.
+//
+// The backward-Euler body twist v+ solves G(v+, p) = v+ - v0 - h a(v+, p) = 0 (p: state and
+// inputs). Newton's method finds its value in double; its derivatives follow from the implicit
+// function theorem, dv+/dp = -(dG/dv)^-1 dG/dp, with both partials from Jets of the model's
+// derivative at the converged v+ (exact, no finite differences and no differentiation of the
+// Newton iterations).
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "swerve/kinematics/module_state.hpp"
+#include "swerve/kinematics/se2.hpp"
+#include "swerve/models/integrators.hpp"
+#include "swerve/models/vehicle_model.hpp"
+#include "swerve/mpc/vehicle_prediction_model.hpp"
+
+namespace swerve::detail {
+
+inline constexpr double kSlowSpeed = 0.25;  // m/s: 5 slip-regularisation speeds of the paper's tire
+// Below this contact speed a module's direction is noise: it keeps its angle (the singularity hold).
+inline constexpr double kHoldSpeed = 1e-3;  // m/s
+
+// `value` limited to [lower, upper], the bounds chosen on values (a Jet keeps the derivative of
+// whichever side is active).
+template <typename T>
+T clamp_by_value(const T& value, const T& lower, const T& upper) {
+  if (scalar_value(value) < scalar_value(lower)) return lower;
+  if (scalar_value(value) > scalar_value(upper)) return upper;
+  return value;
+}
+
+// Backward-Euler body twist by Newton's method in double (the value every scalar type shares).
+class BodyTwistSolver {
+ public:
+  BodyTwistSolver(const VehicleParams& params, int max_iterations)
+      : model_(params, Fidelity::kIdeal), max_iterations_(max_iterations),
+        state_(Eigen::VectorXd::Zero(model_.state_size())), state_dot_(Eigen::VectorXd::Zero(model_.state_size())) {}
+
+  // v+ for the state `trial_state` (steering already advanced; its twist entries are ignored) under
+  // `inputs`, from v0 over h. Forward-difference Jacobian and step halving; false if not finite.
+  bool solve(const Eigen::Ref<const Eigen::VectorXd>& trial_state, const Eigen::Ref<const Eigen::VectorXd>& inputs,
+             const Eigen::Vector3d& v0, double h, Eigen::Vector3d* v_out) const noexcept {
+    state_ = trial_state;
+    Eigen::Vector3d v = v0, a, a_probe;
+    if (!acceleration(v, inputs, &a)) return false;
+    Eigen::Vector3d residual = v - v0 - h * a;
+    for (int iteration = 0; iteration < max_iterations_ && residual.norm() > 1e-10; ++iteration) {
+      Eigen::Matrix3d jacobian;
+      for (int j = 0; j < 3; ++j) {
+        Eigen::Vector3d probe = v;
+        const double delta = 1e-6 * (1.0 + std::abs(v[j]));
+        probe[j] += delta;
+        if (!acceleration(probe, inputs, &a_probe)) return false;
+        jacobian.col(j) = Eigen::Vector3d::Unit(j) - h * (a_probe - a) / delta;
+      }
+      const Eigen::Vector3d newton_step = jacobian.partialPivLu().solve(-residual);
+      double scale = 1.0;
+      for (int halving = 0; halving < 6; ++halving, scale *= 0.5) {
+        const Eigen::Vector3d trial = v + scale * newton_step;
+        Eigen::Vector3d trial_a;
+        if (!acceleration(trial, inputs, &trial_a)) continue;
+        const Eigen::Vector3d trial_residual = trial - v0 - h * trial_a;
+        if (trial_residual.norm() < residual.norm() || halving == 5) {
+          v = trial;
+          a = trial_a;
+          residual = trial_residual;
+          break;
+        }
+      }
+    }
+    *v_out = v;
+    return v.allFinite();
+  }
+
+ private:
+  bool acceleration(const Eigen::Vector3d& v, const Eigen::Ref<const Eigen::VectorXd>& inputs,
+                    Eigen::Vector3d* a) const noexcept {
+    state_.segment<3>(StateIndex::kVx) = v;
+    if (model_.derivative(state_, inputs, state_dot_) != ModelStatus::kOk) return false;
+    *a = state_dot_.segment<3>(StateIndex::kVx);
+    return a->allFinite();
+  }
+
+  VehicleModel<double> model_;
+  int max_iterations_;
+  mutable Eigen::VectorXd state_, state_dot_;
+};
+
+template <typename T>
+class PredictionStep {
+ public:
+  using Vector = Eigen::Matrix<T, Eigen::Dynamic, 1>;
+  using Vector3 = Eigen::Matrix<T, 3, 1>;
+
+  PredictionStep(const VehicleParams& params, const PredictionOptions& options)
+      : options_(options), model_(params, Fidelity::kIdeal), rk4_(model_, IntegratorMethod::kRk4),
+        twist_solver_(params, options.max_newton_iterations), layout_(params.layout), modules_(model_.modules()) {
+    const int nx = model_.state_size();
+    const int nu = model_.input_size();
+    u_applied_ = Vector::Zero(nu);
+    trial_state_ = Vector::Zero(nx);
+    state_dot_ = Vector::Zero(nx);
+    substep_state_ = Vector::Zero(nx);
+    seeded_state_ = Vector::Zero(nx);
+    constant_inputs_ = Vector::Zero(nu);
+    state_values_ = Eigen::VectorXd::Zero(nx);
+    input_values_ = Eigen::VectorXd::Zero(nu);
+    diagnostics_.resize(static_cast<std::size_t>(modules_));
+    energy_wear_ = params.casters.empty() && params.wear.model == WearModelKind::kFrictionalPower;
+    wheel_radius_ = params.layout.wheel_radius();
+    wear_coefficient_ = params.wear.coefficient;
+  }
+
+  const VehicleModel<T>& model() const noexcept { return model_; }
+
+  // x_next = F(x, u) over dt with module inputs u (steering rate, wheel speed per module) and the
+  // stage wear. Sizes and finiteness are the caller's to check. No allocation.
+  bool step(const Eigen::Ref<const Vector>& x, const Eigen::Ref<const Vector>& u, double dt, Eigen::Ref<Vector> x_next,
+            T* stage_wear) const noexcept {
+    const ModuleLimits& limits = layout_.limits();
+    // End stops: the steering rate is clipped so the angle stays inside the module's range.
+    u_applied_ = u;
+    for (int i = 0; i < modules_; ++i) {
+      const T& angle = x[StateIndex::steering(i)];
+      T& rate = u_applied_[InputIndex::steering_rate(i)];
+      rate = clamp_by_value<T>(rate, (limits.min_steering_angle - angle) / dt, (limits.max_steering_angle - angle) / dt);
+    }
+    T wear(0.0);
+    bool ok = true;
+    if (options_.method == PredictionMethod::kRk4) {
+      ok = rk4_.step(x, u_applied_, dt, options_.substeps, x_next, &wear) == ModelStatus::kOk;
+    } else {
+      // Slow motion (body and every commanded contact speed under 0.25 m/s) is where one implicit
+      // step per controller step mispredicts wear most; there it takes more, shorter steps.
+      double fastest = std::hypot(scalar_value(x[StateIndex::kVx]), scalar_value(x[StateIndex::kVy]));
+      for (int i = 0; i < modules_; ++i) {
+        fastest = std::max(fastest, std::abs(scalar_value(u_applied_[InputIndex::wheel_speed(i)])) * wheel_radius_);
+      }
+      const int substeps =
+          fastest < kSlowSpeed ? std::max(options_.substeps, options_.slow_substeps) : options_.substeps;
+      const double h = dt / substeps;
+      substep_state_ = x;
+      for (int s = 0; s < substeps && ok; ++s) {
+        ok = semi_implicit_substep(substep_state_, h, x_next, &wear);
+        substep_state_ = x_next;
+      }
+    }
+    if (stage_wear != nullptr) *stage_wear = wear;
+    return ok && std::isfinite(scalar_value(wear));
+  }
+
+  // The module inputs that carry out `twist_body` over the next dt from state x: inverse
+  // kinematics, the 180 deg choice nearest the current angle (unless past an end stop), the
+  // steering-rate limit, and the wheel speed scaled by the cosine of the steering error left.
+  void module_inputs(const Eigen::Ref<const Vector>& x, const Vector3& twist_body, double dt,
+                     Eigen::Ref<Vector> inputs) const noexcept {
+    using std::atan2;
+    using std::cos;
+    using std::sqrt;
+    const ModuleLimits& limits = layout_.limits();
+    const bool end_stops = limits.has_steering_end_stops();
+    const double max_wheel_speed = limits.max_drive_speed / wheel_radius_;
+    for (int i = 0; i < modules_; ++i) {
+      const Eigen::Vector2d& p = layout_.position_body(i);
+      const T vx = twist_body.x() - twist_body.z() * p.y();
+      const T vy = twist_body.y() + twist_body.z() * p.x();
+      const T& angle = x[StateIndex::steering(i)];
+      T rate(0.0), wheel_speed(0.0);
+      if (std::hypot(scalar_value(vx), scalar_value(vy)) > kHoldSpeed) {
+        const T speed = sqrt(vx * vx + vy * vy);
+        T error = wrap_angle_of<T>(atan2(vy, vx) - angle);
+        double sign = 1.0;
+        if (std::abs(scalar_value(error)) > kPi / 2) {
+          error = wrap_angle_of<T>(error + kPi);
+          sign = -1.0;
+        }
+        const double reached = scalar_value(angle) + scalar_value(error);
+        if (end_stops && (reached < limits.min_steering_angle || reached > limits.max_steering_angle)) {
+          error = scalar_value(error) > 0.0 ? error - kPi : error + kPi;
+          sign = -sign;
+        }
+        rate = clamp_by_value<T>(error / dt, T(-limits.max_steering_rate), T(limits.max_steering_rate));
+        // Drive only as fast as the wheel points the right way at the end of this step.
+        T alignment = cos(error - rate * dt);
+        if (scalar_value(alignment) < 0.0) alignment = T(0.0);
+        wheel_speed = clamp_by_value<T>(sign * speed * alignment / wheel_radius_, T(-max_wheel_speed),
+                                        T(max_wheel_speed));
+      }
+      inputs[InputIndex::steering_rate(i)] = rate;
+      inputs[InputIndex::wheel_speed(i)] = wheel_speed;
+    }
+  }
+
+ private:
+  // Kinetic energy of the body (CoM translation + rotation) moving with twist v of the body origin.
+  T kinetic_energy(const Vector3& v) const noexcept {
+    const VehicleParams& p = model_.params();
+    const Eigen::Vector2d& c = p.center_of_mass_body;
+    const T vcx = v.x() - v.z() * c.y();
+    const T vcy = v.y() + v.z() * c.x();
+    return 0.5 * p.mass * (vcx * vcx + vcy * vcy) + 0.5 * p.yaw_inertia * v.z() * v.z();
+  }
+
+  // dv+/dp by the implicit function theorem at the converged v+ (T is a Jet; see the top). A member
+  // template so that the double instantiation never compiles it.
+  template <typename Jet = T>
+  bool implicit_twist(const Vector3& v0, const Eigen::Vector3d& v_value, double h, Vector3* v) const noexcept {
+    constexpr int kDirections = decltype(std::declval<Jet>().v)::RowsAtCompileTime;
+    static_assert(kDirections >= 3, "the Jet must hold the three twist directions");
+    // dG/dv = I - h da/dv: the twist seeded alone, everything else constant.
+    for (Eigen::Index k = 0; k < trial_state_.size(); ++k) seeded_state_[k] = T(scalar_value(trial_state_[k]));
+    for (Eigen::Index k = 0; k < u_applied_.size(); ++k) constant_inputs_[k] = T(scalar_value(u_applied_[k]));
+    for (int j = 0; j < 3; ++j) {
+      seeded_state_[StateIndex::kVx + j] = T(v_value[j]);
+      seeded_state_[StateIndex::kVx + j].v[j] = 1.0;
+    }
+    if (model_.derivative(seeded_state_, constant_inputs_, state_dot_) != ModelStatus::kOk) return false;
+    Eigen::Matrix3d dg_dv;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) dg_dv(i, j) = (i == j ? 1.0 : 0.0) - h * state_dot_[StateIndex::kVx + i].v[j];
+    }
+    // dG/dp: v held at its value, the state's and inputs' own derivatives flowing.
+    for (int j = 0; j < 3; ++j) trial_state_[StateIndex::kVx + j] = T(v_value[j]);
+    if (model_.derivative(trial_state_, u_applied_, state_dot_) != ModelStatus::kOk) return false;
+    const Eigen::PartialPivLU<Eigen::Matrix3d> lu(dg_dv);
+    Eigen::Matrix<double, 3, kDirections> dg_dp;
+    for (int i = 0; i < 3; ++i) {
+      const T g = T(v_value[i]) - v0[i] - h * state_dot_[StateIndex::kVx + i];
+      dg_dp.row(i) = g.v.transpose();
+    }
+    const Eigen::Matrix<double, 3, kDirections> dv_dp = -lu.solve(dg_dp);
+    for (int i = 0; i < 3; ++i) {
+      (*v)[i] = T(v_value[i]);
+      (*v)[i].v = dv_dp.row(i).transpose();
+    }
+    return dv_dp.allFinite();
+  }
+
+  bool semi_implicit_substep(const Eigen::Ref<const Vector>& x, double h, Eigen::Ref<Vector> x_next,
+                             T* wear) const noexcept {
+    // Steering advances explicitly under the (already end-stop-clipped) rate.
+    trial_state_ = x;
+    for (int i = 0; i < modules_; ++i) {
+      trial_state_[StateIndex::steering(i)] = x[StateIndex::steering(i)] + h * u_applied_[InputIndex::steering_rate(i)];
+    }
+    const Vector3 v0 = x.template segment<3>(StateIndex::kVx);
+    Vector3 v;
+    if constexpr (std::is_same_v<T, double>) {
+      if (!twist_solver_.solve(trial_state_, u_applied_, v0, h, &v)) return false;
+    } else {
+      for (Eigen::Index k = 0; k < trial_state_.size(); ++k) state_values_[k] = scalar_value(trial_state_[k]);
+      for (Eigen::Index k = 0; k < u_applied_.size(); ++k) input_values_[k] = scalar_value(u_applied_[k]);
+      const Eigen::Vector3d v0_value(scalar_value(v0.x()), scalar_value(v0.y()), scalar_value(v0.z()));
+      Eigen::Vector3d v_value;
+      if (!twist_solver_.solve(state_values_, input_values_, v0_value, h, &v_value)) return false;
+      if (!implicit_twist(v0, v_value, h, &v)) return false;
+    }
+    trial_state_.template segment<3>(StateIndex::kVx) = v;
+    T wear_rate(0.0);
+    if (model_.derivative(trial_state_, u_applied_, state_dot_, diagnostics_.data(), &wear_rate) != ModelStatus::kOk) {
+      return false;
+    }
+    T step_wear = h * wear_rate;
+    if (energy_wear_) {
+      // The drives' work with the implicit step's forces at v+, less the body's kinetic-energy gain.
+      T drive_work(0.0);
+      for (int i = 0; i < modules_; ++i) {
+        drive_work += h * diagnostics_[static_cast<std::size_t>(i)].fx_wheel * wheel_radius_ *
+                      u_applied_[InputIndex::wheel_speed(i)];
+      }
+      const T dissipated = drive_work - (kinetic_energy(v) - kinetic_energy(v0));
+      step_wear = scalar_value(dissipated) > 0.0 ? wear_coefficient_ * dissipated : T(0.0);
+    }
+    // Pose: the body moves with the constant twist v over h (exact on arcs).
+    const Vector3 delta_body = h * v;
+    const Vector3 pose = compose_pose_of<T>(x.template head<3>(), delta_body);
+    x_next = trial_state_;
+    x_next.template head<3>() = pose;
+    *wear += step_wear;
+    for (Eigen::Index k = 0; k < x_next.size(); ++k) {
+      if (!std::isfinite(scalar_value(x_next[k]))) return false;
+    }
+    return true;
+  }
+
+  PredictionOptions options_;
+  VehicleModel<T> model_;
+  DiscreteDynamics<T> rk4_;
+  BodyTwistSolver twist_solver_;
+  ModuleLayout layout_;
+  int modules_;
+  bool energy_wear_ = false;
+  double wheel_radius_ = 0.0, wear_coefficient_ = 0.0;
+  mutable Vector u_applied_, trial_state_, state_dot_, substep_state_, seeded_state_, constant_inputs_;
+  mutable Eigen::VectorXd state_values_, input_values_;
+  mutable std::vector<ModuleDiagnostics<T>> diagnostics_;
+};
+
+}  // namespace swerve::detail

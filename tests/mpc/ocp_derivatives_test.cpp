@@ -1,0 +1,102 @@
+// The OCP's single-shooting gradient (adjoint recursion over the models' exact Jacobians): zero at
+// the closed-form optimum of the linear-quadratic problem, equal to central finite differences of
+// the rollout cost on the swerve problem, and the same cost OcpProblem::rollout reports.
+#include "swerve/mpc/ocp_derivatives.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "models/model_fixtures.hpp"
+#include "support/linear_models.hpp"
+#include "swerve/config/config_error.hpp"
+#include "swerve/mpc/twist_prediction_model.hpp"
+
+namespace swerve {
+namespace {
+
+TEST(OcpDerivatives, GradientVanishesAtTheClosedFormOptimum) {
+  const testing::DoubleIntegratorModel model(0.5);
+  const OcpProblem problem = testing::make_lq_problem(model, 6);
+  const Eigen::MatrixXd optimum = testing::double_integrator_optimum(problem, model);
+  OcpDerivatives derivatives(problem);
+  Eigen::MatrixXd states(6, 7), gradient(3, 6);
+  const double cost = derivatives.cost_and_gradient(problem, optimum, states, gradient);
+  EXPECT_LT(gradient.cwiseAbs().maxCoeff(), 1e-9 * (1.0 + cost)) << gradient;
+  // Away from it the gradient is not zero (so the check above can fail).
+  const Eigen::MatrixXd off = optimum.array() + 0.1;
+  derivatives.cost_and_gradient(problem, off, states, gradient);
+  EXPECT_GT(gradient.cwiseAbs().maxCoeff(), 1e-3);
+}
+
+class SwerveProblemGradient : public ::testing::Test {
+ protected:
+  SwerveProblemGradient() : params(make()), model(params), problem(model, 10, 0.05, weights(), InputBounds{}) {
+    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(model.state_size());
+    x0.segment<3>(3) << 0.5, 0.0, 0.1;
+    problem.set_initial_state(x0);
+    problem.set_previous_input(Eigen::Vector3d(0.5, 0.0, 0.1));
+    for (int k = 1; k <= 10; ++k) {
+      problem.set_reference(k, {0.03 * k, 0.004 * k, 0.01 * k}, {0.6, 0.0, 0.2});
+    }
+  }
+  static VehicleParams make() {
+    VehicleParams p = testing::make_params(ModuleLayout::rectangle(0.6, 0.5, 0.1));
+    p.mass = 160.0;
+    p.yaw_inertia = 8.0;
+    return p;
+  }
+  static CostWeights weights() {
+    CostWeights w;
+    w.pose = {10.0, 10.0, 200.0};
+    w.twist = {1.0, 1.0, 0.5};
+    w.wear = 3.0;
+    w.effort = Eigen::Vector3d(0.01, 0.02, 0.03);
+    w.rate = Eigen::Vector3d(1.0, 1.0, 0.5);
+    return w;
+  }
+  VehicleParams params;
+  TwistPredictionModel model;
+  OcpProblem problem;
+};
+
+TEST_F(SwerveProblemGradient, MatchesCentralFiniteDifferencesOfTheRolloutCost) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> jitter(-0.05, 0.05);
+  Eigen::MatrixXd inputs(3, 10);
+  for (int k = 0; k < 10; ++k) inputs.col(k) = Eigen::Vector3d(0.55 + jitter(random), jitter(random), 0.15 + jitter(random));
+  OcpDerivatives derivatives(problem);
+  Eigen::MatrixXd states(model.state_size(), 11), gradient(3, 10), fd(3, 10);
+  Eigen::VectorXd stage_costs(10);
+  const double cost = derivatives.cost_and_gradient(problem, inputs, states, gradient);
+  EXPECT_NEAR(cost, problem.rollout(inputs, 0, states, stage_costs), 1e-12 * cost);
+  for (int k = 0; k < 10; ++k) {
+    for (int i = 0; i < 3; ++i) {
+      Eigen::MatrixXd plus = inputs, minus = inputs;
+      const double h = 1e-6;
+      plus(i, k) += h;
+      minus(i, k) -= h;
+      fd(i, k) = (problem.rollout(plus, 0, states, stage_costs) - problem.rollout(minus, 0, states, stage_costs)) / (2 * h);
+    }
+  }
+  const double scale = fd.cwiseAbs().maxCoeff();
+  EXPECT_GT(scale, 1.0);
+  EXPECT_LT((gradient - fd).cwiseAbs().maxCoeff(), 1e-5 * scale) << "adjoint\n" << gradient << "\nfd\n" << fd;
+}
+
+TEST(OcpDerivatives, RefusesAModelWithoutJacobians) {
+  struct NoJacobians final : PredictionModel {
+    int state_size() const noexcept override { return 6; }
+    int input_size() const noexcept override { return 1; }
+    bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>&, double,
+              Eigen::Ref<Eigen::VectorXd> x_next, double*) const noexcept override {
+      x_next = x;
+      return true;
+    }
+  } model;
+  const OcpProblem problem(model, 3, 0.1, CostWeights{}, InputBounds{});
+  EXPECT_THROW(OcpDerivatives{problem}, ConfigError);
+}
+
+}  // namespace
+}  // namespace swerve
