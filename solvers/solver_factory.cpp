@@ -16,7 +16,16 @@ std::string built_list() {
 }  // namespace
 
 const std::vector<std::string>& built_backends() {
-  static const std::vector<std::string> backends = {"sa", "nlopt"};
+  static const std::vector<std::string> backends = {"sa", "nlopt"
+#ifdef SWERVE_HAS_IPOPT
+                                                     ,
+                                                     "ipopt"
+#endif
+#ifdef SWERVE_HAS_CERES
+                                                     ,
+                                                     "ceres"
+#endif
+  };
   return backends;
 }
 
@@ -27,12 +36,16 @@ void SolverConfig::validate() const {
   }
   if (backend == "sa") sa.validate();
   if (backend == "nlopt") nlopt.validate();
+  if (backend == "ipopt") ipopt.validate();
 }
 
 std::unique_ptr<Solver> make_solver(const SolverConfig& config, const OcpProblem& problem) {
   config.validate();
   if (config.backend == "sa") return std::make_unique<SimulatedAnnealingSolver>(problem, config.sa);
   if (config.backend == "nlopt") return std::make_unique<NloptSolver>(problem, config.nlopt);
+#ifdef SWERVE_HAS_IPOPT
+  if (config.backend == "ipopt") return std::make_unique<IpoptSolver>(problem, config.ipopt);
+#endif
   throw ConfigError("controller.solver.backend: '" + config.backend + "' has no factory entry");
 }
 

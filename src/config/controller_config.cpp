@@ -107,6 +107,19 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
         o.initial_step_fraction =
             nlopt->get_double_or("initial_step_fraction", o.initial_step_fraction, Bound::half_open(0.0, 1.0));
       }
+      if (const auto ipopt = solver->optional_child("ipopt")) {
+        IpoptOptions& o = c.solver.ipopt;
+        o.tol = ipopt->get_double_or("tol", o.tol, Bound::positive());
+        o.constr_viol_tol = ipopt->get_double_or("constr_viol_tol", o.constr_viol_tol, Bound::positive());
+        o.acceptable_tol = ipopt->get_double_or("acceptable_tol", o.acceptable_tol, Bound::positive());
+        o.max_iterations = ipopt->get_int_or("max_iterations", o.max_iterations, 1);
+        o.mu_strategy = ipopt->get_choice_or("mu_strategy", {"adaptive", "monotone"}, o.mu_strategy);
+        o.linear_solver = ipopt->get_choice_or("linear_solver", {"mumps"}, o.linear_solver);
+        o.print_level = ipopt->get_int_or("print_level", o.print_level, 0, 12);
+        o.lbfgs_history = ipopt->get_int_or("lbfgs_history", o.lbfgs_history, 1, 100);
+        o.warm_start = ipopt->get_bool_or("warm_start", o.warm_start);
+        o.warm_mu_init = ipopt->get_double_or("warm_mu_init", o.warm_mu_init, Bound::positive());
+      }
       try {
         c.solver.validate();
       } catch (const ConfigError& error) {

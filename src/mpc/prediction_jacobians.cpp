@@ -2,6 +2,7 @@
 // prediction step for ceres::Jet (its compile time is the cost of the derivatives), plus the
 // constructor and destructor of VehiclePredictionModel, which own the Jet twin.
 #include <cmath>
+#include <utility>
 
 #include "prediction_step.hpp"
 #include "swerve/models/jet_chunks.hpp"
@@ -58,8 +59,12 @@ bool VehiclePredictionModel::step_jacobians(const Eigen::Ref<const Eigen::Vector
                                             Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
   if (!jacobian_sizes_ok(state_size_, input_size_, x, u, dt, x_next, a, b, wear_gradient)) return false;
   detail::PredictionJets& j = *jets_;
+  bool first = true;
   const bool ok = jet_jacobian(x, u, j.x, j.u, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
-                               [&](ModelJet* wear) { return j.step.step(j.x, j.u, dt, j.out, wear); });
+                               [&](ModelJet* wear) {
+                                 j.step.begin_chunk(std::exchange(first, false));
+                                 return j.step.step(j.x, j.u, dt, j.out, wear);
+                               });
   return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
 }
 
@@ -70,8 +75,10 @@ bool VehiclePredictionModel::twist_step_jacobians(const Eigen::Ref<const Eigen::
                                                   Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
   if (!jacobian_sizes_ok(state_size_, 3, x, twist_body, dt, x_next, a, b, wear_gradient)) return false;
   detail::PredictionJets& j = *jets_;
+  bool first = true;
   const bool ok = jet_jacobian(x, twist_body, j.x, j.twist, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
                                [&](ModelJet* wear) {
+                                 j.step.begin_chunk(std::exchange(first, false));
                                  const Eigen::Matrix<ModelJet, 3, 1> twist = j.twist;
                                  j.step.module_inputs(j.x, twist, dt, j.u);
                                  return j.step.step(j.x, j.u, dt, j.out, wear);

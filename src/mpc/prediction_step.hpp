@@ -39,6 +39,35 @@ T clamp_by_value(const T& value, const T& lower, const T& upper) {
   return value;
 }
 
+// Smooth saturations for the limits inside the step. A hard clamp has a kink where it becomes
+// active, and a gradient method whose iterates cross it sees linearisations that are wrong on one
+// side (Ipopt stalled with dynamics defects of 1e-2 at the stages where the steering-rate limit
+// switched on or off). min(x, limit) is replaced by a C1 blend over [limit - width, limit + width]:
+// x - (x - limit + width)^2 / (4 width) there, exactly x below it and exactly the limit above it,
+// so motion away from the limits is unchanged. Every scalar type uses them, so every optimiser
+// sees one map.
+template <typename T>
+T smooth_min(const T& x, double limit, double width) {
+  const double value = scalar_value(x);
+  if (value <= limit - width) return x;
+  if (value >= limit + width) return T(limit);
+  const T excess = x - (limit - width);
+  return x - excess * excess / (4.0 * width);
+}
+template <typename T>
+T smooth_max(const T& x, double limit, double width) {
+  return -smooth_min<T>(-x, -limit, width);
+}
+template <typename T>
+T smooth_clamp(const T& x, double lower, double upper, double width) {
+  return smooth_min<T>(smooth_max<T>(x, lower, width), upper, width);
+}
+
+// Blend widths, relative to each limit's scale.
+inline constexpr double kRateLimitSmoothing = 0.1;    // x max steering rate
+inline constexpr double kSpeedLimitSmoothing = 0.05;  // x max wheel speed
+inline constexpr double kAlignmentSmoothing = 0.05;   // on cos(remaining steering error), at 0
+
 // Backward-Euler body twist by Newton's method in double (the value every scalar type shares).
 class BodyTwistSolver {
  public:
@@ -116,12 +145,20 @@ class PredictionStep {
     state_values_ = Eigen::VectorXd::Zero(nx);
     input_values_ = Eigen::VectorXd::Zero(nu);
     diagnostics_.resize(static_cast<std::size_t>(modules_));
+    const auto most_substeps = static_cast<std::size_t>(std::max(options.substeps, options.slow_substeps));
+    twist_values_.assign(most_substeps, Eigen::Vector3d::Zero());
+    twist_factorizations_.assign(most_substeps, Eigen::PartialPivLU<Eigen::Matrix3d>(Eigen::Matrix3d::Identity()));
     energy_wear_ = params.casters.empty() && params.wear.model == WearModelKind::kFrictionalPower;
     wheel_radius_ = params.layout.wheel_radius();
     wear_coefficient_ = params.wear.coefficient;
   }
 
   const VehicleModel<T>& model() const noexcept { return model_; }
+
+  // Jacobians are evaluated in chunks of Jet directions, each a full step at the same values. The
+  // first chunk records each substep's Newton solution and dG/dv factorisation; later chunks
+  // replay them instead of solving again (Jet instances only).
+  void begin_chunk(bool first) const noexcept { replay_ = !first; }
 
   // x_next = F(x, u) over dt with module inputs u (steering rate, wheel speed per module) and the
   // stage wear. Sizes and finiteness are the caller's to check. No allocation.
@@ -149,10 +186,12 @@ class PredictionStep {
       const int substeps =
           fastest < kSlowSpeed ? std::max(options_.substeps, options_.slow_substeps) : options_.substeps;
       const double h = dt / substeps;
+      substep_index_ = 0;
       substep_state_ = x;
       for (int s = 0; s < substeps && ok; ++s) {
         ok = semi_implicit_substep(substep_state_, h, x_next, &wear);
         substep_state_ = x_next;
+        ++substep_index_;
       }
     }
     if (stage_wear != nullptr) *stage_wear = wear;
@@ -189,12 +228,12 @@ class PredictionStep {
           error = scalar_value(error) > 0.0 ? error - kPi : error + kPi;
           sign = -sign;
         }
-        rate = clamp_by_value<T>(error / dt, T(-limits.max_steering_rate), T(limits.max_steering_rate));
+        rate = smooth_clamp<T>(error / dt, -limits.max_steering_rate, limits.max_steering_rate,
+                               kRateLimitSmoothing * limits.max_steering_rate);
         // Drive only as fast as the wheel points the right way at the end of this step.
-        T alignment = cos(error - rate * dt);
-        if (scalar_value(alignment) < 0.0) alignment = T(0.0);
-        wheel_speed = clamp_by_value<T>(sign * speed * alignment / wheel_radius_, T(-max_wheel_speed),
-                                        T(max_wheel_speed));
+        const T alignment = smooth_max<T>(cos(error - rate * dt), 0.0, kAlignmentSmoothing);
+        wheel_speed = smooth_clamp<T>(sign * speed * alignment / wheel_radius_, -max_wheel_speed, max_wheel_speed,
+                                      kSpeedLimitSmoothing * max_wheel_speed);
       }
       inputs[InputIndex::steering_rate(i)] = rate;
       inputs[InputIndex::wheel_speed(i)] = wheel_speed;
@@ -217,22 +256,13 @@ class PredictionStep {
   bool implicit_twist(const Vector3& v0, const Eigen::Vector3d& v_value, double h, Vector3* v) const noexcept {
     constexpr int kDirections = decltype(std::declval<Jet>().v)::RowsAtCompileTime;
     static_assert(kDirections >= 3, "the Jet must hold the three twist directions");
-    // dG/dv = I - h da/dv: the twist seeded alone, everything else constant.
-    for (Eigen::Index k = 0; k < trial_state_.size(); ++k) seeded_state_[k] = T(scalar_value(trial_state_[k]));
-    for (Eigen::Index k = 0; k < u_applied_.size(); ++k) constant_inputs_[k] = T(scalar_value(u_applied_[k]));
-    for (int j = 0; j < 3; ++j) {
-      seeded_state_[StateIndex::kVx + j] = T(v_value[j]);
-      seeded_state_[StateIndex::kVx + j].v[j] = 1.0;
-    }
-    if (model_.derivative(seeded_state_, constant_inputs_, state_dot_) != ModelStatus::kOk) return false;
-    Eigen::Matrix3d dg_dv;
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) dg_dv(i, j) = (i == j ? 1.0 : 0.0) - h * state_dot_[StateIndex::kVx + i].v[j];
+    Eigen::PartialPivLU<Eigen::Matrix3d>& lu = twist_factorizations_[static_cast<std::size_t>(substep_index_)];
+    if (!replay_) {
+      if (!twist_jacobian(v_value, h, &lu)) return false;
     }
     // dG/dp: v held at its value, the state's and inputs' own derivatives flowing.
     for (int j = 0; j < 3; ++j) trial_state_[StateIndex::kVx + j] = T(v_value[j]);
     if (model_.derivative(trial_state_, u_applied_, state_dot_) != ModelStatus::kOk) return false;
-    const Eigen::PartialPivLU<Eigen::Matrix3d> lu(dg_dv);
     Eigen::Matrix<double, 3, kDirections> dg_dp;
     for (int i = 0; i < 3; ++i) {
       const T g = T(v_value[i]) - v0[i] - h * state_dot_[StateIndex::kVx + i];
@@ -244,6 +274,24 @@ class PredictionStep {
       (*v)[i].v = dv_dp.row(i).transpose();
     }
     return dv_dp.allFinite();
+  }
+
+  // dG/dv = I - h da/dv at v+, exactly: the twist seeded alone, everything else constant.
+  template <typename Jet = T>
+  bool twist_jacobian(const Eigen::Vector3d& v_value, double h, Eigen::PartialPivLU<Eigen::Matrix3d>* lu) const noexcept {
+    for (Eigen::Index k = 0; k < trial_state_.size(); ++k) seeded_state_[k] = T(scalar_value(trial_state_[k]));
+    for (Eigen::Index k = 0; k < u_applied_.size(); ++k) constant_inputs_[k] = T(scalar_value(u_applied_[k]));
+    for (int j = 0; j < 3; ++j) {
+      seeded_state_[StateIndex::kVx + j] = T(v_value[j]);
+      seeded_state_[StateIndex::kVx + j].v[j] = 1.0;
+    }
+    if (model_.derivative(seeded_state_, constant_inputs_, state_dot_) != ModelStatus::kOk) return false;
+    Eigen::Matrix3d dg_dv;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) dg_dv(i, j) = (i == j ? 1.0 : 0.0) - h * state_dot_[StateIndex::kVx + i].v[j];
+    }
+    lu->compute(dg_dv);
+    return dg_dv.allFinite();
   }
 
   bool semi_implicit_substep(const Eigen::Ref<const Vector>& x, double h, Eigen::Ref<Vector> x_next,
@@ -261,8 +309,8 @@ class PredictionStep {
       for (Eigen::Index k = 0; k < trial_state_.size(); ++k) state_values_[k] = scalar_value(trial_state_[k]);
       for (Eigen::Index k = 0; k < u_applied_.size(); ++k) input_values_[k] = scalar_value(u_applied_[k]);
       const Eigen::Vector3d v0_value(scalar_value(v0.x()), scalar_value(v0.y()), scalar_value(v0.z()));
-      Eigen::Vector3d v_value;
-      if (!twist_solver_.solve(state_values_, input_values_, v0_value, h, &v_value)) return false;
+      Eigen::Vector3d& v_value = twist_values_[static_cast<std::size_t>(substep_index_)];
+      if (!replay_ && !twist_solver_.solve(state_values_, input_values_, v0_value, h, &v_value)) return false;
       if (!implicit_twist(v0, v_value, h, &v)) return false;
     }
     trial_state_.template segment<3>(StateIndex::kVx) = v;
@@ -279,6 +327,7 @@ class PredictionStep {
                       u_applied_[InputIndex::wheel_speed(i)];
       }
       const T dissipated = drive_work - (kinetic_energy(v) - kinetic_energy(v0));
+      // Clamped at zero (a kink, kept: smoothing it would bias steady motion's zero wear).
       step_wear = scalar_value(dissipated) > 0.0 ? wear_coefficient_ * dissipated : T(0.0);
     }
     // Pose: the body moves with the constant twist v over h (exact on arcs).
@@ -304,6 +353,10 @@ class PredictionStep {
   mutable Vector u_applied_, trial_state_, state_dot_, substep_state_, seeded_state_, constant_inputs_;
   mutable Eigen::VectorXd state_values_, input_values_;
   mutable std::vector<ModuleDiagnostics<T>> diagnostics_;
+  mutable bool replay_ = false;  // see begin_chunk
+  mutable int substep_index_ = 0;
+  mutable std::vector<Eigen::Vector3d> twist_values_;                             // per substep
+  mutable std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> twist_factorizations_;  // per substep
 };
 
 }  // namespace swerve::detail

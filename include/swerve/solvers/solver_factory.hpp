@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "swerve/solvers/ipopt_solver.hpp"
 #include "swerve/solvers/nlopt_solver.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 #include "swerve/solvers/solver.hpp"
@@ -17,6 +18,7 @@ struct SolverConfig {
   std::string backend = "sa";
   SaOptions sa;
   NloptOptions nlopt;
+  IpoptOptions ipopt;
   void validate() const;  // unknown or unbuilt backend, invalid backend options: ConfigError
 };
 

@@ -1,0 +1,424 @@
+#include "swerve/solvers/ceres_solver.hpp"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <new>
+#include <utility>
+#include <vector>
+#include <cstdio>
+#include <cstdlib>
+
+#include "swerve/config/config_error.hpp"
+#include "swerve/kinematics/module_state.hpp"  // wrap_angle
+#include "swerve/mpc/ocp_derivatives.hpp"
+
+namespace swerve {
+namespace {
+
+struct LinearSolverName {
+  const char* name;
+  ceres::LinearSolverType type;
+};
+constexpr LinearSolverName kLinearSolvers[] = {{"dense_qr", ceres::DENSE_QR},
+                                               {"dense_normal_cholesky", ceres::DENSE_NORMAL_CHOLESKY}};
+
+const LinearSolverName* find_linear_solver(const std::string& name) {
+  for (const LinearSolverName& s : kLinearSolvers) {
+    if (name == s.name) return &s;
+  }
+  return nullptr;
+}
+
+// Ceres hands over each parameter block's Jacobian as a row-major (residuals x block size) array.
+using JacobianBlock = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
+
+// Residual rows of one stage, in this order: pose (3), twist (3), wear (1), effort, rate and
+// step penalty (nu each).
+constexpr int kPoseRow = 0;
+constexpr int kTwistRow = 3;
+constexpr int kWearRow = 6;
+constexpr int kEffortRow = 7;
+int stage_residual_count(int nu) { return kEffortRow + 3 * nu; }
+
+// The OCP as one Ceres cost function over N parameter blocks of nu inputs: a single-shooting
+// rollout that writes every stage's residuals (layout in the header) and, when Ceres asks for
+// them, their Jacobians from forward sensitivities dx_k/du_j over the model's exact step Jacobians.
+class ShootingResiduals final : public ceres::CostFunction {
+ public:
+  ShootingResiduals(const OcpProblem& shape, double step_penalty_weight)
+      : nx_(shape.state_size()), nu_(shape.input_size()), horizon_(shape.horizon()),
+        stage_rows_(stage_residual_count(shape.input_size())), penalty_root_(std::sqrt(2.0 * step_penalty_weight)),
+        derivatives_(shape) {
+    set_num_residuals(horizon_ * stage_rows_);
+    mutable_parameter_block_sizes()->assign(static_cast<std::size_t>(horizon_), nu_);
+    inputs_ = Eigen::MatrixXd::Zero(nu_, horizon_);
+    states_ = Eigen::MatrixXd::Zero(nx_, horizon_ + 1);
+    sensitivity_ = next_sensitivity_ = Eigen::MatrixXd::Zero(nx_, nu_ * horizon_);
+    effort_root_ = rate_root_ = Eigen::VectorXd::Zero(nu_);
+  }
+
+  // The problem the next evaluations are of (same shape); its weights' square roots are cached.
+  void bind(const OcpProblem& problem) noexcept {
+    problem_ = &problem;
+    effort_root_ = (2.0 * problem.weights().effort).cwiseSqrt();
+    rate_root_ = (2.0 * problem.weights().rate).cwiseSqrt();
+    evaluations_ = 0;
+  }
+  long evaluations() const noexcept { return evaluations_; }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    ++evaluations_;
+    const OcpProblem& problem = *problem_;
+    const CostWeights& weights = problem.weights();
+    const Eigen::VectorXd& max_step = problem.bounds().max_step;
+    const int rows = num_residuals();
+    for (int k = 0; k < horizon_; ++k) inputs_.col(k) = Eigen::Map<const Eigen::VectorXd>(parameters[k], nu_);
+    Eigen::Map<Eigen::VectorXd> r(residuals, rows);
+    if (jacobians != nullptr) {
+      for (int j = 0; j < horizon_; ++j) {
+        if (jacobians[j] != nullptr) JacobianBlock(jacobians[j], rows, nu_).setZero();
+      }
+      sensitivity_.setZero();  // dx_0/du: the initial state is fixed
+    }
+    states_.col(0) = problem.initial_state();
+    for (int k = 0; k < horizon_; ++k) {
+      // Residual-only calls (Ceres' trial points) skip the Jets: the plain step is several times cheaper.
+      double wear = 0.0;
+      if (jacobians != nullptr) {
+        if (!derivatives_.linearize_stage(problem, k, states_.col(k), inputs_.col(k), states_.col(k + 1))) return false;
+        wear = derivatives_.wear(k);
+      } else if (!problem.model().step(states_.col(k), inputs_.col(k), problem.dt(), states_.col(k + 1), &wear) ||
+                 !std::isfinite(wear)) {
+        return false;
+      }
+      const int row = k * stage_rows_;
+      const double scale = k == horizon_ - 1 ? weights.terminal_scale : 1.0;
+      const Eigen::Vector3d pose_root = (2.0 * scale * weights.pose).cwiseSqrt();
+      const Eigen::Vector3d twist_root = (2.0 * weights.twist).cwiseSqrt();
+      Eigen::Vector3d pose_error = states_.col(k + 1).head<3>() - problem.reference_poses().col(k);
+      pose_error.z() = wrap_angle(pose_error.z());
+      r.segment<3>(row + kPoseRow) = pose_root.cwiseProduct(pose_error);
+      r.segment<3>(row + kTwistRow) =
+          twist_root.cwiseProduct(states_.col(k + 1).segment<3>(3) - problem.reference_twists().col(k));
+      // Wear is >= 0 physically; a model that reports less than -eps^2/lambda has no real residual.
+      const double wear_square = 2.0 * (weights.wear * wear + CeresSolver::kWearSmoothing * CeresSolver::kWearSmoothing);
+      if (!(wear_square > 0.0)) return false;
+      const double wear_residual = std::sqrt(wear_square);
+      r[row + kWearRow] = wear_residual;
+      for (int i = 0; i < nu_; ++i) {
+        const double u = inputs_(i, k);
+        const double change = u - (k == 0 ? problem.previous_input()[i] : inputs_(i, k - 1));
+        const double excess = std::abs(change) - max_step[i];  // -inf for an unbounded step
+        r[row + kEffortRow + i] = effort_root_[i] * u;
+        r[row + kEffortRow + nu_ + i] = rate_root_[i] * change;
+        r[row + kEffortRow + 2 * nu_ + i] = excess > 0.0 ? penalty_root_ * excess : 0.0;
+      }
+      if (jacobians == nullptr) continue;
+
+      // sensitivity_ = dx_k/du, next_sensitivity_ = dx_{k+1}/du; both zero for blocks j > k.
+      derivatives_.propagate_sensitivity(k, sensitivity_, next_sensitivity_);
+      const Eigen::VectorXd& wear_gradient = derivatives_.wear_gradient(k);
+      const double wear_factor = weights.wear / wear_residual;  // d sqrt(2(lambda W + eps^2)) = lambda dW / r
+      for (int j = 0; j <= k; ++j) {
+        if (jacobians[j] == nullptr) continue;
+        JacobianBlock block(jacobians[j], rows, nu_);
+        const int column = j * nu_;
+        block.block(row + kPoseRow, 0, 3, nu_) = pose_root.asDiagonal() * next_sensitivity_.block(0, column, 3, nu_);
+        block.block(row + kTwistRow, 0, 3, nu_) = twist_root.asDiagonal() * next_sensitivity_.block(3, column, 3, nu_);
+        block.row(row + kWearRow) =
+            wear_factor * (wear_gradient.head(nx_).transpose() * sensitivity_.middleCols(column, nu_));
+      }
+      for (int i = 0; i < nu_; ++i) {
+        const double change = inputs_(i, k) - (k == 0 ? problem.previous_input()[i] : inputs_(i, k - 1));
+        const bool penalised = std::abs(change) > max_step[i];
+        const double penalty_slope = penalised ? std::copysign(penalty_root_, change) : 0.0;
+        if (jacobians[k] != nullptr) {
+          JacobianBlock block(jacobians[k], rows, nu_);
+          block(row + kWearRow, i) += wear_factor * wear_gradient[nx_ + i];
+          block(row + kEffortRow + i, i) = effort_root_[i];
+          block(row + kEffortRow + nu_ + i, i) = rate_root_[i];
+          block(row + kEffortRow + 2 * nu_ + i, i) = penalty_slope;
+        }
+        if (k > 0 && jacobians[k - 1] != nullptr) {
+          JacobianBlock block(jacobians[k - 1], rows, nu_);
+          block(row + kEffortRow + nu_ + i, i) = -rate_root_[i];
+          block(row + kEffortRow + 2 * nu_ + i, i) = -penalty_slope;
+        }
+      }
+      sensitivity_.swap(next_sensitivity_);
+    }
+    return true;
+  }
+
+ private:
+  const OcpProblem* problem_ = nullptr;
+  int nx_, nu_, horizon_, stage_rows_;
+  double penalty_root_;  // sqrt(2 step_penalty_weight)
+  Eigen::VectorXd effort_root_, rate_root_;
+  // Ceres' Evaluate is const; these are its scratch space (one solve at a time, one thread).
+  mutable OcpDerivatives derivatives_;
+  mutable Eigen::MatrixXd inputs_, states_;                   // nu x N, nx x N+1
+  mutable Eigen::MatrixXd sensitivity_, next_sensitivity_;    // nx x nu N
+  mutable long evaluations_ = 0;
+};
+
+// Stops Ceres when the next iteration, assumed as long as the longest so far (a step whose line
+// search needs more points costs several times a plain one), would end past `stop`. It returns
+// SOLVER_TERMINATE_SUCCESSFULLY, not SOLVER_ABORT: an abort makes Ceres restore the parameters it
+// started from, throwing away every step it took.
+class DeadlineCallback final : public ceres::IterationCallback {
+ public:
+  void arm(Deadline stop) noexcept {
+    stop_ = stop;
+    previous_ = SolverClock::now();
+    longest_ = SolverClock::duration::zero();
+  }
+
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& /*summary*/) override {
+    const auto now = SolverClock::now();
+    longest_ = std::max(longest_, now - previous_);
+    previous_ = now;
+    return now + longest_ >= stop_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  Deadline stop_{};
+  SolverClock::time_point previous_{};
+  SolverClock::duration longest_{};
+};
+
+}  // namespace
+
+void CeresOptions::validate() const {
+  if (max_iterations < 1) throw_invalid_field("CeresOptions", "max_iterations", max_iterations, "must be >= 1");
+  const std::pair<const char*, double> tolerances[] = {{"function_tolerance", function_tolerance},
+                                                       {"gradient_tolerance", gradient_tolerance},
+                                                       {"parameter_tolerance", parameter_tolerance}};
+  for (const auto& [field, value] : tolerances) {
+    if (!std::isfinite(value) || value < 0.0) throw_invalid_field("CeresOptions", field, value, "must be finite and >= 0");
+  }
+  if (find_linear_solver(linear_solver) == nullptr) {
+    throw_invalid_field("CeresOptions", "linear_solver", linear_solver, "must be dense_qr or dense_normal_cholesky");
+  }
+  if (!std::isfinite(step_penalty_weight) || step_penalty_weight < 0.0) {
+    throw_invalid_field("CeresOptions", "step_penalty_weight", step_penalty_weight, "must be finite and >= 0");
+  }
+}
+
+struct CeresSolver::Impl {
+  Impl(const OcpProblem& shape, const CeresOptions& options)
+      : residuals(shape, options.step_penalty_weight),
+        parameters(Eigen::MatrixXd::Zero(shape.input_size(), shape.horizon())),
+        problem(problem_options()) {
+    const int nu = shape.input_size();
+    const int horizon = shape.horizon();
+    const int rows = residuals.num_residuals();
+    for (int k = 0; k < horizon; ++k) blocks.push_back(parameters.data() + k * nu);
+    problem.AddResidualBlock(&residuals, nullptr, blocks);
+
+    solver_options.linear_solver_type = find_linear_solver(options.linear_solver)->type;
+    solver_options.max_num_iterations = options.max_iterations;
+    solver_options.function_tolerance = options.function_tolerance;
+    solver_options.gradient_tolerance = options.gradient_tolerance;
+    solver_options.parameter_tolerance = options.parameter_tolerance;
+    solver_options.num_threads = 1;
+    solver_options.minimizer_progress_to_stdout = false;
+    solver_options.logging_type = ceres::SILENT;
+    solver_options.callbacks.push_back(&callback);
+
+    start_inputs = candidate_inputs = Eigen::MatrixXd::Zero(nu, horizon);
+    start_states = candidate_states = report_states = Eigen::MatrixXd::Zero(shape.state_size(), horizon + 1);
+    stage_costs = Eigen::VectorXd::Zero(horizon);
+    residual_scratch = Eigen::VectorXd::Zero(rows);
+    jacobian_scratch.assign(static_cast<std::size_t>(rows) * static_cast<std::size_t>(nu * horizon), 0.0);
+    for (int k = 0; k < horizon; ++k) {
+      jacobian_blocks.push_back(jacobian_scratch.data() + static_cast<std::size_t>(rows) * static_cast<std::size_t>(k * nu));
+    }
+  }
+
+  static ceres::Problem::Options problem_options() {
+    ceres::Problem::Options o;
+    o.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;  // `residuals` is a member
+    return o;
+  }
+
+  // The problem's input boxes as Ceres bounds; an infinite side gets Ceres' own "unbounded" value
+  // (the same problem object serves problems with other bounds).
+  void set_bounds(const OcpProblem& shape) {
+    const InputBounds& bounds = shape.bounds();
+    constexpr double kUnbounded = std::numeric_limits<double>::max();
+    for (std::size_t k = 0; k < blocks.size(); ++k) {
+      for (int i = 0; i < parameters.rows(); ++i) {
+        problem.SetParameterLowerBound(blocks[k], i, std::isfinite(bounds.lower[i]) ? bounds.lower[i] : -kUnbounded);
+        problem.SetParameterUpperBound(blocks[k], i, std::isfinite(bounds.upper[i]) ? bounds.upper[i] : kUnbounded);
+      }
+    }
+  }
+
+  ShootingResiduals residuals;  // before `problem`, which refers to it
+  Eigen::MatrixXd parameters;   // nu x N: column k is Ceres' parameter block k
+  std::vector<double*> blocks;
+  ceres::Problem problem;
+  ceres::Solver::Options solver_options;
+  ceres::Solver::Summary ceres_summary;
+  DeadlineCallback callback;
+  Eigen::MatrixXd start_inputs, candidate_inputs;                  // nu x N
+  Eigen::MatrixXd start_states, candidate_states, report_states;  // nx x N+1
+  Eigen::VectorXd stage_costs;                                     // N
+  Eigen::VectorXd residual_scratch;                                // for timing one Evaluate
+  std::vector<double> jacobian_scratch;
+  std::vector<double*> jacobian_blocks;
+};
+
+CeresSolver::CeresSolver(const OcpProblem& problem_shape, CeresOptions options)
+    : options_(std::move(options)), nx_(problem_shape.state_size()), nu_(problem_shape.input_size()),
+      horizon_(problem_shape.horizon()) {
+  options_.validate();
+  impl_ = std::make_unique<Impl>(problem_shape, options_);
+}
+
+CeresSolver::~CeresSolver() = default;
+
+int CeresSolver::residual_count() const noexcept { return impl_->residuals.num_residuals(); }
+
+bool CeresSolver::evaluate_residuals(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                                     Eigen::Ref<Eigen::VectorXd> residuals, Eigen::MatrixXd* jacobian) {
+  if (problem.state_size() != nx_ || problem.input_size() != nu_ || problem.horizon() != horizon_ ||
+      inputs.rows() != nu_ || inputs.cols() != horizon_ || residuals.size() != residual_count()) {
+    return false;
+  }
+  const Eigen::MatrixXd contiguous = inputs;
+  std::vector<const double*> parameters;
+  for (int k = 0; k < horizon_; ++k) parameters.push_back(contiguous.data() + k * nu_);
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  std::vector<RowMajor> blocks(static_cast<std::size_t>(horizon_), RowMajor::Zero(residual_count(), nu_));
+  std::vector<double*> block_pointers;
+  for (RowMajor& block : blocks) block_pointers.push_back(block.data());
+  impl_->residuals.bind(problem);
+  if (!impl_->residuals.Evaluate(parameters.data(), residuals.data(), jacobian != nullptr ? block_pointers.data() : nullptr)) {
+    return false;
+  }
+  if (jacobian != nullptr) {
+    jacobian->resize(residual_count(), nu_ * horizon_);
+    for (int k = 0; k < horizon_; ++k) jacobian->middleCols(k * nu_, nu_) = blocks[static_cast<std::size_t>(k)];
+  }
+  return true;
+}
+
+SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
+                                  Solution* out, SolveSummary* summary) noexcept {
+  if (problem.state_size() != nx_ || problem.input_size() != nu_ || problem.horizon() != horizon_) {
+    summary->reason = "the problem's shape differs from the one the solver was built for";
+    return SolveStatus::kInvalidInput;
+  }
+  Impl& s = *impl_;
+  const auto t_begin = SolverClock::now();
+  auto ms = [&](SolverClock::time_point t) { return std::chrono::duration<double, std::milli>(t - t_begin).count(); };
+  try {
+    s.residuals.bind(problem);
+    // Start from the cheapest usable guess (projected); zeros projected when none is usable.
+    s.start_inputs.setZero();
+    problem.project(s.start_inputs);
+    double start_cost = problem.rollout(s.start_inputs, 0, s.start_states, s.stage_costs);
+    for (int g = 0; g < guesses.count; ++g) {
+      const Eigen::MatrixXd* guess = guesses.sequences[g];
+      if (guess == nullptr || guess->rows() != nu_ || guess->cols() != horizon_ || !guess->allFinite()) continue;
+      s.candidate_inputs = *guess;
+      problem.project(s.candidate_inputs);
+      const double cost = problem.rollout(s.candidate_inputs, 0, s.candidate_states, s.stage_costs);
+      if (cost < start_cost || !std::isfinite(start_cost)) {
+        start_cost = cost;
+        s.start_inputs.swap(s.candidate_inputs);
+        s.start_states.swap(s.candidate_states);
+      }
+    }
+    summary->initial_cost = start_cost;
+    if (!std::isfinite(start_cost)) {
+      summary->reason = "the model failed on every initial guess";
+      return SolveStatus::kNumericalError;
+    }
+    auto return_start = [&](const char* reason) {
+      if (std::getenv("CERES_TIMING")) std::fprintf(stderr, "return_start at %.3f: %s\n", ms(SolverClock::now()), reason);
+      out->inputs = s.start_inputs;
+      out->states = s.start_states;
+      out->cost = start_cost;
+      summary->cost = problem.evaluate(out->inputs, s.report_states);
+      summary->iterations = 0;
+      summary->rollouts = s.residuals.evaluations();
+      summary->reason = reason;
+      return SolveStatus::kBudgetExhausted;
+    };
+
+    // One Evaluate with Jacobians at the start prices an iteration; twice that is kept back for
+    // the projection, rollout and report after Ceres returns (and Ceres' own wrap-up).
+    s.parameters = s.start_inputs;
+    const auto evaluate_start = SolverClock::now();
+    if (std::getenv("CERES_TIMING")) std::fprintf(stderr, "start done at %.3f\n", ms(evaluate_start));
+    const bool start_differentiable =
+        s.residuals.Evaluate(s.blocks.data(), s.residual_scratch.data(), s.jacobian_blocks.data());
+    const auto evaluate_time = SolverClock::now() - evaluate_start;
+    if (!start_differentiable) return return_start("the model's Jacobians failed at the start; returning the start");
+    const Deadline stop = deadline - 2 * evaluate_time;
+    const auto now = SolverClock::now();
+    // Ceres evaluates the start again before its first step: less than that left means no step.
+    if (stop - now <= evaluate_time) return return_start("the deadline left no time for a Ceres iteration");
+
+    s.set_bounds(problem);
+    s.solver_options.max_solver_time_in_seconds = std::chrono::duration<double>(stop - now).count();
+    s.callback.arm(stop);
+    const auto t_ceres = SolverClock::now();
+    ceres::Solve(s.solver_options, &s.problem, &s.ceres_summary);
+    const auto t_after = SolverClock::now();
+    const ceres::Solver::Summary& result = s.ceres_summary;
+    if (std::getenv("CERES_TIMING")) {
+      std::fprintf(stderr, "deadline %.3f eval %.3f stop %.3f ceres_start %.3f ceres_end %.3f iters:", ms(deadline), std::chrono::duration<double, std::milli>(evaluate_time).count(), ms(stop), ms(t_ceres), ms(t_after));
+      for (const auto& it : result.iterations) std::fprintf(stderr, " %.2f", it.iteration_time_in_seconds * 1e3);
+      std::fprintf(stderr, " pre %.3f\n", result.preprocessor_time_in_seconds*1e3);
+    }
+
+    // Ceres leaves its answer in the parameter blocks (or the start, when it failed); the step
+    // penalty may leave it slightly off the change bounds, so it is projected before comparing.
+    s.candidate_inputs = s.parameters;
+    problem.project(s.candidate_inputs);
+    const double candidate_cost = problem.rollout(s.candidate_inputs, 0, s.candidate_states, s.stage_costs);
+    const bool improved = candidate_cost < start_cost;
+    out->inputs = improved ? s.candidate_inputs : s.start_inputs;
+    out->states = improved ? s.candidate_states : s.start_states;
+    out->cost = improved ? candidate_cost : start_cost;
+    summary->cost = problem.evaluate(out->inputs, s.report_states);
+    // Ceres' iteration 0 is the evaluation of the start, not a step.
+    summary->iterations = std::max(0, static_cast<int>(result.iterations.size()) - 1);
+    summary->rollouts = s.residuals.evaluations();
+
+    switch (result.termination_type) {
+      case ceres::CONVERGENCE:
+        summary->reason = improved ? "ceres converged (function, gradient or parameter tolerance)"
+                                   : "ceres converged without improving on the start, which is returned";
+        return SolveStatus::kConverged;
+      case ceres::NO_CONVERGENCE:
+        summary->reason = summary->iterations >= options_.max_iterations
+                              ? "ceres stopped at max_iterations with its best point"
+                              : "ceres stopped at its time limit with its best point";
+        return SolveStatus::kBudgetExhausted;
+      case ceres::USER_SUCCESS:  // the deadline callback, the only one installed
+      case ceres::USER_FAILURE:  // (not returned by that callback)
+        summary->reason = "ceres stopped at the deadline with its best point";
+        return SolveStatus::kBudgetExhausted;
+      case ceres::FAILURE:
+      default:
+        // Ceres restores its start on failure: the plan returned is the best initial guess.
+        summary->reason = "ceres failed (model evaluation or linear solver); returning the best initial guess";
+        return SolveStatus::kBudgetExhausted;
+    }
+  } catch (const std::bad_alloc&) {
+    summary->reason = "ceres: out of memory";
+  } catch (...) {
+    summary->reason = "ceres threw an exception";
+  }
+  return SolveStatus::kNumericalError;
+}
+
+}  // namespace swerve

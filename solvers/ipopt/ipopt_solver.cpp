@@ -1,0 +1,561 @@
+#include "swerve/solvers/ipopt_solver.hpp"
+
+#include <IpIpoptApplication.hpp>
+#include <IpTNLP.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "swerve/config/config_error.hpp"
+#include "swerve/kinematics/module_state.hpp"
+#include "swerve/mpc/ocp_derivatives.hpp"
+#include "swerve/models/vehicle_model.hpp"
+
+namespace swerve {
+namespace {
+
+constexpr double kIpoptInfinity = 1e20;  // beyond Ipopt's nlp_{lower,upper}_bound_inf (1e19)
+
+double clamp_to_ipopt(double bound) { return std::clamp(bound, -kIpoptInfinity, kIpoptInfinity); }
+
+}  // namespace
+
+void IpoptOptions::validate() const {
+  auto positive = [](const char* field, double value) {
+    if (!(value > 0.0) || !std::isfinite(value)) throw_invalid_field("IpoptOptions", field, value, "must be > 0");
+  };
+  positive("tol", tol);
+  positive("constr_viol_tol", constr_viol_tol);
+  positive("acceptable_tol", acceptable_tol);
+  positive("warm_mu_init", warm_mu_init);
+  if (max_iterations < 1) throw_invalid_field("IpoptOptions", "max_iterations", max_iterations, "must be >= 1");
+  if (mu_strategy != "adaptive" && mu_strategy != "monotone") {
+    throw_invalid_field("IpoptOptions", "mu_strategy", mu_strategy, "must be adaptive or monotone");
+  }
+  if (linear_solver != "mumps") {
+    throw_invalid_field("IpoptOptions", "linear_solver", linear_solver,
+                        "must be mumps (the only linear solver Debian's Ipopt 3.11 is built with)");
+  }
+  if (lbfgs_history < 1 || lbfgs_history > 100) {
+    throw_invalid_field("IpoptOptions", "lbfgs_history", lbfgs_history, "must be in 1..100");
+  }
+  if (print_level < 0 || print_level > 12) throw_invalid_field("IpoptOptions", "print_level", print_level, "must be in 0..12");
+}
+
+// The multiple-shooting NLP. Variables are stored stage by stage, [u_k (nu), x_{k+1} (nx)] for
+// k = 0..N-1, so the constraint Jacobian is block banded.
+class MultipleShootingNlp final : public Ipopt::TNLP {
+ public:
+  explicit MultipleShootingNlp(const OcpProblem& shape)
+      : horizon_(shape.horizon()), nx_(shape.state_size()), nu_(shape.input_size()), block_(nu_ + nx_),
+        derivatives_(shape) {
+    for (int i = 0; i < nu_; ++i) {
+      if (std::isfinite(shape.bounds().max_step[i])) rate_inputs_.push_back(i);
+    }
+    rate_count_ = static_cast<int>(rate_inputs_.size());
+    next_states_ = Eigen::MatrixXd::Zero(nx_, horizon_);
+    wear_ = Eigen::VectorXd::Zero(horizon_);
+    d_x_next_ = Eigen::VectorXd::Zero(nx_);
+    d_u_ = Eigen::VectorXd::Zero(nu_);
+    d_u_before_ = Eigen::VectorXd::Zero(nu_);
+    start_ = Eigen::VectorXd::Zero(variables());
+    final_ = Eigen::VectorXd::Zero(variables());
+    lambda_ = Eigen::VectorXd::Zero(constraints());
+    z_lower_ = Eigen::VectorXd::Zero(variables());
+    z_upper_ = Eigen::VectorXd::Zero(variables());
+  }
+
+  int variables() const { return horizon_ * block_; }
+  int constraints() const { return horizon_ * (nx_ + rate_count_); }
+
+  // Per solve: the problem, the start point (inputs nu x N and their rollout states nx x N+1).
+  void prepare(const OcpProblem& problem, const Eigen::MatrixXd& inputs, const Eigen::MatrixXd& states,
+               Deadline deadline, bool warm_multipliers) {
+    problem_ = &problem;
+    deadline_ = deadline;
+    for (int k = 0; k < horizon_; ++k) {
+      start_.segment(k * block_, nu_) = inputs.col(k);
+      start_.segment(k * block_ + nu_, nx_) = states.col(k + 1);
+    }
+    use_warm_multipliers_ = warm_multipliers;
+    have_final_ = false;
+    iterations_ = 0;
+    evaluations_ = 0;
+    last_iteration_ = SolverClock::now();
+    first_callback_ = SolverClock::time_point{};
+    longest_iteration_ = SolverClock::duration::zero();
+  }
+
+  // The final iterate's inputs (nu x N) and its largest dynamics defect.
+  bool final_inputs(Eigen::MatrixXd* inputs, double* max_defect) {
+    if (!have_final_) return false;
+    for (int k = 0; k < horizon_; ++k) inputs->col(k) = final_.segment(k * block_, nu_);
+    *max_defect = defect_of(final_.data());
+    return inputs->allFinite();
+  }
+
+  // Shifts the stored multipliers by one step for the next cycle (the last stage's repeat).
+  void shift_multipliers() {
+    for (int k = 0; k + 1 < horizon_; ++k) {
+      lambda_.segment(k * nx_, nx_) = lambda_.segment((k + 1) * nx_, nx_);
+      z_lower_.segment(k * block_, block_) = z_lower_.segment((k + 1) * block_, block_);
+      z_upper_.segment(k * block_, block_) = z_upper_.segment((k + 1) * block_, block_);
+      if (rate_count_ > 0) {
+        lambda_.segment(horizon_ * nx_ + k * rate_count_, rate_count_) =
+            lambda_.segment(horizon_ * nx_ + (k + 1) * rate_count_, rate_count_);
+      }
+    }
+  }
+
+  bool has_final() const { return have_final_; }
+  // When iteration 0 (Ipopt's initialisation: first evaluations and factorisation) ended.
+  SolverClock::time_point first_callback() const { return first_callback_; }
+  int iterations() const { return iterations_; }
+  long evaluations() const { return evaluations_; }
+  Ipopt::SolverReturn final_status() const { return final_status_; }
+
+  // --- Ipopt::TNLP ---
+  bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac_g, Ipopt::Index& nnz_h_lag,
+                    IndexStyleEnum& index_style) override {
+    n = variables();
+    m = constraints();
+    // Per stage: identity on x_{k+1}, -B_k on u_k, -A_k on x_k (k >= 1); rate rows +1 / -1.
+    nnz_jac_g = horizon_ * (nx_ + nx_ * nu_) + (horizon_ - 1) * nx_ * nx_ + rate_count_ * (2 * horizon_ - 1);
+    nnz_h_lag = 0;  // limited-memory quasi-Newton
+    index_style = C_STYLE;
+    return true;
+  }
+
+  bool get_bounds_info(Ipopt::Index n, Ipopt::Number* x_l, Ipopt::Number* x_u, Ipopt::Index m, Ipopt::Number* g_l,
+                       Ipopt::Number* g_u) override {
+    (void)n;
+    (void)m;
+    const InputBounds& bounds = problem_->bounds();
+    for (int k = 0; k < horizon_; ++k) {
+      for (int i = 0; i < nu_; ++i) {
+        x_l[k * block_ + i] = clamp_to_ipopt(bounds.lower[i]);
+        x_u[k * block_ + i] = clamp_to_ipopt(bounds.upper[i]);
+      }
+      for (int j = 0; j < nx_; ++j) {
+        x_l[k * block_ + nu_ + j] = -kIpoptInfinity;
+        x_u[k * block_ + nu_ + j] = kIpoptInfinity;
+      }
+    }
+    for (int r = 0; r < horizon_ * nx_; ++r) g_l[r] = g_u[r] = 0.0;
+    for (int k = 0; k < horizon_; ++k) {
+      for (int c = 0; c < rate_count_; ++c) {
+        const int i = rate_inputs_[static_cast<std::size_t>(c)];
+        const int row = horizon_ * nx_ + k * rate_count_ + c;
+        const double max_step = bounds.max_step[i];
+        // Row k = 0 is u_0 itself (u_{-1} is a constant); later rows are u_k - u_{k-1}.
+        const double centre = k == 0 ? problem_->previous_input()[i] : 0.0;
+        g_l[row] = centre - max_step;
+        g_u[row] = centre + max_step;
+      }
+    }
+    return true;
+  }
+
+  bool get_starting_point(Ipopt::Index n, bool init_x, Ipopt::Number* x, bool init_z, Ipopt::Number* z_L,
+                          Ipopt::Number* z_U, Ipopt::Index m, bool init_lambda, Ipopt::Number* lambda) override {
+    if (init_x) std::copy(start_.data(), start_.data() + n, x);
+    if (init_z) {
+      if (!use_warm_multipliers_) return false;
+      std::copy(z_lower_.data(), z_lower_.data() + n, z_L);
+      std::copy(z_upper_.data(), z_upper_.data() + n, z_U);
+    }
+    if (init_lambda) {
+      if (!use_warm_multipliers_) return false;
+      std::copy(lambda_.data(), lambda_.data() + m, lambda);
+    }
+    return true;
+  }
+
+  bool eval_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Number& obj_value) override {
+    (void)n;
+    if (new_x || !values_ready_) evaluate_values(x);
+    if (!values_ok_) return false;
+    obj_value = objective_;
+    return true;
+  }
+
+  bool eval_grad_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Number* grad_f) override {
+    if (new_x || !derivatives_ready_) evaluate_derivatives(x);
+    if (!derivatives_ok_) return false;
+    std::fill(grad_f, grad_f + n, 0.0);
+    const double lambda = problem_->weights().wear;
+    for (int k = 0; k < horizon_; ++k) {
+      problem_->stage_cost_without_wear(k, state_after(x, k), input(x, k), input_before(x, k), d_x_next_, d_u_,
+                                        d_u_before_);
+      Eigen::Map<Eigen::VectorXd>(grad_f + k * block_, nu_) += d_u_ + lambda * derivatives_.wear_gradient(k).tail(nu_);
+      Eigen::Map<Eigen::VectorXd>(grad_f + k * block_ + nu_, nx_) += d_x_next_;
+      if (k > 0) {
+        Eigen::Map<Eigen::VectorXd>(grad_f + (k - 1) * block_, nu_) += d_u_before_;
+        Eigen::Map<Eigen::VectorXd>(grad_f + (k - 1) * block_ + nu_, nx_) +=
+            lambda * derivatives_.wear_gradient(k).head(nx_);
+      }
+    }
+    return true;
+  }
+
+  bool eval_g(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Index m, Ipopt::Number* g) override {
+    (void)n;
+    (void)m;
+    if (new_x || !values_ready_) evaluate_values(x);
+    if (!values_ok_) return false;
+    write_constraints(x, g);
+    return true;
+  }
+
+  bool eval_jac_g(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Index m, Ipopt::Index nele_jac,
+                  Ipopt::Index* i_row, Ipopt::Index* j_col, Ipopt::Number* values) override {
+    (void)n;
+    (void)m;
+    (void)nele_jac;
+    if (values == nullptr) {
+      write_structure(i_row, j_col);
+      return true;
+    }
+    if (new_x || !derivatives_ready_) evaluate_derivatives(x);
+    if (!derivatives_ok_) return false;
+    int e = 0;
+    for (int k = 0; k < horizon_; ++k) {
+      for (int i = 0; i < nx_; ++i) values[e++] = 1.0;
+      const Eigen::MatrixXd& b = derivatives_.b(k);
+      for (int i = 0; i < nx_; ++i) {
+        for (int j = 0; j < nu_; ++j) values[e++] = -b(i, j);
+      }
+      if (k > 0) {
+        const Eigen::MatrixXd& a = derivatives_.a(k);
+        for (int i = 0; i < nx_; ++i) {
+          for (int j = 0; j < nx_; ++j) values[e++] = -a(i, j);
+        }
+      }
+    }
+    for (int k = 0; k < horizon_; ++k) {
+      for (int c = 0; c < rate_count_; ++c) {
+        values[e++] = 1.0;
+        if (k > 0) values[e++] = -1.0;
+      }
+    }
+    return true;
+  }
+
+  bool intermediate_callback(Ipopt::AlgorithmMode mode, Ipopt::Index iter, Ipopt::Number obj_value,
+                             Ipopt::Number inf_pr, Ipopt::Number inf_du, Ipopt::Number mu, Ipopt::Number d_norm,
+                             Ipopt::Number regularization_size, Ipopt::Number alpha_du, Ipopt::Number alpha_pr,
+                             Ipopt::Index ls_trials, const Ipopt::IpoptData* ip_data,
+                             Ipopt::IpoptCalculatedQuantities* ip_cq) override {
+    (void)mode, (void)obj_value, (void)inf_pr, (void)inf_du, (void)mu, (void)d_norm, (void)regularization_size;
+    (void)alpha_du, (void)alpha_pr, (void)ls_trials, (void)ip_data, (void)ip_cq;
+    iterations_ = iter;
+    const auto now = SolverClock::now();
+    if (iter == 0) first_callback_ = now;
+    longest_iteration_ = std::max(longest_iteration_, now - last_iteration_);
+    last_iteration_ = now;
+    // Stop when one more iteration (the longest so far) and the final rollout would not fit.
+    return now + longest_iteration_ + longest_iteration_ / 4 < deadline_;
+  }
+
+  void finalize_solution(Ipopt::SolverReturn status, Ipopt::Index n, const Ipopt::Number* x, const Ipopt::Number* z_L,
+                         const Ipopt::Number* z_U, Ipopt::Index m, const Ipopt::Number* g, const Ipopt::Number* lambda,
+                         Ipopt::Number obj_value, const Ipopt::IpoptData* ip_data,
+                         Ipopt::IpoptCalculatedQuantities* ip_cq) override {
+    (void)g, (void)obj_value, (void)ip_data, (void)ip_cq;
+    final_status_ = status;
+    if (x == nullptr) return;
+    std::copy(x, x + n, final_.data());
+    have_final_ = final_.allFinite();
+    if (z_L != nullptr && z_U != nullptr && lambda != nullptr) {
+      std::copy(z_L, z_L + n, z_lower_.data());
+      std::copy(z_U, z_U + n, z_upper_.data());
+      std::copy(lambda, lambda + m, lambda_.data());
+    }
+  }
+
+ private:
+  Eigen::Map<const Eigen::VectorXd> input(const Ipopt::Number* x, int k) const {
+    return Eigen::Map<const Eigen::VectorXd>(x + k * block_, nu_);
+  }
+  Eigen::Map<const Eigen::VectorXd> input_before(const Ipopt::Number* x, int k) const {
+    return k == 0 ? Eigen::Map<const Eigen::VectorXd>(problem_->previous_input().data(), nu_) : input(x, k - 1);
+  }
+  // x_{k+1}
+  Eigen::Map<const Eigen::VectorXd> state_after(const Ipopt::Number* x, int k) const {
+    return Eigen::Map<const Eigen::VectorXd>(x + k * block_ + nu_, nx_);
+  }
+  // x_k (the measured state for k = 0)
+  Eigen::Map<const Eigen::VectorXd> state_at(const Ipopt::Number* x, int k) const {
+    return k == 0 ? Eigen::Map<const Eigen::VectorXd>(problem_->initial_state().data(), nx_) : state_after(x, k - 1);
+  }
+
+  void evaluate_values(const Ipopt::Number* x) {
+    ++evaluations_;
+    derivatives_ready_ = false;
+    values_ready_ = true;
+    values_ok_ = true;
+    objective_ = 0.0;
+    const double lambda = problem_->weights().wear;
+    for (int k = 0; k < horizon_ && values_ok_; ++k) {
+      double wear = 0.0;
+      values_ok_ = problem_->model().step(state_at(x, k), input(x, k), problem_->dt(), next_states_.col(k), &wear) &&
+                   std::isfinite(wear);
+      wear_[k] = wear;
+      objective_ += problem_->stage_cost_without_wear(k, state_after(x, k), input(x, k), input_before(x, k), d_x_next_,
+                                                      d_u_, d_u_before_) +
+                    lambda * wear;
+    }
+    values_ok_ = values_ok_ && std::isfinite(objective_);
+  }
+
+  void evaluate_derivatives(const Ipopt::Number* x) {
+    if (!values_ready_) evaluate_values(x);
+    derivatives_ready_ = true;
+    derivatives_ok_ = values_ok_;
+    for (int k = 0; k < horizon_ && derivatives_ok_; ++k) {
+      derivatives_ok_ = derivatives_.linearize_stage(*problem_, k, state_at(x, k), input(x, k), next_states_.col(k));
+    }
+  }
+
+  // Dynamics defects (the heading's wrapped: a state variable may sit a turn away from F's) and
+  // the rate rows.
+  void write_constraints(const Ipopt::Number* x, Ipopt::Number* g) const {
+    for (int k = 0; k < horizon_; ++k) {
+      Eigen::Map<Eigen::VectorXd> defect(g + k * nx_, nx_);
+      defect = state_after(x, k) - next_states_.col(k);
+      defect[StateIndex::kPsi] = wrap_angle(defect[StateIndex::kPsi]);
+    }
+    for (int k = 0; k < horizon_; ++k) {
+      for (int c = 0; c < rate_count_; ++c) {
+        const int i = rate_inputs_[static_cast<std::size_t>(c)];
+        g[horizon_ * nx_ + k * rate_count_ + c] = x[k * block_ + i] - (k == 0 ? 0.0 : x[(k - 1) * block_ + i]);
+      }
+    }
+  }
+
+  double defect_of(const Ipopt::Number* x) {
+    evaluate_values(x);
+    if (!values_ok_) return std::numeric_limits<double>::infinity();
+    double largest = 0.0;
+    for (int k = 0; k < horizon_; ++k) {
+      Eigen::VectorXd defect = state_after(x, k) - next_states_.col(k);
+      defect[StateIndex::kPsi] = wrap_angle(defect[StateIndex::kPsi]);
+      largest = std::max(largest, defect.cwiseAbs().maxCoeff());
+    }
+    return largest;
+  }
+
+  void write_structure(Ipopt::Index* i_row, Ipopt::Index* j_col) const {
+    int e = 0;
+    auto add = [&](int row, int column) {
+      i_row[e] = row;
+      j_col[e] = column;
+      ++e;
+    };
+    for (int k = 0; k < horizon_; ++k) {
+      const int row = k * nx_;
+      for (int i = 0; i < nx_; ++i) add(row + i, k * block_ + nu_ + i);
+      for (int i = 0; i < nx_; ++i) {
+        for (int j = 0; j < nu_; ++j) add(row + i, k * block_ + j);
+      }
+      if (k > 0) {
+        for (int i = 0; i < nx_; ++i) {
+          for (int j = 0; j < nx_; ++j) add(row + i, (k - 1) * block_ + nu_ + j);
+        }
+      }
+    }
+    for (int k = 0; k < horizon_; ++k) {
+      for (int c = 0; c < rate_count_; ++c) {
+        const int i = rate_inputs_[static_cast<std::size_t>(c)];
+        const int row = horizon_ * nx_ + k * rate_count_ + c;
+        add(row, k * block_ + i);
+        if (k > 0) add(row, (k - 1) * block_ + i);
+      }
+    }
+  }
+
+  int horizon_, nx_, nu_, block_;
+  int rate_count_ = 0;
+  std::vector<int> rate_inputs_;
+  OcpDerivatives derivatives_;
+  const OcpProblem* problem_ = nullptr;
+  Deadline deadline_{};
+  Eigen::MatrixXd next_states_;  // F(x_k, u_k), nx x N
+  Eigen::VectorXd wear_, d_x_next_, d_u_, d_u_before_;
+  double objective_ = 0.0;
+  bool values_ready_ = false, values_ok_ = false, derivatives_ready_ = false, derivatives_ok_ = false;
+  Eigen::VectorXd start_, final_, lambda_, z_lower_, z_upper_;
+  bool use_warm_multipliers_ = false, have_final_ = false;
+  Ipopt::SolverReturn final_status_ = Ipopt::INTERNAL_ERROR;
+  int iterations_ = 0;
+  long evaluations_ = 0;
+  SolverClock::time_point last_iteration_{}, first_callback_{};
+  SolverClock::duration longest_iteration_{};
+};
+
+struct IpoptSolver::Impl {
+  explicit Impl(const OcpProblem& shape) : nlp(new MultipleShootingNlp(shape)), app(IpoptApplicationFactory()) {
+    nx = shape.state_size();
+    nu = shape.input_size();
+    horizon = shape.horizon();
+    inputs = best_inputs = Eigen::MatrixXd::Zero(nu, horizon);
+    states = best_states = Eigen::MatrixXd::Zero(nx, horizon + 1);
+    stage_costs = Eigen::VectorXd::Zero(horizon);
+  }
+  Ipopt::SmartPtr<MultipleShootingNlp> nlp;
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app;
+  int nx = 0, nu = 0, horizon = 0;
+  bool initialized = false;
+  bool have_multipliers = false;
+  // How long Ipopt takes to reach its first iterate (initialisation, first derivatives and
+  // factorisation), from past solves; before the first, a multiple of the guesses' rollout time.
+  SolverClock::duration startup_estimate{};
+  Eigen::MatrixXd inputs, best_inputs, states, best_states;
+  Eigen::VectorXd stage_costs;
+};
+
+IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options) : options_(std::move(options)) {
+  options_.validate();
+  impl_ = std::make_unique<Impl>(problem);
+  Ipopt::IpoptApplication& app = *impl_->app;
+  app.Options()->SetStringValue("sb", "yes");  // no banner
+  app.Options()->SetIntegerValue("print_level", options_.print_level);
+  app.Options()->SetNumericValue("tol", options_.tol);
+  app.Options()->SetNumericValue("constr_viol_tol", options_.constr_viol_tol);
+  app.Options()->SetNumericValue("acceptable_tol", options_.acceptable_tol);
+  app.Options()->SetIntegerValue("max_iter", options_.max_iterations);
+  app.Options()->SetStringValue("mu_strategy", options_.mu_strategy);
+  app.Options()->SetStringValue("linear_solver", options_.linear_solver);
+  app.Options()->SetStringValue("hessian_approximation", "limited-memory");
+  app.Options()->SetIntegerValue("limited_memory_max_history", options_.lbfgs_history);
+  if (app.Initialize() != Ipopt::Solve_Succeeded) throw ConfigError("IpoptSolver: Ipopt failed to initialise");
+  impl_->initialized = true;
+}
+
+IpoptSolver::~IpoptSolver() = default;
+
+void IpoptSolver::reset_warm_start() noexcept {
+  if (impl_ != nullptr) impl_->have_multipliers = false;
+}
+
+SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
+                                  Solution* out, SolveSummary* summary) noexcept {
+  Impl& s = *impl_;
+  if (problem.state_size() != s.nx || problem.input_size() != s.nu || problem.horizon() != s.horizon) {
+    summary->reason = "the problem's shape differs from the one the solver was built for";
+    return SolveStatus::kInvalidInput;
+  }
+  try {
+    const auto guesses_start = SolverClock::now();
+    int rollouts = 1;
+    // The cheapest usable guess (projected), zeros projected when none is usable.
+    s.best_inputs.setZero();
+    problem.project(s.best_inputs);
+    double best_cost = problem.rollout(s.best_inputs, 0, s.best_states, s.stage_costs);
+    for (int g = 0; g < guesses.count; ++g) {
+      const Eigen::MatrixXd* guess = guesses.sequences[g];
+      if (guess == nullptr || guess->rows() != s.nu || guess->cols() != s.horizon || !guess->allFinite()) continue;
+      s.inputs = *guess;
+      problem.project(s.inputs);
+      const double cost = problem.rollout(s.inputs, 0, s.states, s.stage_costs);
+      ++rollouts;
+      if (cost < best_cost || !std::isfinite(best_cost)) {
+        best_cost = cost;
+        s.best_inputs = s.inputs;
+        s.best_states = s.states;
+      }
+    }
+    summary->initial_cost = best_cost;
+    if (!std::isfinite(best_cost)) {
+      summary->reason = "the model failed on every initial guess";
+      return SolveStatus::kNumericalError;
+    }
+    out->inputs = s.best_inputs;
+    out->states = s.best_states;
+    out->cost = best_cost;
+    summary->cost = problem.evaluate(out->inputs, s.states);
+    // Ipopt cannot be stopped before its first iterate: when that would overrun the deadline, the
+    // best guess is the answer (a usable plan, as the deadline contract asks).
+    const auto now = SolverClock::now();
+    if (s.startup_estimate == SolverClock::duration::zero()) {
+      // Measured on this problem: Ipopt's startup costs ~10 rollouts (first Jacobians + factorisation).
+      s.startup_estimate = 10 * (now - guesses_start) / rollouts;
+    }
+    if (now + s.startup_estimate >= deadline) {
+      summary->iterations = 0;
+      summary->rollouts = rollouts;
+      summary->reason = "no time for Ipopt's first iterate before the deadline; the best initial guess";
+      return SolveStatus::kBudgetExhausted;
+    }
+    const bool warm = options_.warm_start && s.have_multipliers;
+    if (warm) s.nlp->shift_multipliers();
+    s.nlp->prepare(problem, s.best_inputs, s.best_states, deadline, warm);
+    Ipopt::OptionsList& options = *s.app->Options();
+    options.SetStringValue("warm_start_init_point", warm ? "yes" : "no");
+    if (warm) {
+      options.SetNumericValue("mu_init", options_.warm_mu_init);
+      options.SetNumericValue("warm_start_bound_push", 1e-9);
+      options.SetNumericValue("warm_start_mult_bound_push", 1e-9);
+    } else {
+      options.SetNumericValue("mu_init", 0.1);
+    }
+    const double remaining = std::chrono::duration<double>(deadline - SolverClock::now()).count();
+    options.SetNumericValue("max_cpu_time", std::max(1e-6, remaining));
+    const auto optimize_start = SolverClock::now();
+    const Ipopt::ApplicationReturnStatus status = s.app->OptimizeTNLP(Ipopt::SmartPtr<Ipopt::TNLP>(GetRawPtr(s.nlp)));
+    if (s.nlp->first_callback() > optimize_start) {
+      s.startup_estimate = std::max(s.nlp->first_callback() - optimize_start, 9 * s.startup_estimate / 10);
+    }
+    summary->iterations = s.nlp->iterations();
+    summary->rollouts = s.nlp->evaluations();
+    // The final iterate's inputs, rolled out: states that satisfy the dynamics exactly.
+    double max_defect = std::numeric_limits<double>::infinity();
+    bool improved = false;
+    if (s.nlp->final_inputs(&s.inputs, &max_defect)) {
+      problem.project(s.inputs);
+      const double cost = problem.rollout(s.inputs, 0, s.states, s.stage_costs);
+      if (cost <= best_cost) {
+        best_cost = cost;
+        s.best_inputs = s.inputs;
+        s.best_states = s.states;
+        improved = true;
+      }
+      s.have_multipliers = true;
+    }
+    summary->max_defect = max_defect;
+    summary->rollouts += rollouts;
+    out->inputs = s.best_inputs;
+    out->states = s.best_states;
+    out->cost = best_cost;
+    summary->cost = problem.evaluate(out->inputs, s.states);
+    switch (status) {
+      case Ipopt::Solve_Succeeded:
+      case Ipopt::Solved_To_Acceptable_Level:
+        summary->reason = improved ? "ipopt converged" : "ipopt converged, no better than the initial guess";
+        return SolveStatus::kConverged;
+      case Ipopt::User_Requested_Stop:
+      case Ipopt::Maximum_CpuTime_Exceeded:
+        summary->reason = "ipopt stopped at the deadline; the rollout of its last iterate or the best guess";
+        return SolveStatus::kBudgetExhausted;
+      case Ipopt::Maximum_Iterations_Exceeded:
+        summary->reason = "ipopt stopped at max_iterations; the rollout of its last iterate or the best guess";
+        return SolveStatus::kBudgetExhausted;
+      default:
+        // Restoration failure, infeasibility, evaluation errors: no trustworthy optimum, so the
+        // controller falls back rather than act on it.
+        s.have_multipliers = false;
+        summary->reason = "ipopt failed (restoration, infeasibility or evaluation error)";
+        return status == Ipopt::Infeasible_Problem_Detected ? SolveStatus::kInfeasible : SolveStatus::kNumericalError;
+    }
+  } catch (const std::exception&) {
+    summary->reason = "ipopt threw an exception";
+    return SolveStatus::kNumericalError;
+  } catch (...) {
+    summary->reason = "ipopt threw an unknown exception";
+    return SolveStatus::kNumericalError;
+  }
+}
+
+}  // namespace swerve
