@@ -37,6 +37,7 @@ void SolverConfig::validate() const {
   if (backend == "sa") sa.validate();
   if (backend == "nlopt") nlopt.validate();
   if (backend == "ipopt") ipopt.validate();
+  if (backend == "ceres") ceres.validate();
 }
 
 std::unique_ptr<Solver> make_solver(const SolverConfig& config, const OcpProblem& problem) {
@@ -45,6 +46,9 @@ std::unique_ptr<Solver> make_solver(const SolverConfig& config, const OcpProblem
   if (config.backend == "nlopt") return std::make_unique<NloptSolver>(problem, config.nlopt);
 #ifdef SWERVE_HAS_IPOPT
   if (config.backend == "ipopt") return std::make_unique<IpoptSolver>(problem, config.ipopt);
+#endif
+#ifdef SWERVE_HAS_CERES
+  if (config.backend == "ceres") return std::make_unique<CeresSolver>(problem, config.ceres);
 #endif
   throw ConfigError("controller.solver.backend: '" + config.backend + "' has no factory entry");
 }

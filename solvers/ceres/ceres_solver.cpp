@@ -8,8 +8,6 @@
 #include <new>
 #include <utility>
 #include <vector>
-#include <cstdio>
-#include <cstdlib>
 
 #include "swerve/config/config_error.hpp"
 #include "swerve/kinematics/module_state.hpp"  // wrap_angle
@@ -66,10 +64,18 @@ class ShootingResiduals final : public ceres::CostFunction {
     effort_root_ = (2.0 * problem.weights().effort).cwiseSqrt();
     rate_root_ = (2.0 * problem.weights().rate).cwiseSqrt();
     evaluations_ = 0;
+    stop_ = Deadline::max();
   }
+  // From `stop` on, residual-only evaluations are refused (see Evaluate).
+  void set_stop(Deadline stop) noexcept { stop_ = stop; }
   long evaluations() const noexcept { return evaluations_; }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    // The deadline inside an iteration: Ceres treats a failed residual-only evaluation (a trial
+    // point of its line search or trust region) as a rejected step, so refusing them ends the
+    // iteration at once. Evaluations with Jacobians are never refused: Ceres asks for them at a
+    // point it has accepted, and a failure there makes it throw away every step it took.
+    if (jacobians == nullptr && SolverClock::now() >= stop_) return false;
     ++evaluations_;
     const OcpProblem& problem = *problem_;
     const CostWeights& weights = problem.weights();
@@ -128,8 +134,8 @@ class ShootingResiduals final : public ceres::CostFunction {
         const int column = j * nu_;
         block.block(row + kPoseRow, 0, 3, nu_) = pose_root.asDiagonal() * next_sensitivity_.block(0, column, 3, nu_);
         block.block(row + kTwistRow, 0, 3, nu_) = twist_root.asDiagonal() * next_sensitivity_.block(3, column, 3, nu_);
-        block.row(row + kWearRow) =
-            wear_factor * (wear_gradient.head(nx_).transpose() * sensitivity_.middleCols(column, nu_));
+        block.row(row + kWearRow).noalias() =
+            (wear_factor * wear_gradient.head(nx_)).transpose() * sensitivity_.middleCols(column, nu_);
       }
       for (int i = 0; i < nu_; ++i) {
         const double change = inputs_(i, k) - (k == 0 ? problem.previous_input()[i] : inputs_(i, k - 1));
@@ -155,6 +161,7 @@ class ShootingResiduals final : public ceres::CostFunction {
 
  private:
   const OcpProblem* problem_ = nullptr;
+  Deadline stop_ = Deadline::max();
   int nx_, nu_, horizon_, stage_rows_;
   double penalty_root_;  // sqrt(2 step_penalty_weight)
   Eigen::VectorXd effort_root_, rate_root_;
@@ -165,29 +172,26 @@ class ShootingResiduals final : public ceres::CostFunction {
   mutable long evaluations_ = 0;
 };
 
-// Stops Ceres when the next iteration, assumed as long as the longest so far (a step whose line
-// search needs more points costs several times a plain one), would end past `stop`. It returns
-// SOLVER_TERMINATE_SUCCESSFULLY, not SOLVER_ABORT: an abort makes Ceres restore the parameters it
-// started from, throwing away every step it took.
+// Stops Ceres when the next iteration, assumed as long as the last one, would end past `stop`.
+// It returns SOLVER_TERMINATE_SUCCESSFULLY, not SOLVER_ABORT: an abort makes Ceres restore the
+// parameters it started from, throwing away every step it took.
 class DeadlineCallback final : public ceres::IterationCallback {
  public:
   void arm(Deadline stop) noexcept {
     stop_ = stop;
     previous_ = SolverClock::now();
-    longest_ = SolverClock::duration::zero();
   }
 
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& /*summary*/) override {
     const auto now = SolverClock::now();
-    longest_ = std::max(longest_, now - previous_);
+    const auto last_iteration = now - previous_;
     previous_ = now;
-    return now + longest_ >= stop_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+    return now + last_iteration >= stop_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
   }
 
  private:
   Deadline stop_{};
   SolverClock::time_point previous_{};
-  SolverClock::duration longest_{};
 };
 
 }  // namespace
@@ -224,6 +228,9 @@ struct CeresSolver::Impl {
     solver_options.function_tolerance = options.function_tolerance;
     solver_options.gradient_tolerance = options.gradient_tolerance;
     solver_options.parameter_tolerance = options.parameter_tolerance;
+    // With input boxes Ceres refines each step by a projected Armijo line search; quadratic
+    // interpolation needs no gradient at its trial points, so they cost a rollout, not Jacobians.
+    solver_options.line_search_interpolation_type = ceres::QUADRATIC;
     solver_options.num_threads = 1;
     solver_options.minimizer_progress_to_stdout = false;
     solver_options.logging_type = ceres::SILENT;
@@ -315,8 +322,6 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     return SolveStatus::kInvalidInput;
   }
   Impl& s = *impl_;
-  const auto t_begin = SolverClock::now();
-  auto ms = [&](SolverClock::time_point t) { return std::chrono::duration<double, std::milli>(t - t_begin).count(); };
   try {
     s.residuals.bind(problem);
     // Start from the cheapest usable guess (projected); zeros projected when none is usable.
@@ -341,7 +346,6 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
       return SolveStatus::kNumericalError;
     }
     auto return_start = [&](const char* reason) {
-      if (std::getenv("CERES_TIMING")) std::fprintf(stderr, "return_start at %.3f: %s\n", ms(SolverClock::now()), reason);
       out->inputs = s.start_inputs;
       out->states = s.start_states;
       out->cost = start_cost;
@@ -356,7 +360,6 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     // the projection, rollout and report after Ceres returns (and Ceres' own wrap-up).
     s.parameters = s.start_inputs;
     const auto evaluate_start = SolverClock::now();
-    if (std::getenv("CERES_TIMING")) std::fprintf(stderr, "start done at %.3f\n", ms(evaluate_start));
     const bool start_differentiable =
         s.residuals.Evaluate(s.blocks.data(), s.residual_scratch.data(), s.jacobian_blocks.data());
     const auto evaluate_time = SolverClock::now() - evaluate_start;
@@ -369,15 +372,9 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     s.set_bounds(problem);
     s.solver_options.max_solver_time_in_seconds = std::chrono::duration<double>(stop - now).count();
     s.callback.arm(stop);
-    const auto t_ceres = SolverClock::now();
+    s.residuals.set_stop(stop);
     ceres::Solve(s.solver_options, &s.problem, &s.ceres_summary);
-    const auto t_after = SolverClock::now();
     const ceres::Solver::Summary& result = s.ceres_summary;
-    if (std::getenv("CERES_TIMING")) {
-      std::fprintf(stderr, "deadline %.3f eval %.3f stop %.3f ceres_start %.3f ceres_end %.3f iters:", ms(deadline), std::chrono::duration<double, std::milli>(evaluate_time).count(), ms(stop), ms(t_ceres), ms(t_after));
-      for (const auto& it : result.iterations) std::fprintf(stderr, " %.2f", it.iteration_time_in_seconds * 1e3);
-      std::fprintf(stderr, " pre %.3f\n", result.preprocessor_time_in_seconds*1e3);
-    }
 
     // Ceres leaves its answer in the parameter blocks (or the start, when it failed); the step
     // penalty may leave it slightly off the change bounds, so it is projected before comparing.

@@ -489,17 +489,18 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
       summary->reason = "no time for Ipopt's first iterate before the deadline; the best initial guess";
       return SolveStatus::kBudgetExhausted;
     }
+    // Warm: after a solve on this solver, the primal start (the best guess, normally the shifted
+    // plan) is near the optimum, so the barrier starts small; the shifted multipliers too if asked.
     const bool warm = options_.warm_start && s.have_multipliers;
-    if (warm) s.nlp->shift_multipliers();
-    s.nlp->prepare(problem, s.best_inputs, s.best_states, deadline, warm);
+    const bool warm_duals = warm && options_.warm_start_multipliers;
+    if (warm_duals) s.nlp->shift_multipliers();
+    s.nlp->prepare(problem, s.best_inputs, s.best_states, deadline, warm_duals);
     Ipopt::OptionsList& options = *s.app->Options();
-    options.SetStringValue("warm_start_init_point", warm ? "yes" : "no");
-    if (warm) {
-      options.SetNumericValue("mu_init", options_.warm_mu_init);
+    options.SetStringValue("warm_start_init_point", warm_duals ? "yes" : "no");
+    options.SetNumericValue("mu_init", warm ? options_.warm_mu_init : 0.1);
+    if (warm_duals) {
       options.SetNumericValue("warm_start_bound_push", 1e-9);
       options.SetNumericValue("warm_start_mult_bound_push", 1e-9);
-    } else {
-      options.SetNumericValue("mu_init", 0.1);
     }
     const double remaining = std::chrono::duration<double>(deadline - SolverClock::now()).count();
     options.SetNumericValue("max_cpu_time", std::max(1e-6, remaining));

@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "swerve/config/config_error.hpp"
+#include "swerve/mpc/ocp_derivatives.hpp"
 
 namespace swerve {
 namespace {
@@ -14,11 +15,19 @@ namespace {
 struct AlgorithmName {
   const char* name;
   nlopt::algorithm algorithm;
+  bool gradient;         // needs the exact gradient (LD_*)
+  bool linear_rows;      // takes the per-step change bounds as inequality constraints
 };
-constexpr AlgorithmName kAlgorithms[] = {{"LN_BOBYQA", nlopt::LN_BOBYQA},
-                                         {"LN_COBYLA", nlopt::LN_COBYLA},
-                                         {"LN_SBPLX", nlopt::LN_SBPLX},
-                                         {"LN_NELDERMEAD", nlopt::LN_NELDERMEAD}};
+constexpr AlgorithmName kAlgorithms[] = {{"LD_SLSQP", nlopt::LD_SLSQP, true, true},
+                                         {"LD_MMA", nlopt::LD_MMA, true, true},
+                                         {"LD_CCSAQ", nlopt::LD_CCSAQ, true, true},
+                                         {"LD_LBFGS", nlopt::LD_LBFGS, true, false},
+                                         {"LN_BOBYQA", nlopt::LN_BOBYQA, false, false},
+                                         {"LN_COBYLA", nlopt::LN_COBYLA, false, false},
+                                         {"LN_SBPLX", nlopt::LN_SBPLX, false, false},
+                                         {"LN_NELDERMEAD", nlopt::LN_NELDERMEAD, false, false}};
+constexpr const char* kAlgorithmList =
+    "must be one of LD_SLSQP, LD_MMA, LD_CCSAQ, LD_LBFGS (gradient), LN_BOBYQA, LN_COBYLA, LN_SBPLX, LN_NELDERMEAD";
 
 const AlgorithmName* find_algorithm(const std::string& name) {
   for (const AlgorithmName& a : kAlgorithms) {
@@ -34,11 +43,7 @@ constexpr double kLargeBound = 1e6;
 
 void NloptOptions::validate() const {
   if (find_algorithm(algorithm) == nullptr) {
-    throw_invalid_field("NloptOptions", "algorithm", algorithm,
-                        algorithm.rfind("LD_", 0) == 0
-                            ? "gradient algorithms need exact model derivatives, not built yet; use LN_BOBYQA, "
-                              "LN_COBYLA, LN_SBPLX or LN_NELDERMEAD"
-                            : "must be LN_BOBYQA, LN_COBYLA, LN_SBPLX or LN_NELDERMEAD");
+    throw_invalid_field("NloptOptions", "algorithm", algorithm, kAlgorithmList);
   }
   if (!(xtol_rel >= 0.0) || !std::isfinite(xtol_rel)) throw_invalid_field("NloptOptions", "xtol_rel", xtol_rel, "must be >= 0");
   if (!(ftol_rel >= 0.0) || !std::isfinite(ftol_rel)) throw_invalid_field("NloptOptions", "ftol_rel", ftol_rel, "must be >= 0");
@@ -51,6 +56,8 @@ void NloptOptions::validate() const {
 // What the objective needs: the problem, the deadline, buffers, and the best point seen.
 struct NloptSolver::Evaluation {
   const OcpProblem* problem = nullptr;
+  OcpDerivatives* derivatives = nullptr;  // gradient algorithms only
+  Eigen::MatrixXd gradient;               // nu x N
   Deadline deadline;
   Eigen::MatrixXd inputs, states, best_inputs, best_states;  // nu x N, nx x N+1
   Eigen::VectorXd stage_costs;                               // N
@@ -59,10 +66,11 @@ struct NloptSolver::Evaluation {
   bool deadline_hit = false;
   SolverClock::duration longest{};  // the longest evaluation so far
 
-  // f(x): the cost of the projected input sequence; NaN-free (a failed rollout costs +huge).
+  // Derivative-free: f(x) is the cost of the projected input sequence. Gradient algorithms: the
+  // cost of x itself and its exact gradient (adjoint), as their bounds and constraints keep x
+  // feasible; only feasible points can become the best. NaN-free (a failed rollout costs +huge).
   static double objective(unsigned n, const double* x, double* gradient, void* data) {
     auto* self = static_cast<Evaluation*>(data);
-    (void)gradient;  // derivative-free algorithms only (validated)
     // Room for this evaluation, the final one in do_solve and one more of slack (as SA does).
     const auto start = SolverClock::now();
     if (start + 3 * self->longest >= self->deadline) {
@@ -70,17 +78,62 @@ struct NloptSolver::Evaluation {
       throw nlopt::forced_stop();
     }
     std::copy(x, x + n, self->inputs.data());
-    self->problem->project(self->inputs);
-    const double cost = self->problem->rollout(self->inputs, 0, self->states, self->stage_costs);
+    double cost = 0.0;
+    bool feasible = true;
+    if (self->derivatives != nullptr) {
+      feasible = self->problem->is_feasible(self->inputs, 1e-9);
+      cost = gradient != nullptr
+                 ? self->derivatives->cost_and_gradient(*self->problem, self->inputs, self->states, self->gradient)
+                 : self->problem->rollout(self->inputs, 0, self->states, self->stage_costs);
+      if (gradient != nullptr) {
+        if (std::isfinite(cost)) {
+          std::copy(self->gradient.data(), self->gradient.data() + n, gradient);
+        } else {
+          std::fill(gradient, gradient + n, 0.0);
+        }
+      }
+    } else {
+      self->problem->project(self->inputs);
+      cost = self->problem->rollout(self->inputs, 0, self->states, self->stage_costs);
+    }
     self->longest = std::max(self->longest, SolverClock::now() - start);
     ++self->evaluations;
     if (!std::isfinite(cost)) return std::numeric_limits<double>::max();
-    if (cost < self->best_cost) {
+    if (feasible && cost < self->best_cost) {
       self->best_cost = cost;
       self->best_inputs = self->inputs;
       self->best_states = self->states;
     }
     return cost;
+  }
+
+  // The per-step change bounds as 2 rows per bounded input and step: +-(u_k - u_{k-1}) <= max_step.
+  static void step_rows(unsigned m, double* result, unsigned n, const double* x, double* jacobian, void* data) {
+    auto* self = static_cast<Evaluation*>(data);
+    const OcpProblem& problem = *self->problem;
+    const int nu = problem.input_size();
+    const Eigen::VectorXd& max_step = problem.bounds().max_step;
+    if (jacobian != nullptr) std::fill(jacobian, jacobian + static_cast<std::size_t>(m) * n, 0.0);
+    unsigned row = 0;
+    for (int k = 0; k < problem.horizon(); ++k) {
+      for (int i = 0; i < nu; ++i) {
+        if (!std::isfinite(max_step[i])) continue;
+        const unsigned column = static_cast<unsigned>(k * nu + i);
+        const double before = k == 0 ? problem.previous_input()[i] : x[column - static_cast<unsigned>(nu)];
+        const double change = x[column] - before;
+        result[row] = change - max_step[i];
+        result[row + 1] = -change - max_step[i];
+        if (jacobian != nullptr) {
+          jacobian[row * n + column] = 1.0;
+          jacobian[(row + 1) * n + column] = -1.0;
+          if (k > 0) {
+            jacobian[row * n + column - static_cast<unsigned>(nu)] = -1.0;
+            jacobian[(row + 1) * n + column - static_cast<unsigned>(nu)] = 1.0;
+          }
+        }
+        row += 2;
+      }
+    }
   }
 };
 
@@ -96,6 +149,18 @@ NloptSolver::NloptSolver(const OcpProblem& problem, NloptOptions options)
   evaluation_->inputs = evaluation_->best_inputs = Eigen::MatrixXd::Zero(nu_, horizon_);
   evaluation_->states = evaluation_->best_states = Eigen::MatrixXd::Zero(nx_, horizon_ + 1);
   evaluation_->stage_costs = Eigen::VectorXd::Zero(horizon_);
+  evaluation_->gradient = Eigen::MatrixXd::Zero(nu_, horizon_);
+  const AlgorithmName& algorithm = *find_algorithm(options_.algorithm);
+  if (algorithm.gradient) {
+    derivatives_ = std::make_unique<OcpDerivatives>(problem);  // ConfigError without model Jacobians
+    evaluation_->derivatives = derivatives_.get();
+  }
+  if (algorithm.linear_rows) {
+    for (int i = 0; i < nu_; ++i) {
+      if (std::isfinite(problem.bounds().max_step[i])) step_row_count_ += 2 * static_cast<unsigned>(horizon_);
+    }
+    step_row_tolerances_.assign(step_row_count_, 1e-10);
+  }
 }
 
 NloptSolver::~NloptSolver() = default;
@@ -148,6 +213,7 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     opt.set_lower_bounds(lower_);
     opt.set_upper_bounds(upper_);
     opt.set_min_objective(&Evaluation::objective, &e);
+    if (step_row_count_ > 0) opt.add_inequality_mconstraint(&Evaluation::step_rows, &e, step_row_tolerances_);
     opt.set_xtol_rel(options_.xtol_rel);
     opt.set_ftol_rel(options_.ftol_rel);
     opt.set_maxeval(options_.max_evaluations);
@@ -169,6 +235,17 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   } catch (const std::exception&) {
     summary->reason = "nlopt failed (generic failure)";
     result = nlopt::FAILURE;
+  }
+  if (e.derivatives != nullptr) {
+    // The gradient algorithm's last point, projected (its constraints hold only to a tolerance).
+    e.inputs = Eigen::MatrixXd::Map(x_.data(), nu_, horizon_);
+    problem.project(e.inputs);
+    const double cost = problem.rollout(e.inputs, 0, e.states, e.stage_costs);
+    if (cost < e.best_cost) {
+      e.best_cost = cost;
+      e.best_inputs = e.inputs;
+      e.best_states = e.states;
+    }
   }
   summary->iterations = static_cast<int>(std::min<long>(e.evaluations, std::numeric_limits<int>::max()));
   summary->rollouts = e.evaluations;

@@ -118,7 +118,18 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
         o.print_level = ipopt->get_int_or("print_level", o.print_level, 0, 12);
         o.lbfgs_history = ipopt->get_int_or("lbfgs_history", o.lbfgs_history, 1, 100);
         o.warm_start = ipopt->get_bool_or("warm_start", o.warm_start);
+        o.warm_start_multipliers = ipopt->get_bool_or("warm_start_multipliers", o.warm_start_multipliers);
         o.warm_mu_init = ipopt->get_double_or("warm_mu_init", o.warm_mu_init, Bound::positive());
+      }
+      if (const auto ceres = solver->optional_child("ceres")) {
+        CeresOptions& o = c.solver.ceres;
+        o.max_iterations = ceres->get_int_or("max_iterations", o.max_iterations, 1);
+        o.function_tolerance = ceres->get_double_or("function_tolerance", o.function_tolerance, Bound::positive());
+        o.gradient_tolerance = ceres->get_double_or("gradient_tolerance", o.gradient_tolerance, Bound::positive());
+        o.parameter_tolerance = ceres->get_double_or("parameter_tolerance", o.parameter_tolerance, Bound::positive());
+        o.linear_solver =
+            ceres->get_choice_or("linear_solver", {"dense_qr", "dense_normal_cholesky"}, o.linear_solver);
+        o.step_penalty_weight = ceres->get_double_or("step_penalty_weight", o.step_penalty_weight, Bound::non_negative());
       }
       try {
         c.solver.validate();

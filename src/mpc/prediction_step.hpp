@@ -63,6 +63,18 @@ T smooth_clamp(const T& x, double lower, double upper, double width) {
   return smooth_min<T>(smooth_max<T>(x, lower, width), upper, width);
 }
 
+// max(0, x) made C1 without moving its zero: 0 below 0, x^2 / (2 width) up to width, x - width / 2
+// above. The step's energy balance is clamped by it: steady motion dissipates ~0, so the optimum
+// of a plan that cruises sits on this corner at many stages, where a kink stalled SLSQP.
+template <typename T>
+T positive_part(const T& x) {
+  constexpr double kWidth = 1e-4;  // J: the bias above it (5e-5 J per step) is negligible
+  const double value = scalar_value(x);
+  if (value <= 0.0) return T(0.0);
+  if (value >= kWidth) return x - 0.5 * kWidth;
+  return x * x / (2.0 * kWidth);
+}
+
 // Blend widths, relative to each limit's scale.
 inline constexpr double kRateLimitSmoothing = 0.1;    // x max steering rate
 inline constexpr double kSpeedLimitSmoothing = 0.05;  // x max wheel speed
@@ -327,8 +339,7 @@ class PredictionStep {
                       u_applied_[InputIndex::wheel_speed(i)];
       }
       const T dissipated = drive_work - (kinetic_energy(v) - kinetic_energy(v0));
-      // Clamped at zero (a kink, kept: smoothing it would bias steady motion's zero wear).
-      step_wear = scalar_value(dissipated) > 0.0 ? wear_coefficient_ * dissipated : T(0.0);
+      step_wear = wear_coefficient_ * positive_part(dissipated);
     }
     // Pose: the body moves with the constant twist v over h (exact on arcs).
     const Vector3 delta_body = h * v;

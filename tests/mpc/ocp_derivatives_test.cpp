@@ -5,10 +5,10 @@
 
 #include <gtest/gtest.h>
 
-#include <random>
+#include <limits>
 
-#include "models/model_fixtures.hpp"
 #include "support/linear_models.hpp"
+#include "support/swerve_problems.hpp"
 #include "swerve/config/config_error.hpp"
 #include "swerve/mpc/twist_prediction_model.hpp"
 
@@ -29,42 +29,11 @@ TEST(OcpDerivatives, GradientVanishesAtTheClosedFormOptimum) {
   EXPECT_GT(gradient.cwiseAbs().maxCoeff(), 1e-3);
 }
 
-class SwerveProblemGradient : public ::testing::Test {
- protected:
-  SwerveProblemGradient() : params(make()), model(params), problem(model, 10, 0.05, weights(), InputBounds{}) {
-    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(model.state_size());
-    x0.segment<3>(3) << 0.5, 0.0, 0.1;
-    problem.set_initial_state(x0);
-    problem.set_previous_input(Eigen::Vector3d(0.5, 0.0, 0.1));
-    for (int k = 1; k <= 10; ++k) {
-      problem.set_reference(k, {0.03 * k, 0.004 * k, 0.01 * k}, {0.6, 0.0, 0.2});
-    }
-  }
-  static VehicleParams make() {
-    VehicleParams p = testing::make_params(ModuleLayout::rectangle(0.6, 0.5, 0.1));
-    p.mass = 160.0;
-    p.yaw_inertia = 8.0;
-    return p;
-  }
-  static CostWeights weights() {
-    CostWeights w;
-    w.pose = {10.0, 10.0, 200.0};
-    w.twist = {1.0, 1.0, 0.5};
-    w.wear = 3.0;
-    w.effort = Eigen::Vector3d(0.01, 0.02, 0.03);
-    w.rate = Eigen::Vector3d(1.0, 1.0, 0.5);
-    return w;
-  }
-  VehicleParams params;
-  TwistPredictionModel model;
-  OcpProblem problem;
-};
-
-TEST_F(SwerveProblemGradient, MatchesCentralFiniteDifferencesOfTheRolloutCost) {
-  std::mt19937 random(7);
-  std::uniform_real_distribution<double> jitter(-0.05, 0.05);
-  Eigen::MatrixXd inputs(3, 10);
-  for (int k = 0; k < 10; ++k) inputs.col(k) = Eigen::Vector3d(0.55 + jitter(random), jitter(random), 0.15 + jitter(random));
+TEST(OcpDerivatives, SwerveGradientMatchesCentralFiniteDifferencesOfTheRolloutCost) {
+  testing::SwerveTestProblem s(testing::SwerveScene::kTurn, 10, std::numeric_limits<double>::infinity());
+  const OcpProblem& problem = s.problem;
+  const TwistPredictionModel& model = s.model;
+  const Eigen::MatrixXd inputs = s.jittered_inputs(0.05, 7);
   OcpDerivatives derivatives(problem);
   Eigen::MatrixXd states(model.state_size(), 11), gradient(3, 10), fd(3, 10);
   Eigen::VectorXd stage_costs(10);

@@ -13,6 +13,7 @@
 
 #include "models/model_fixtures.hpp"
 #include "support/linear_models.hpp"
+#include "support/swerve_problems.hpp"
 #include "support/time_scale.hpp"
 #include "swerve/config/config_error.hpp"
 #include "swerve/mpc/twist_prediction_model.hpp"
@@ -28,45 +29,10 @@ double cost_of(const OcpProblem& problem, const Eigen::MatrixXd& inputs) {
   return problem.evaluate(inputs, states).total();
 }
 
-// The 4-module swerve problem with body-twist inputs, every cost term active (tracking, twist,
-// wear, effort, rate), moving at 0.5 m/s and turning towards a reference ahead.
-struct SwerveProblem {
-  VehicleParams params = testing::make_params(ModuleLayout::rectangle(0.6, 0.5, 0.1));
-  TwistPredictionModel model{params};
-  OcpProblem problem;
-  explicit SwerveProblem(int horizon, double max_step = 0.25) : problem(model, horizon, 0.05, weights(), bounds(max_step)) {
-    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(model.state_size());
-    x0.segment<3>(3) << 0.5, 0.0, 0.1;
-    problem.set_initial_state(x0);
-    problem.set_previous_input(Eigen::Vector3d(0.5, 0.0, 0.1));
-    for (int k = 1; k <= horizon; ++k) problem.set_reference(k, {0.03 * k, 0.004 * k, 0.01 * k}, {0.6, 0.0, 0.2});
-  }
-  static CostWeights weights() {
-    CostWeights w;
-    w.pose = {10.0, 10.0, 200.0};
-    w.twist = {1.0, 1.0, 0.5};
-    w.wear = 3.0;
-    w.effort = Eigen::Vector3d(0.01, 0.02, 0.03);
-    w.rate = Eigen::Vector3d(1.0, 1.0, 0.5);
-    return w;
-  }
-  static InputBounds bounds(double max_step) {
-    InputBounds b;
-    b.upper = Eigen::Vector3d(2.0, 2.0, 4.0);
-    b.lower = -b.upper;
-    b.max_step = Eigen::Vector3d::Constant(max_step);
-    return b;
-  }
-  // Inputs near the reference twist, jittered by up to +-`spread` per entry.
-  Eigen::MatrixXd jittered_inputs(double spread, unsigned seed) const {
-    std::mt19937 random(seed);
-    std::uniform_real_distribution<double> jitter(-spread, spread);
-    Eigen::MatrixXd inputs(3, problem.horizon());
-    for (int k = 0; k < problem.horizon(); ++k) {
-      inputs.col(k) = Eigen::Vector3d(0.55 + jitter(random), jitter(random), 0.15 + jitter(random));
-    }
-    return inputs;
-  }
+// The turning scene of tests/support/swerve_problems.hpp, every cost term active.
+struct SwerveProblem : testing::SwerveTestProblem {
+  explicit SwerveProblem(int horizon, double max_step = 0.25)
+      : testing::SwerveTestProblem(testing::SwerveScene::kTurn, horizon, max_step) {}
 };
 
 TEST(CeresSolver, HalfTheResidualSumOfSquaresIsTheOcpCostPlusTheWearSmoothingConstant) {
@@ -177,7 +143,8 @@ TEST(CeresSolver, HonoursAFiveMillisecondDeadline) {
   const auto start = SolverClock::now();
   const SolveStatus status = solver.solve(s.problem, {}, start + budget, &solution, &summary);
   const double elapsed_ms = std::chrono::duration<double, std::milli>(SolverClock::now() - start).count();
-  // Stated overhead: Ceres' wrap-up plus the final projection, rollout and report, under 2 ms here.
+  // Stated overshoot: none normally (two Jacobian evaluations are kept back for the evaluation or
+  // linear solve in flight at the stop and the final report); 2 ms allowed for the scheduler.
   EXPECT_LT(elapsed_ms, (5.0 + 2.0) * testing::kTimeScale) << summary.reason;
   ASSERT_EQ(status, SolveStatus::kBudgetExhausted) << summary.reason;
   EXPECT_TRUE(solution.valid);
@@ -198,7 +165,7 @@ TEST(CeresSolver, KeepsTheStepsOfARunStoppedByTheDeadline) {
             SolveStatus::kBudgetExhausted)
       << summary.reason;
   EXPECT_GE(summary.iterations, 1);
-  EXPECT_LT(solution.cost, 0.9 * summary.initial_cost);
+  EXPECT_LT(solution.cost, summary.initial_cost);  // an abort would have returned the start itself
 }
 
 TEST(CeresSolver, IsNeverWorseThanItsBestInitialGuessAndStaysFeasible) {

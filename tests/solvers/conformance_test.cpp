@@ -4,11 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
-#include <cstdlib>
+#include <cstdio>
 #include <limits>
 
 #include "models/model_fixtures.hpp"
 #include "support/linear_models.hpp"
+#include "support/swerve_problems.hpp"
 #include "support/time_scale.hpp"
 #include "swerve/mpc/twist_prediction_model.hpp"
 #include "swerve/solvers/solver_factory.hpp"
@@ -24,11 +25,23 @@ SolverConfig config_for(const std::string& backend) {
   config.backend = backend;
   config.sa.knots = 0;  // one knot per step: the LQ optimum is representable exactly
   config.sa.max_iterations = 40000;
+  config.ipopt.max_iterations = 3000;  // the deadline stops it first
+  config.ceres.max_iterations = 3000;
+  return config;
+}
+
+// The controller's defaults (SA: six knots over the horizon) for the swerve problem.
+SolverConfig swerve_config_for(const std::string& backend) {
+  SolverConfig config;
+  config.backend = backend;
+  config.sa.max_iterations = 15000;  // a fixed amount of work (~2 s here); the deadline is a cap
+  config.ipopt.max_iterations = 3000;
+  config.ceres.max_iterations = 3000;
   return config;
 }
 
 // Documented tolerances on the LQ optimum's cost from a cold (zero) start: SA within 1 % (its own
-// suite's figure), NLopt's BOBYQA (a quadratic-model method) within 1e-6.
+// suite's figure), the gradient backends (Ipopt, NLopt's SLSQP, Ceres) within 1e-6.
 double lq_tolerance(const std::string& backend) { return backend == "sa" ? 1e-2 : 1e-6; }
 
 class BackendConformance : public ::testing::TestWithParam<std::string> {};
@@ -70,31 +83,8 @@ TEST_P(BackendConformance, KeepsEveryInputInsideItsBounds) {
 
 // The swerve problem the controller solves (4 modules, N = 20, body-twist inputs), moving at
 // 0.5 m/s with a reference pulling 0.2 m aside.
-struct SwerveProblem {
-  VehicleParams params = testing::make_params(ModuleLayout::rectangle(0.6, 0.5, 0.1));
-  TwistPredictionModel model{params};
-  OcpProblem problem;
-  SwerveProblem() : problem(model, 20, 0.05, weights(), bounds()) {
-    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(10);
-    x0[3] = 0.5;
-    problem.set_initial_state(x0);
-    problem.set_previous_input(Eigen::Vector3d(0.5, 0.0, 0.0));
-    for (int k = 1; k <= 20; ++k) problem.set_reference(k, {0.025 * k, 0.2, 0.0}, {0.5, 0.0, 0.0});
-  }
-  static CostWeights weights() {
-    CostWeights w;
-    w.wear = std::getenv("SWERVE_WEAR0") ? 0.0 : 1.0;  // TEMP
-    w.effort = Eigen::Vector3d::Zero();
-    w.rate = Eigen::Vector3d::Constant(1.0);
-    return w;
-  }
-  static InputBounds bounds() {
-    InputBounds b;
-    b.upper = Eigen::Vector3d(2.0, 2.0, 4.0);
-    b.lower = -b.upper;
-    b.max_step = Eigen::Vector3d(0.1, 0.1, 0.25);
-    return b;
-  }
+struct SwerveProblem : testing::SwerveTestProblem {
+  SwerveProblem() : testing::SwerveTestProblem(testing::SwerveScene::kSidestep) {}
 };
 
 TEST_P(BackendConformance, ReturnsByAOneMillisecondDeadlineWithAUsablePlan) {
@@ -135,6 +125,122 @@ TEST_P(BackendConformance, ImprovesOnItsStartOnTheSwerveProblemAndNeverReturnsWo
   EXPECT_NEAR(summary.cost.total(), solution.cost, 1e-9 * solution.cost);
 }
 
+// The reference optimum of the swerve problem: Ipopt to tolerance 1e-9 from a cold start, no
+// deadline (computed once; ~1 s).
+double ipopt_reference_cost(const SwerveProblem& s) {
+  static const double cost = [&] {
+    SolverConfig config;
+    config.backend = "ipopt";
+    config.ipopt.tol = 1e-9;
+    config.ipopt.max_iterations = 5000;
+    std::unique_ptr<Solver> solver = make_solver(config, s.problem);
+    Solution solution;
+    solution.resize(10, 3, 20);
+    SolveSummary summary;
+    const SolveStatus status = solver->solve(s.problem, {}, SolverClock::now() + 600s, &solution, &summary);
+    EXPECT_EQ(status, SolveStatus::kConverged) << summary.reason;
+    EXPECT_LE(summary.max_defect, 1e-6);
+    return solution.cost;
+  }();
+  return cost;
+}
+
+// Stated gaps to the reference after a 2 s solve from the straight-ahead guess: Ipopt and NLopt
+// converge to the same local optimum (0.1 %), Ceres gets within 0.5 % (0.12 % measured), SA, a
+// sampler, within 2 % (0.1-1.7 % measured).
+double reference_tolerance(const std::string& backend) {
+  if (backend == "sa") return 2e-2;
+  if (backend == "ceres") return 5e-3;  // Levenberg-Marquardt sees one scalar wear residual per stage: slow
+  return 1e-3;
+}
+
+TEST_P(BackendConformance, ReachesTheIpoptReferenceOnTheSwerveProblemWithExactDynamics) {
+  SwerveProblem s;
+  const double reference = ipopt_reference_cost(s);
+  std::unique_ptr<Solver> solver = make_solver(swerve_config_for(GetParam()), s.problem);
+  Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
+  cruise.row(0).setConstant(0.5);
+  InitialGuesses guesses;
+  guesses.add(&cruise);
+  Solution solution;
+  solution.resize(10, 3, 20);
+  SolveSummary summary;
+  const auto deadline = SolverClock::now() + std::chrono::duration_cast<SolverClock::duration>(2s * testing::kTimeScale);
+  const SolveStatus status = solver->solve(s.problem, guesses, deadline, &solution, &summary);
+  ASSERT_TRUE(has_solution(status)) << summary.reason;
+  std::printf("[          ] %s: cost %.6f, reference %.6f, gap %+.3f %%, %d iterations, %.1f ms\n", GetParam().c_str(),
+              solution.cost, reference, 100.0 * (solution.cost / reference - 1.0), summary.iterations,
+              1e3 * summary.solve_time_s);
+  EXPECT_LE(solution.cost, reference * (1.0 + reference_tolerance(GetParam())));
+  // Dynamics respected: the plan's states are the model's rollout of its inputs (defect 0 <= 1e-6).
+  Eigen::MatrixXd states(10, 21);
+  s.problem.evaluate(solution.inputs, states);
+  EXPECT_LE((states - solution.states).cwiseAbs().maxCoeff(), 1e-6);
+  if (status == SolveStatus::kConverged) {
+    EXPECT_LE(summary.max_defect, 1e-6);  // Ipopt's own iterate
+  }
+  EXPECT_TRUE(s.problem.is_feasible(solution.inputs, 1e-9));
+}
+
+TEST_P(BackendConformance, WarmStartFromTheShiftedPlanNeedsFewerIterationsThanACold) {
+  SwerveProblem s;
+  const SolverConfig config = swerve_config_for(GetParam());
+  std::unique_ptr<Solver> solver = make_solver(config, s.problem);
+  const auto generous = std::chrono::duration_cast<SolverClock::duration>(10s * testing::kTimeScale);
+  Solution solution;
+  solution.resize(10, 3, 20);
+  SolveSummary summary;
+  Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
+  cruise.row(0).setConstant(0.5);
+  InitialGuesses first_guess;
+  first_guess.add(&cruise);
+  ASSERT_TRUE(has_solution(solver->solve(s.problem, first_guess, SolverClock::now() + generous, &solution, &summary)));
+  // The next cycle: the state the plan predicts, the reference one step on.
+  s.problem.set_initial_state(solution.states.col(1));
+  s.problem.set_previous_input(solution.inputs.col(0));
+  s.set_cycle(1);
+  solution.shift();
+  const Eigen::MatrixXd shifted = solution.inputs;
+  InitialGuesses warm_guess;
+  warm_guess.add(&shifted);
+  SolveSummary warm, cold;
+  ASSERT_TRUE(has_solution(solver->solve(s.problem, warm_guess, SolverClock::now() + generous, &solution, &warm)));
+  // Cold: a fresh solver from the last input held over the horizon (what a controller without a
+  // previous plan would start from; all-zero inputs are a flat point of the body-twist model,
+  // whose modules hold their angles at zero speed).
+  std::unique_ptr<Solver> fresh = make_solver(config, s.problem);
+  const Eigen::MatrixXd held = s.problem.previous_input().replicate(1, 20);
+  InitialGuesses cold_guess;
+  cold_guess.add(&held);
+  Solution cold_solution;
+  cold_solution.resize(10, 3, 20);
+  ASSERT_TRUE(has_solution(fresh->solve(s.problem, cold_guess, SolverClock::now() + generous, &cold_solution, &cold)));
+  std::printf("[          ] %s: warm %d iterations (cost %.6f, %s), cold %d iterations (cost %.6f, %s)\n",
+              GetParam().c_str(), warm.iterations, solution.cost, warm.reason, cold.iterations, cold_solution.cost,
+              cold.reason);
+  if (GetParam() == "sa") {
+    // SA has no convergence test: it spends its whole iteration budget either way, so the same
+    // budget must buy a better plan from the warm start.
+    EXPECT_EQ(warm.iterations, cold.iterations);
+    EXPECT_LT(solution.cost, cold_solution.cost);
+  } else {
+    EXPECT_LT(warm.iterations, cold.iterations);
+    EXPECT_LE(solution.cost, cold_solution.cost * (1.0 + 1e-3));
+  }
+}
+
+TEST_P(BackendConformance, RefusesAProblemOfAnotherShape) {
+  SwerveProblem s;
+  std::unique_ptr<Solver> solver = make_solver(config_for(GetParam()), s.problem);
+  const DoubleIntegratorModel model(0.5);
+  const OcpProblem other = testing::make_lq_problem(model, 20);
+  Solution solution;
+  solution.resize(6, 3, 20);
+  SolveSummary summary;
+  EXPECT_EQ(solver->solve(other, {}, SolverClock::now() + 1s, &solution, &summary), SolveStatus::kInvalidInput);
+  EXPECT_FALSE(solution.valid);
+}
+
 TEST_P(BackendConformance, RejectsABadStateAndAPassedDeadlineBeforeSolving) {
   SwerveProblem s;
   std::unique_ptr<Solver> solver = make_solver(config_for(GetParam()), s.problem);
@@ -152,14 +258,14 @@ TEST_P(BackendConformance, RejectsABadStateAndAPassedDeadlineBeforeSolving) {
 INSTANTIATE_TEST_SUITE_P(EveryBuiltBackend, BackendConformance, ::testing::ValuesIn(built_backends()),
                          [](const ::testing::TestParamInfo<std::string>& backend) { return backend.param; });
 
-TEST(NloptOptions, GradientAlgorithmsAreRejectedUntilExactDerivativesExist) {
+TEST(NloptOptions, UnknownAlgorithmsAndBadValuesAreRejectedNamingTheField) {
   NloptOptions options;
-  options.algorithm = "LD_SLSQP";
+  options.algorithm = "GN_DIRECT";  // a global method: not offered
   try {
     options.validate();
-    FAIL() << "accepted LD_SLSQP";
+    FAIL() << "accepted GN_DIRECT";
   } catch (const ConfigError& error) {
-    EXPECT_NE(std::string(error.what()).find("NloptOptions.algorithm = LD_SLSQP"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("NloptOptions.algorithm = GN_DIRECT"), std::string::npos) << error.what();
   }
   options = NloptOptions{};
   options.initial_step_fraction = 0.0;

@@ -18,6 +18,10 @@
 // per-step change bounds are a penalty that is zero on every feasible plan: it keeps the iterates
 // near feasible, and the answer is projected onto the bounds (OcpProblem::project) before it is
 // compared with the start.
+//
+// Deadline: Ceres gets the time left minus twice one Jacobian evaluation (timed at the start, kept
+// back for the wrap-up), an iteration callback stops it when the next iteration would not fit, and
+// trial-point evaluations are refused past that point, which ends an iteration at once.
 #pragma once
 
 #include <Eigen/Core>

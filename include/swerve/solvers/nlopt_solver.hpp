@@ -1,9 +1,12 @@
-// The NLopt backend (libnlopt-cxx-dev): single shooting over the whole input sequence with one of
-// NLopt's derivative-free local algorithms (BOBYQA by default), the OcpProblem's input boxes as
-// NLopt bounds and its per-step change bounds by projection, a wall-clock deadline through
-// set_maxtime and a stop check in the objective. It starts from the best initial guess and returns
-// the best point it evaluated. Gradient algorithms (LD_*) need exact derivatives of the prediction
-// model, which it does not provide yet, so they are rejected at configuration.
+// The NLopt backend (libnlopt-cxx-dev): single shooting over the whole input sequence, the
+// OcpProblem's input boxes as NLopt bounds, a wall-clock deadline through set_maxtime and a stop
+// check in the objective. It starts from the best initial guess and returns the best feasible
+// point it evaluated (never worse than the start).
+//   Gradient algorithms (LD_SLSQP by default, LD_MMA, LD_CCSAQ, LD_LBFGS) get the exact gradient
+// of the cost (adjoint recursion over the model's Jet Jacobians, OcpDerivatives) and the per-step
+// change bounds as linear inequality rows (LD_LBFGS takes bounds only: its answer is projected).
+//   Derivative-free ones (LN_BOBYQA, LN_COBYLA, LN_SBPLX, LN_NELDERMEAD) are kept for comparison;
+// they evaluate the projected sequence, so the change bounds hold by projection.
 #pragma once
 
 #include <memory>
@@ -14,9 +17,11 @@
 
 namespace swerve {
 
+class OcpDerivatives;
+
 struct NloptOptions {
-  std::string algorithm = "LN_BOBYQA";  // LN_BOBYQA | LN_COBYLA | LN_SBPLX | LN_NELDERMEAD
-  double xtol_rel = 1e-8;
+  std::string algorithm = "LD_SLSQP";  // LD_SLSQP | LD_MMA | LD_CCSAQ | LD_LBFGS | LN_BOBYQA | ...
+  double xtol_rel = 0.0;   // off: at 1e-8 SLSQP stopped early at a worse point of the swerve problem
   double ftol_rel = 1e-12;
   int max_evaluations = 200000;         // the deadline usually stops it first
   double initial_step_fraction = 0.1;   // first trust-region / simplex step / each input's half-range
@@ -25,7 +30,8 @@ struct NloptOptions {
 
 class NloptSolver final : public Solver {
  public:
-  // Sizes every buffer for the problem's shape (NLopt itself allocates inside each solve).
+  // Sizes every buffer for the problem's shape (NLopt itself allocates inside each solve). A
+  // gradient algorithm on a model without Jacobians is a ConfigError.
   NloptSolver(const OcpProblem& problem_shape, NloptOptions options);
   ~NloptSolver() override;
   const char* name() const noexcept override { return "nlopt"; }
@@ -40,6 +46,9 @@ class NloptSolver final : public Solver {
   NloptOptions options_;
   int nx_, nu_, horizon_;
   std::unique_ptr<Evaluation> evaluation_;
+  std::unique_ptr<OcpDerivatives> derivatives_;  // gradient algorithms
+  unsigned step_row_count_ = 0;
+  std::vector<double> step_row_tolerances_;
   std::vector<double> x_, lower_, upper_, step_;
 };
 

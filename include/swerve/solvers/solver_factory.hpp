@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "swerve/solvers/ceres_solver.hpp"
 #include "swerve/solvers/ipopt_solver.hpp"
 #include "swerve/solvers/nlopt_solver.hpp"
 #include "swerve/solvers/sa_solver.hpp"
@@ -19,6 +20,7 @@ struct SolverConfig {
   SaOptions sa;
   NloptOptions nlopt;
   IpoptOptions ipopt;
+  CeresOptions ceres;
   void validate() const;  // unknown or unbuilt backend, invalid backend options: ConfigError
 };
 
