@@ -484,6 +484,9 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
       s.startup_estimate = 10 * (now - guesses_start) / rollouts;
     }
     if (now + s.startup_estimate >= deadline) {
+      // Halved on every skip: one slow start (the very first solve pays Ipopt's one-time setup,
+      // ~25 ms) must not keep Ipopt from ever running again.
+      s.startup_estimate /= 2;
       summary->iterations = 0;
       summary->rollouts = rollouts;
       summary->reason = "no time for Ipopt's first iterate before the deadline; the best initial guess";
@@ -507,7 +510,9 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     const auto optimize_start = SolverClock::now();
     const Ipopt::ApplicationReturnStatus status = s.app->OptimizeTNLP(Ipopt::SmartPtr<Ipopt::TNLP>(GetRawPtr(s.nlp)));
     if (s.nlp->first_callback() > optimize_start) {
-      s.startup_estimate = std::max(s.nlp->first_callback() - optimize_start, 9 * s.startup_estimate / 10);
+      // Rises at once, falls halfway: a start that took longer is believed, a shorter one averaged.
+      const SolverClock::duration startup = s.nlp->first_callback() - optimize_start;
+      s.startup_estimate = startup > s.startup_estimate ? startup : (startup + s.startup_estimate) / 2;
     }
     summary->iterations = s.nlp->iterations();
     summary->rollouts = s.nlp->evaluations();

@@ -1,5 +1,6 @@
-// The swerve optimal control problems the MPC and solver tests share: a 4-module robot (0.6 x 0.5 m,
-// the model fixtures' 160 kg) with body-twist inputs, cruising at 0.5 m/s, in two scenes.
+// The swerve optimal control problems the MPC and solver tests and the solver benchmarks share: a
+// 4-module robot (0.6 x 0.5 m, the model fixtures' 40 kg per module; 2n modules on n axles 0.6 m
+// apart for more) with body-twist inputs, cruising at 0.5 m/s, in two scenes.
 //   kSidestep: the reference runs 0.2 m to the left (wear 1, rate 1, default pose weights); the
 //              conformance suite's problem. set_cycle(c) moves the reference c steps on.
 //   kTurn:     turning at 0.1 rad/s towards a reference ahead, every cost term active.
@@ -10,6 +11,7 @@
 #include <random>
 
 #include "models/model_fixtures.hpp"
+#include "swerve/mpc/ocp_problem.hpp"
 #include "swerve/mpc/twist_prediction_model.hpp"
 
 namespace swerve::testing {
@@ -17,13 +19,15 @@ namespace swerve::testing {
 enum class SwerveScene { kSidestep, kTurn };
 
 struct SwerveTestProblem {
-  VehicleParams params = make_params(ModuleLayout::rectangle(0.6, 0.5, 0.1));
+  VehicleParams params;
   TwistPredictionModel model{params};
   SwerveScene scene;
   OcpProblem problem;
 
-  explicit SwerveTestProblem(SwerveScene which, int horizon = 20, double max_step = -1.0)
-      : scene(which), problem(model, horizon, 0.05, weights(which), bounds(which, max_step)) {
+  explicit SwerveTestProblem(SwerveScene which, int horizon = 20, double max_step = -1.0, int modules = 4)
+      : params(make_params(modules == 4 ? ModuleLayout::rectangle(0.6, 0.5, 0.1)
+                                        : ModuleLayout::multi_axle(modules / 2, 0.6, 0.5, 0.1))),
+        scene(which), problem(model, horizon, 0.05, weights(which), bounds(which, max_step)) {
     Eigen::VectorXd x0 = Eigen::VectorXd::Zero(model.state_size());
     const Eigen::Vector3d twist = which == SwerveScene::kSidestep ? Eigen::Vector3d(0.5, 0.0, 0.0)
                                                                   : Eigen::Vector3d(0.5, 0.0, 0.1);

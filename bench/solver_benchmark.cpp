@@ -1,0 +1,188 @@
+// The optimiser backends behind the one Solver interface (issue 9), on the swerve problem of the
+// conformance suite (body-twist inputs, reference 0.2 m aside at 0.5 m/s) for 4 and 8 modules and
+// N in {10, 20, 40}:
+//   BM_Solver_Cold: a fresh solver from the last input held over the horizon;
+//   BM_Solver_Warm: receding horizon, each iteration one cycle on (the state the plan predicted,
+//                   the reference one step on) from the shifted plan.
+// Each solve runs to its backend's own convergence test (Ipopt tol 1e-6, SLSQP ftol 1e-12, Ceres
+// 1e-10, SA its 3000 proposals), no deadline. Counters: per-solve p50/p99, iterations per solve,
+// time per iteration, cost. Goal (issue 9): Ipopt warm, 4 modules, N = 20: p99 <= 10 ms.
+//   BM_Solver_GapToIpoptReference: the curve scenario's closed loop with the default SA controller
+// (20 ms budget); every 10th cycle the same problem is solved by Ipopt to tol 1e-9 without a
+// deadline (from SA's plan and from the held input) and SA's cost is compared with the best.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "support/swerve_problems.hpp"
+#include "swerve/config/scenario_config.hpp"
+#include "swerve/mpc/controller.hpp"
+#include "swerve/sim/metrics.hpp"
+#include "swerve/sim/simulator.hpp"
+#include "swerve/solvers/solver_factory.hpp"
+
+namespace swerve {
+namespace {
+
+using namespace std::chrono_literals;
+
+const char* const kBackends[] = {"sa", "nlopt", "ipopt", "ceres"};
+
+SolverConfig converging(const std::string& backend) {
+  SolverConfig config;
+  config.backend = backend;
+  config.ipopt.max_iterations = 3000;
+  config.ceres.max_iterations = 3000;
+  return config;
+}
+
+struct Samples {
+  std::vector<double> seconds, iterations, costs;
+  void add(double s, const SolveSummary& summary, double cost) {
+    seconds.push_back(s);
+    iterations.push_back(summary.iterations);
+    costs.push_back(cost);
+  }
+  void report(benchmark::State& state) const {
+    double total_iterations = 0.0, total_time = 0.0;
+    for (std::size_t i = 0; i < seconds.size(); ++i) {
+      total_iterations += iterations[i];
+      total_time += seconds[i];
+    }
+    state.counters["p50_ms"] = 1e3 * percentile(seconds, 50.0);
+    state.counters["p99_ms"] = 1e3 * percentile(seconds, 99.0);
+    state.counters["iterations"] = total_iterations / static_cast<double>(seconds.size());
+    state.counters["ms_per_iteration"] = total_iterations > 0 ? 1e3 * total_time / total_iterations : 0.0;
+    double cost = 0.0;
+    for (double c : costs) cost += c;
+    state.counters["cost"] = cost / static_cast<double>(costs.size());
+  }
+};
+
+void BM_Solver_Cold(benchmark::State& state) {
+  const std::string backend = kBackends[state.range(0)];
+  const int modules = static_cast<int>(state.range(1));
+  const int horizon = static_cast<int>(state.range(2));
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, horizon, -1.0, modules);
+  const Eigen::MatrixXd held = s.problem.previous_input().replicate(1, horizon);
+  InitialGuesses guesses;
+  guesses.add(&held);
+  Solution solution;
+  solution.resize(s.problem.state_size(), s.problem.input_size(), horizon);
+  Samples samples;
+  for (auto _ : state) {
+    std::unique_ptr<Solver> solver = make_solver(converging(backend), s.problem);
+    SolveSummary summary;
+    const auto start = SolverClock::now();
+    solver->solve(s.problem, guesses, start + 600s, &solution, &summary);
+    const double seconds = std::chrono::duration<double>(SolverClock::now() - start).count();
+    state.SetIterationTime(seconds);
+    samples.add(seconds, summary, solution.cost);
+  }
+  samples.report(state);
+  state.SetLabel(backend);
+}
+
+void BM_Solver_Warm(benchmark::State& state) {
+  const std::string backend = kBackends[state.range(0)];
+  const int modules = static_cast<int>(state.range(1));
+  const int horizon = static_cast<int>(state.range(2));
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, horizon, -1.0, modules);
+  std::unique_ptr<Solver> solver = make_solver(converging(backend), s.problem);
+  Solution solution;
+  solution.resize(s.problem.state_size(), s.problem.input_size(), horizon);
+  Eigen::MatrixXd guess = s.problem.previous_input().replicate(1, horizon);
+  InitialGuesses guesses;
+  guesses.add(&guess);
+  SolveSummary summary;
+  solver->solve(s.problem, guesses, SolverClock::now() + 600s, &solution, &summary);  // cycle 0, untimed
+  Samples samples;
+  int cycle = 0;
+  for (auto _ : state) {
+    // The next cycle: the state the plan predicted, the reference one step on, the shifted plan.
+    ++cycle;
+    s.problem.set_initial_state(solution.states.col(1));
+    s.problem.set_previous_input(solution.inputs.col(0));
+    s.set_cycle(cycle);
+    solution.shift();
+    guess = solution.inputs;
+    const auto start = SolverClock::now();
+    solver->solve(s.problem, guesses, start + 600s, &solution, &summary);
+    const double seconds = std::chrono::duration<double>(SolverClock::now() - start).count();
+    state.SetIterationTime(seconds);
+    samples.add(seconds, summary, solution.cost);
+  }
+  samples.report(state);
+  state.SetLabel(backend);
+}
+
+void solver_grid(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"backend", "modules", "N"});
+  for (int backend = 0; backend < 4; ++backend) {
+    for (int modules : {4, 8}) {
+      for (int horizon : {10, 20, 40}) b->Args({backend, modules, horizon});
+    }
+  }
+}
+BENCHMARK(BM_Solver_Cold)->Apply(solver_grid)->Iterations(3)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Solver_Warm)->Apply(solver_grid)->Iterations(10)->UseManualTime()->Unit(benchmark::kMillisecond);
+
+void BM_Solver_GapToIpoptReference(benchmark::State& state) {
+  const ScenarioConfig scenario = load_scenario_config_file(SWERVE_SOURCE_DIR "/configs/scenarios/curve.yaml");
+  const ScenarioController* wear_mpc = nullptr;
+  for (const ScenarioController& c : scenario.controllers) {
+    if (c.name == "wear_mpc") wear_mpc = &c;
+  }
+  if (wear_mpc == nullptr) {
+    state.SkipWithError("curve.yaml has no wear_mpc controller");
+    return;
+  }
+  std::vector<double> gaps;
+  for (auto _ : state) {
+    std::unique_ptr<TrackingController> tracker = make_controller(wear_mpc->config, scenario.vehicle, scenario.reference);
+    auto* controller = dynamic_cast<Controller*>(tracker.get());
+    Simulator plant(scenario.vehicle, scenario.simulator);
+    plant.reset(scenario.initial_state);
+    SolverConfig reference_config = converging("ipopt");
+    reference_config.ipopt.tol = 1e-9;
+    std::unique_ptr<Solver> ipopt = make_solver(reference_config, controller->problem());
+    const OcpProblem& problem = controller->problem();
+    Solution reference_plan;
+    reference_plan.resize(problem.state_size(), problem.input_size(), problem.horizon());
+    const double period = scenario.simulator.control_period;
+    const int steps = static_cast<int>(std::ceil(scenario.duration / period - 1e-9));
+    for (int k = 0; k < steps; ++k) {
+      const ControlOutput& output = controller->step(plant.measurement(), k * period);
+      if (k % 10 == 5 && output.source == CommandSource::kOptimizer) {
+        const Eigen::MatrixXd sa_plan = controller->plan().inputs;
+        const double sa_cost = controller->plan().cost;
+        const Eigen::MatrixXd held = problem.previous_input().replicate(1, problem.horizon());
+        double best = sa_cost;
+        for (const Eigen::MatrixXd* start : {&sa_plan, &held}) {
+          InitialGuesses guesses;
+          guesses.add(start);
+          SolveSummary summary;
+          if (has_solution(ipopt->solve(problem, guesses, SolverClock::now() + 600s, &reference_plan, &summary))) {
+            best = std::min(best, reference_plan.cost);
+          }
+        }
+        gaps.push_back(100.0 * (sa_cost / best - 1.0));
+      }
+      if (!plant.advance(output.modules)) break;
+    }
+  }
+  state.counters["cycles"] = static_cast<double>(gaps.size());
+  double mean = 0.0;
+  for (double g : gaps) mean += g;
+  state.counters["gap_mean_pct"] = gaps.empty() ? 0.0 : mean / static_cast<double>(gaps.size());
+  state.counters["gap_p50_pct"] = percentile(gaps, 50.0);
+  state.counters["gap_p90_pct"] = percentile(gaps, 90.0);
+  state.counters["gap_max_pct"] = gaps.empty() ? 0.0 : *std::max_element(gaps.begin(), gaps.end());
+}
+BENCHMARK(BM_Solver_GapToIpoptReference)->Iterations(1)->Unit(benchmark::kSecond);
+
+}  // namespace
+}  // namespace swerve
