@@ -62,6 +62,17 @@ struct Samples {
   }
 };
 
+// Times one solve for the benchmark's manual clock and records it.
+void timed_solve(benchmark::State& state, Solver& solver, const OcpProblem& problem, const InitialGuesses& guesses,
+                 Solution* solution, Samples* samples) {
+  SolveSummary summary;
+  const auto start = SolverClock::now();
+  solver.solve(problem, guesses, start + 600s, solution, &summary);
+  const double seconds = std::chrono::duration<double>(SolverClock::now() - start).count();
+  state.SetIterationTime(seconds);
+  samples->add(seconds, summary, solution->cost);
+}
+
 void BM_Solver_Cold(benchmark::State& state) {
   const std::string backend = kBackends[state.range(0)];
   const int modules = static_cast<int>(state.range(1));
@@ -75,12 +86,7 @@ void BM_Solver_Cold(benchmark::State& state) {
   Samples samples;
   for (auto _ : state) {
     std::unique_ptr<Solver> solver = make_solver(converging(backend), s.problem);
-    SolveSummary summary;
-    const auto start = SolverClock::now();
-    solver->solve(s.problem, guesses, start + 600s, &solution, &summary);
-    const double seconds = std::chrono::duration<double>(SolverClock::now() - start).count();
-    state.SetIterationTime(seconds);
-    samples.add(seconds, summary, solution.cost);
+    timed_solve(state, *solver, s.problem, guesses, &solution, &samples);
   }
   samples.report(state);
   state.SetLabel(backend);
@@ -109,11 +115,7 @@ void BM_Solver_Warm(benchmark::State& state) {
     s.set_cycle(cycle);
     solution.shift();
     guess = solution.inputs;
-    const auto start = SolverClock::now();
-    solver->solve(s.problem, guesses, start + 600s, &solution, &summary);
-    const double seconds = std::chrono::duration<double>(SolverClock::now() - start).count();
-    state.SetIterationTime(seconds);
-    samples.add(seconds, summary, solution.cost);
+    timed_solve(state, *solver, s.problem, guesses, &solution, &samples);
   }
   samples.report(state);
   state.SetLabel(backend);

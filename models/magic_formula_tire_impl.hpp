@@ -37,9 +37,9 @@ WheelSlip<T> compute_wheel_slip(const MagicFormulaParams& params, T u_wheel, T v
   } else {
     const T abs_u = abs(u_wheel);
     const T abs_vr = abs(tread_speed);
-    denom_kappa = detail::value_of(abs_u) > detail::value_of(abs_vr) ? abs_u : abs_vr;
-    if (detail::value_of(denom_kappa) < eps) denom_kappa = T(eps);
-    denom_alpha = detail::value_of(abs_u) < eps ? T(eps) : abs_u;
+    denom_kappa = scalar_value(abs_u) > scalar_value(abs_vr) ? abs_u : abs_vr;
+    if (scalar_value(denom_kappa) < eps) denom_kappa = T(eps);
+    denom_alpha = scalar_value(abs_u) < eps ? T(eps) : abs_u;
   }
   WheelSlip<T> slip;
   slip.slip_velocity_x_wheel = tread_speed - u_wheel;
@@ -57,13 +57,13 @@ MagicFormulaTire<T>::MagicFormulaTire(const MagicFormulaParams& params)
 
 template <typename T>
 T MagicFormulaTire<T>::pure_longitudinal(T slip_ratio, T fz) const {
-  const T load = detail::value_of(fz) > 0.0 ? fz : T(0.0);
+  const T load = scalar_value(fz) > 0.0 ? fz : T(0.0);
   return params_.mu * load * detail::magic_formula_curve(params_.longitudinal, slip_ratio);
 }
 
 template <typename T>
 T MagicFormulaTire<T>::pure_lateral(T slip_angle, T fz) const {
-  const T load = detail::value_of(fz) > 0.0 ? fz : T(0.0);
+  const T load = scalar_value(fz) > 0.0 ? fz : T(0.0);
   return params_.mu * load * detail::magic_formula_curve(params_.lateral, slip_angle);
 }
 
@@ -71,7 +71,7 @@ template <typename T>
 TireForces<T> MagicFormulaTire<T>::forces(T slip_ratio, T slip_angle, T fz) const {
   using std::sqrt;
   TireForces<T> out;
-  const T load = detail::value_of(fz) > 0.0 ? fz : T(0.0);
+  const T load = scalar_value(fz) > 0.0 ? fz : T(0.0);
   const T d = params_.mu * load;  // D, the same for both channels (one mu)
   switch (params_.combined_slip) {
     case CombinedSlipMethod::kNone:
@@ -81,9 +81,9 @@ TireForces<T> MagicFormulaTire<T>::forces(T slip_ratio, T slip_angle, T fz) cons
     case CombinedSlipMethod::kEllipseCap: {
       out.fx_wheel = d * detail::magic_formula_curve(params_.longitudinal, slip_ratio);
       out.fy_wheel = d * detail::magic_formula_curve(params_.lateral, slip_angle);
-      if (detail::value_of(d) <= 0.0) return out;
+      if (scalar_value(d) <= 0.0) return out;
       const T rho_sq = (out.fx_wheel * out.fx_wheel + out.fy_wheel * out.fy_wheel) / (d * d);
-      if (detail::value_of(rho_sq) > 1.0) {
+      if (scalar_value(rho_sq) > 1.0) {
         const T scale = T(1.0) / sqrt(rho_sq);
         out.fx_wheel *= scale;
         out.fy_wheel *= scale;
@@ -97,7 +97,7 @@ TireForces<T> MagicFormulaTire<T>::forces(T slip_ratio, T slip_angle, T fz) cons
       const T s_sq = sx * sx + sy * sy;
       T gx;  // f_x(s) / s
       T gy;  // f_y(s) / s
-      if (detail::value_of(s_sq) < 1e-20) {
+      if (scalar_value(s_sq) < 1e-20) {
         // f(s)/s -> d f / d s at 0 = C B x_peak (the E term is cubic), error O(s^2) < 1e-20.
         gx = T(params_.longitudinal.c * params_.longitudinal.b * peak_x_);
         gy = T(params_.lateral.c * params_.lateral.b * peak_y_);

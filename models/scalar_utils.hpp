@@ -5,17 +5,15 @@
 #include <cmath>
 #include <limits>
 
+#include "swerve/scalar.hpp"
+
 namespace swerve::detail {
 
-inline double value_of(double v) { return v; }
-template <typename Jet>
-double value_of(const Jet& j) {
-  return value_of(j.a);
-}
+using swerve::scalar_value;
 
 template <typename T>
 bool is_finite(const T& v) {
-  return std::isfinite(value_of(v));
+  return std::isfinite(scalar_value(v));
 }
 
 // max(a, b) smoothed: (a + b + sqrt((a - b)^2 + d^2)) / 2 >= max(a, b), within d/2 of it.
@@ -28,8 +26,8 @@ T smooth_max(const T& a, const T& b, double d) {
 
 template <typename T>
 T clamp_value(const T& v, double lo, double hi) {
-  if (value_of(v) < lo) return T(lo);
-  if (value_of(v) > hi) return T(hi);
+  if (scalar_value(v) < lo) return T(lo);
+  if (scalar_value(v) > hi) return T(hi);
   return v;
 }
 

@@ -160,8 +160,8 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
     x_dot[si] = (steer_command - steer_rate) / params_.actuators.steering_time_constant;
   }
   if (saturate_ && limits.has_steering_end_stops()) {
-    const double d = detail::value_of(delta);
-    const double rate = detail::value_of(steer_rate);
+    const double d = scalar_value(delta);
+    const double rate = scalar_value(steer_rate);
     if ((d >= limits.max_steering_angle && rate > 0.0) || (d <= limits.min_steering_angle && rate < 0.0)) {
       steer_rate = T(0.0);
     }
@@ -267,7 +267,7 @@ ModelStatus VehicleModel<T>::derivative(const Eigen::Ref<const Vector>& x_in, co
       T fz = T(static_loads_[contact]);
       if (ax_ay != nullptr) {
         fz = fz + transfer_per_ax_[contact] * ax_ay[0] + transfer_per_ay_[contact] * ax_ay[1];
-        if (detail::value_of(fz) < 0.0) fz = T(0.0);
+        if (scalar_value(fz) < 0.0) fz = T(0.0);
       }
       const T cvx = vx - r * caster.position_body.y();
       const T cvy = vy + r * caster.position_body.x();
@@ -301,7 +301,7 @@ ModelStatus VehicleModel<T>::derivative(const Eigen::Ref<const Vector>& x_in, co
     for (int i = 0; i < modules_; ++i) {
       const auto k = static_cast<std::size_t>(i);
       T fz = static_loads_[k] + transfer_per_ax_[k] * accel[0] + transfer_per_ay_[k] * accel[1];
-      if (detail::value_of(fz) < 0.0) fz = T(0.0);
+      if (scalar_value(fz) < 0.0) fz = T(0.0);
       module_forces(x, u, i, fz, &sums, diagnostics != nullptr ? diagnostics + i : nullptr, x_dot);
     }
     add_casters(&sums, accel);

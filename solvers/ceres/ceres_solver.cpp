@@ -324,22 +324,9 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   Impl& s = *impl_;
   try {
     s.residuals.bind(problem);
-    // Start from the cheapest usable guess (projected); zeros projected when none is usable.
-    s.start_inputs.setZero();
-    problem.project(s.start_inputs);
-    double start_cost = problem.rollout(s.start_inputs, 0, s.start_states, s.stage_costs);
-    for (int g = 0; g < guesses.count; ++g) {
-      const Eigen::MatrixXd* guess = guesses.sequences[g];
-      if (guess == nullptr || guess->rows() != nu_ || guess->cols() != horizon_ || !guess->allFinite()) continue;
-      s.candidate_inputs = *guess;
-      problem.project(s.candidate_inputs);
-      const double cost = problem.rollout(s.candidate_inputs, 0, s.candidate_states, s.stage_costs);
-      if (cost < start_cost || !std::isfinite(start_cost)) {
-        start_cost = cost;
-        s.start_inputs.swap(s.candidate_inputs);
-        s.start_states.swap(s.candidate_states);
-      }
-    }
+    long start_rollouts = 0;
+    const double start_cost = cheapest_start(problem, guesses, s.start_inputs, s.start_states, s.candidate_inputs,
+                                             s.candidate_states, s.stage_costs, &start_rollouts);
     summary->initial_cost = start_cost;
     if (!std::isfinite(start_cost)) {
       summary->reason = "the model failed on every initial guess";

@@ -449,24 +449,9 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   }
   try {
     const auto guesses_start = SolverClock::now();
-    int rollouts = 1;
-    // The cheapest usable guess (projected), zeros projected when none is usable.
-    s.best_inputs.setZero();
-    problem.project(s.best_inputs);
-    double best_cost = problem.rollout(s.best_inputs, 0, s.best_states, s.stage_costs);
-    for (int g = 0; g < guesses.count; ++g) {
-      const Eigen::MatrixXd* guess = guesses.sequences[g];
-      if (guess == nullptr || guess->rows() != s.nu || guess->cols() != s.horizon || !guess->allFinite()) continue;
-      s.inputs = *guess;
-      problem.project(s.inputs);
-      const double cost = problem.rollout(s.inputs, 0, s.states, s.stage_costs);
-      ++rollouts;
-      if (cost < best_cost || !std::isfinite(best_cost)) {
-        best_cost = cost;
-        s.best_inputs = s.inputs;
-        s.best_states = s.states;
-      }
-    }
+    long rollouts = 0;
+    double best_cost = cheapest_start(problem, guesses, s.best_inputs, s.best_states, s.inputs, s.states,
+                                      s.stage_costs, &rollouts);
     summary->initial_cost = best_cost;
     if (!std::isfinite(best_cost)) {
       summary->reason = "the model failed on every initial guess";
@@ -480,8 +465,8 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     // best guess is the answer (a usable plan, as the deadline contract asks).
     const auto now = SolverClock::now();
     if (s.startup_estimate == SolverClock::duration::zero()) {
-      // Measured on this problem: Ipopt's startup costs ~10 rollouts (first Jacobians + factorisation).
-      s.startup_estimate = 10 * (now - guesses_start) / rollouts;
+      // Ipopt's startup: the first Jacobians and a factorisation.
+      s.startup_estimate = (kJacobianRolloutCost + 2) * (now - guesses_start) / rollouts;
     }
     if (now + s.startup_estimate >= deadline) {
       // Halved on every skip: one slow start (the very first solve pays Ipopt's one-time setup,

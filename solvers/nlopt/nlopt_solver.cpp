@@ -174,27 +174,16 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   Evaluation& e = *evaluation_;
   e.problem = &problem;
   e.deadline = deadline;
-  e.best_cost = std::numeric_limits<double>::infinity();
   e.evaluations = 0;
   e.deadline_hit = false;
   const auto first_rollout = SolverClock::now();
-  // Start from the cheapest usable guess (projected); zeros projected when none is usable.
-  e.inputs.setZero();
-  problem.project(e.inputs);
-  Eigen::MatrixXd::Map(x_.data(), nu_, horizon_) = e.inputs;
-  double start_cost = problem.rollout(e.inputs, 0, e.states, e.stage_costs);
-  e.longest = SolverClock::now() - first_rollout;
-  for (int g = 0; g < guesses.count; ++g) {
-    const Eigen::MatrixXd* guess = guesses.sequences[g];
-    if (guess == nullptr || guess->rows() != nu_ || guess->cols() != horizon_ || !guess->allFinite()) continue;
-    e.inputs = *guess;
-    problem.project(e.inputs);
-    const double cost = problem.rollout(e.inputs, 0, e.states, e.stage_costs);
-    if (cost < start_cost || !std::isfinite(start_cost)) {
-      start_cost = cost;
-      Eigen::MatrixXd::Map(x_.data(), nu_, horizon_) = e.inputs;
-    }
-  }
+  long start_rollouts = 0;
+  const double start_cost = cheapest_start(problem, guesses, e.best_inputs, e.best_states, e.inputs, e.states,
+                                           e.stage_costs, &start_rollouts);
+  e.longest = (SolverClock::now() - first_rollout) / start_rollouts;
+  if (e.derivatives != nullptr) e.longest *= kJacobianRolloutCost;  // an evaluation with the gradient
+  Eigen::MatrixXd::Map(x_.data(), nu_, horizon_) = e.best_inputs;
+  e.best_cost = start_cost;  // nothing worse than the start comes back
   summary->initial_cost = start_cost;
   const InputBounds& bounds = problem.bounds();
   for (int k = 0; k < horizon_; ++k) {

@@ -136,31 +136,13 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     summary->reason = "the problem's shape differs from the one the solver was built for";
     return SolveStatus::kInvalidInput;
   }
-  // Start from the best initial guess (each projected onto the bounds); zeros when none is usable.
-  double best_cost = std::numeric_limits<double>::infinity();
   long rollouts = 0;
-  for (int g = 0; g < guesses.count; ++g) {
-    const Eigen::MatrixXd* guess = guesses.sequences[g];
-    if (guess == nullptr || guess->rows() != nu_ || guess->cols() != horizon_ || !guess->allFinite()) continue;
-    candidate_inputs_ = *guess;
-    problem.project(candidate_inputs_);
-    const double cost = problem.rollout(candidate_inputs_, 0, candidate_states_, candidate_stage_costs_);
-    ++rollouts;
-    if (cost < best_cost) {
-      best_cost = cost;
-      base_ = candidate_inputs_;
-    }
-  }
-  if (!std::isfinite(best_cost)) {
-    base_.setZero();
-    problem.project(base_);
-    best_cost = problem.rollout(base_, 0, states_, stage_costs_);
-    ++rollouts;
-    if (!std::isfinite(best_cost)) {
-      summary->reason = "the model failed on every initial guess";
-      summary->rollouts = rollouts;
-      return SolveStatus::kNumericalError;
-    }
+  const double start_cost = cheapest_start(problem, guesses, base_, states_, candidate_inputs_, candidate_states_,
+                                           candidate_stage_costs_, &rollouts);
+  if (!std::isfinite(start_cost)) {
+    summary->reason = "the model failed on every initial guess";
+    summary->rollouts = rollouts;
+    return SolveStatus::kNumericalError;
   }
   knots_.setZero();
   raw_ = base_;
@@ -176,7 +158,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   summary->initial_cost = current_cost;
   out->inputs = inputs_;
   out->states = states_;
-  best_cost = current_cost;
+  double best_cost = current_cost;
 
   // Geometric cooling over the schedule's progress: the larger of the share of iterations done and
   // the share of the time budget used, so a deadline-limited solve still cools all the way.

@@ -47,7 +47,7 @@ T clamp_by_value(const T& value, const T& lower, const T& upper) {
 // so motion away from the limits is unchanged. Every scalar type uses them, so every optimiser
 // sees one map.
 template <typename T>
-T smooth_min(const T& x, double limit, double width) {
+T soft_min(const T& x, double limit, double width) {
   const double value = scalar_value(x);
   if (value <= limit - width) return x;
   if (value >= limit + width) return T(limit);
@@ -55,12 +55,12 @@ T smooth_min(const T& x, double limit, double width) {
   return x - excess * excess / (4.0 * width);
 }
 template <typename T>
-T smooth_max(const T& x, double limit, double width) {
-  return -smooth_min<T>(-x, -limit, width);
+T soft_max(const T& x, double limit, double width) {
+  return -soft_min<T>(-x, -limit, width);
 }
 template <typename T>
-T smooth_clamp(const T& x, double lower, double upper, double width) {
-  return smooth_min<T>(smooth_max<T>(x, lower, width), upper, width);
+T soft_clamp(const T& x, double lower, double upper, double width) {
+  return soft_min<T>(soft_max<T>(x, lower, width), upper, width);
 }
 
 // max(0, x) made C1 without moving its zero: 0 below 0, x^2 / (2 width) up to width, x - width / 2
@@ -240,11 +240,11 @@ class PredictionStep {
           error = scalar_value(error) > 0.0 ? error - kPi : error + kPi;
           sign = -sign;
         }
-        rate = smooth_clamp<T>(error / dt, -limits.max_steering_rate, limits.max_steering_rate,
+        rate = soft_clamp<T>(error / dt, -limits.max_steering_rate, limits.max_steering_rate,
                                kRateLimitSmoothing * limits.max_steering_rate);
         // Drive only as fast as the wheel points the right way at the end of this step.
-        const T alignment = smooth_max<T>(cos(error - rate * dt), 0.0, kAlignmentSmoothing);
-        wheel_speed = smooth_clamp<T>(sign * speed * alignment / wheel_radius_, -max_wheel_speed, max_wheel_speed,
+        const T alignment = soft_max<T>(cos(error - rate * dt), 0.0, kAlignmentSmoothing);
+        wheel_speed = soft_clamp<T>(sign * speed * alignment / wheel_radius_, -max_wheel_speed, max_wheel_speed,
                                       kSpeedLimitSmoothing * max_wheel_speed);
       }
       inputs[InputIndex::steering_rate(i)] = rate;

@@ -1,6 +1,7 @@
 #include "swerve/solvers/solver.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace swerve {
 
@@ -30,6 +31,37 @@ void Solution::shift() noexcept {
   for (Eigen::Index k = 0; k + 1 < states.cols(); ++k) states.col(k) = states.col(k + 1);
 }
 
+double cheapest_start(const OcpProblem& problem, const InitialGuesses& guesses, Eigen::MatrixXd& inputs,
+                      Eigen::MatrixXd& states, Eigen::MatrixXd& candidate_inputs, Eigen::MatrixXd& candidate_states,
+                      Eigen::VectorXd& stage_costs, long* rollouts) noexcept {
+  double best_cost = std::numeric_limits<double>::infinity();
+  bool found = false;
+  for (int g = 0; g < guesses.count; ++g) {
+    const Eigen::MatrixXd* guess = guesses.sequences[g];
+    if (guess == nullptr || guess->rows() != problem.input_size() || guess->cols() != problem.horizon() ||
+        !guess->allFinite()) {
+      continue;
+    }
+    candidate_inputs = *guess;
+    problem.project(candidate_inputs);
+    const double cost = problem.rollout(candidate_inputs, 0, candidate_states, stage_costs);
+    ++*rollouts;
+    if (!found || cost < best_cost) {
+      found = true;
+      best_cost = cost;
+      inputs.swap(candidate_inputs);
+      states.swap(candidate_states);
+    }
+  }
+  if (!found || !std::isfinite(best_cost)) {
+    inputs.setZero();
+    problem.project(inputs);
+    best_cost = problem.rollout(inputs, 0, states, stage_costs);
+    ++*rollouts;
+  }
+  return best_cost;
+}
+
 SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                           SolveSummary* summary) noexcept {
   const auto start = SolverClock::now();
@@ -47,8 +79,9 @@ SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guess
     return finish(SolveStatus::kInvalidInput, "the output Solution is not sized for the problem");
   }
   out->valid = false;
-  if (!problem.initial_state().allFinite() || !problem.reference_poses().allFinite()) {
-    return finish(SolveStatus::kInvalidInput, "the problem's state or reference is not finite");
+  if (!problem.initial_state().allFinite() || !problem.reference_poses().allFinite() ||
+      !problem.reference_twists().allFinite() || !problem.previous_input().allFinite()) {
+    return finish(SolveStatus::kInvalidInput, "the problem's state, reference or previous input is not finite");
   }
   if (deadline <= start) return finish(SolveStatus::kInvalidInput, "the deadline has already passed");
   const SolveStatus status = do_solve(problem, guesses, deadline, out, &report);

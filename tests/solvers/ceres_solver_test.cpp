@@ -190,15 +190,7 @@ TEST(CeresSolver, IsNeverWorseThanItsBestInitialGuessAndStaysFeasible) {
 }
 
 TEST(CeresSolver, RefusesAModelWithoutJacobians) {
-  struct NoJacobians final : PredictionModel {
-    int state_size() const noexcept override { return 6; }
-    int input_size() const noexcept override { return 1; }
-    bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>&, double,
-              Eigen::Ref<Eigen::VectorXd> x_next, double*) const noexcept override {
-      x_next = x;
-      return true;
-    }
-  } model;
+  const testing::ModelWithoutJacobians model;
   const OcpProblem problem(model, 3, 0.1, CostWeights{}, InputBounds{});
   EXPECT_THROW(CeresSolver(problem, {}), ConfigError);
 }

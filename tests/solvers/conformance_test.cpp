@@ -145,14 +145,12 @@ double ipopt_reference_cost(const SwerveProblem& s) {
   return cost;
 }
 
-// Stated gaps to the reference after a 2 s solve from the straight-ahead guess: Ipopt and NLopt
-// converge to the same local optimum (0.1 %), Ceres gets within 0.5 % (0.12 % measured), SA, a
-// sampler, within 2 % (0.1-1.7 % measured).
-double reference_tolerance(const std::string& backend) {
-  if (backend == "sa") return 2e-2;
-  if (backend == "ceres") return 5e-3;  // Levenberg-Marquardt sees one scalar wear residual per stage: slow
-  return 1e-3;
-}
+// Stated gaps to the reference after a solve from the straight-ahead guess run to its own stopping
+// rule: the gradient backends converge to the same local optimum (within 0.1 %; measured 0, with
+// Ceres' Levenberg-Marquardt taking ~2700 iterations to get there); SA, a sampler, within 2 % after
+// its 15000 proposals (deterministic for its seed: 0.14 % measured; 0.1-2.4 % when a 2 s deadline
+// cut it short under load).
+double reference_tolerance(const std::string& backend) { return backend == "sa" ? 2e-2 : 1e-3; }
 
 TEST_P(BackendConformance, ReachesTheIpoptReferenceOnTheSwerveProblemWithExactDynamics) {
   SwerveProblem s;
@@ -165,7 +163,7 @@ TEST_P(BackendConformance, ReachesTheIpoptReferenceOnTheSwerveProblemWithExactDy
   Solution solution;
   solution.resize(10, 3, 20);
   SolveSummary summary;
-  const auto deadline = SolverClock::now() + std::chrono::duration_cast<SolverClock::duration>(2s * testing::kTimeScale);
+  const auto deadline = SolverClock::now() + std::chrono::duration_cast<SolverClock::duration>(60s * testing::kTimeScale);
   const SolveStatus status = solver->solve(s.problem, guesses, deadline, &solution, &summary);
   ASSERT_TRUE(has_solution(status)) << summary.reason;
   std::printf("[          ] %s: cost %.6f, reference %.6f, gap %+.3f %%, %d iterations, %.1f ms\n", GetParam().c_str(),

@@ -51,6 +51,18 @@ class DoubleIntegratorModel final : public PredictionModel {
   double wear_scale_;
 };
 
+// A model without exact Jacobians (the state stands still): what the gradient backends must refuse.
+class ModelWithoutJacobians final : public PredictionModel {
+ public:
+  int state_size() const noexcept override { return 6; }
+  int input_size() const noexcept override { return 1; }
+  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>&, double,
+            Eigen::Ref<Eigen::VectorXd> x_next, double*) const noexcept override {
+    x_next = x;
+    return true;
+  }
+};
+
 // The known-answer tracking problem every backend is tested on: from rest at the origin, follow a
 // line at (0.1, 0.05, 0.01) per step, with effort, rate and wear terms all active.
 inline OcpProblem make_lq_problem(const DoubleIntegratorModel& model, int horizon, InputBounds bounds = {}) {

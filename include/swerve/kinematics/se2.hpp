@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "swerve/kinematics/module_state.hpp"
+#include "swerve/scalar.hpp"
 
 namespace swerve {
 
@@ -40,12 +41,6 @@ KinematicsStatus discretize(const Eigen::Vector3d& twist_body, double dt, Eigen:
 // Below this rotation the closed forms of se2_exp and se2_log lose digits to cancellation; the
 // Taylor series used instead are accurate to O(theta^6) ~ 1e-24 there.
 inline constexpr double kSe2SmallAngle = 1e-4;
-
-inline double scalar_value(double v) { return v; }
-template <typename Jet>
-double scalar_value(const Jet& j) {
-  return scalar_value(j.a);
-}
 
 template <typename T>
 T wrap_angle_of(const T& angle) {

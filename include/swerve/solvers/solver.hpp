@@ -62,6 +62,18 @@ struct InitialGuesses {
   }
 };
 
+// What one rollout with every stage's exact Jacobians costs against a plain rollout (measured: 4-7x
+// on the swerve problems); the gradient backends budget their first evaluation with it.
+inline constexpr int kJacobianRolloutCost = 8;
+
+// The start every backend shares: the cheapest usable guess (right size, finite), projected onto
+// the bounds, or zero inputs projected when no guess is usable. Writes the start's inputs and
+// rollout states (candidate_*: scratch of the same sizes), adds the rollouts done to *rollouts and
+// returns the start's cost (+inf when the model failed). noexcept, no allocation.
+double cheapest_start(const OcpProblem& problem, const InitialGuesses& guesses, Eigen::MatrixXd& inputs,
+                      Eigen::MatrixXd& states, Eigen::MatrixXd& candidate_inputs, Eigen::MatrixXd& candidate_states,
+                      Eigen::VectorXd& stage_costs, long* rollouts) noexcept;
+
 class Solver {
  public:
   virtual ~Solver() = default;
