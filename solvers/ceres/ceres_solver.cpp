@@ -324,6 +324,7 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   Impl& s = *impl_;
   try {
     s.residuals.bind(problem);
+    const auto solve_start = SolverClock::now();
     long start_rollouts = 0;
     const double start_cost = cheapest_start(problem, guesses, s.start_inputs, s.start_states, s.candidate_inputs,
                                              s.candidate_states, s.stage_costs, &start_rollouts);
@@ -343,6 +344,12 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
       return SolveStatus::kBudgetExhausted;
     };
 
+    // One Evaluate with Jacobians costs about kJacobianRolloutCost rollouts: when even pricing one
+    // would overrun the deadline, the start is the answer.
+    const auto guesses_time = SolverClock::now() - solve_start;
+    if (SolverClock::now() + kJacobianRolloutCost * guesses_time / start_rollouts >= deadline) {
+      return return_start("the deadline left no time for a Ceres iteration");
+    }
     // One Evaluate with Jacobians at the start prices an iteration; twice that is kept back for
     // the projection, rollout and report after Ceres returns (and Ceres' own wrap-up).
     s.parameters = s.start_inputs;
