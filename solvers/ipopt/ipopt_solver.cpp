@@ -30,6 +30,9 @@ void IpoptOptions::validate() const {
   positive("constr_viol_tol", constr_viol_tol);
   positive("acceptable_tol", acceptable_tol);
   positive("warm_mu_init", warm_mu_init);
+  if (!(startup_estimate >= 0.0) || !std::isfinite(startup_estimate)) {
+    throw_invalid_field("IpoptOptions", "startup_estimate", startup_estimate, "must be finite and >= 0");
+  }
   if (max_iterations < 1) throw_invalid_field("IpoptOptions", "max_iterations", max_iterations, "must be >= 1");
   if (mu_strategy != "adaptive" && mu_strategy != "monotone") {
     throw_invalid_field("IpoptOptions", "mu_strategy", mu_strategy, "must be adaptive or monotone");
@@ -419,6 +422,8 @@ struct IpoptSolver::Impl {
 IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options) : options_(std::move(options)) {
   options_.validate();
   impl_ = std::make_unique<Impl>(problem);
+  impl_->startup_estimate = std::chrono::duration_cast<SolverClock::duration>(
+      std::chrono::duration<double>(options_.startup_estimate));
   Ipopt::IpoptApplication& app = *impl_->app;
   app.Options()->SetStringValue("sb", "yes");  // no banner
   app.Options()->SetIntegerValue("print_level", options_.print_level);

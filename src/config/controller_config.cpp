@@ -120,6 +120,7 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
         o.warm_start = ipopt->get_bool_or("warm_start", o.warm_start);
         o.warm_start_multipliers = ipopt->get_bool_or("warm_start_multipliers", o.warm_start_multipliers);
         o.warm_mu_init = ipopt->get_double_or("warm_mu_init", o.warm_mu_init, Bound::positive());
+        o.startup_estimate = ipopt->get_double_or("startup_estimate", o.startup_estimate, Bound::non_negative());
       }
       if (const auto ceres = solver->optional_child("ceres")) {
         CeresOptions& o = c.solver.ceres;

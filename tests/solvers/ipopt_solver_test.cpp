@@ -7,6 +7,7 @@
 
 #include "support/linear_models.hpp"
 #include "support/swerve_problems.hpp"
+#include "support/time_scale.hpp"
 #include "swerve/config/config_error.hpp"
 
 namespace swerve {
@@ -36,6 +37,31 @@ TEST(IpoptSolver, ReachesTheLinearQuadraticOptimumToOneMicroRelative) {
   EXPECT_LT((solution.inputs - optimum).cwiseAbs().maxCoeff(), 1e-4);
 }
 
+TEST(IpoptSolver, OneSlowStartDoesNotKeepIpoptFromRunningAgain) {
+  // Regression: the startup estimate only ever rose, so after one slow first solve (Ipopt's
+  // one-time setup, ~25 ms) every later 20 ms solve skipped Ipopt and returned its guess; the
+  // offset60 run then tracked at twice the baseline's error. Skips now halve the estimate.
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, 10);
+  IpoptOptions options;
+  options.startup_estimate = 1.0 * testing::kTimeScale;  // s: as if the first solve had been very slow
+  IpoptSolver solver(s.problem, options);
+  Solution solution;
+  solution.resize(10, 3, 10);
+  const Eigen::MatrixXd held = s.problem.previous_input().replicate(1, 10);
+  InitialGuesses guesses;
+  guesses.add(&held);
+  int first_run = -1;
+  for (int cycle = 0; cycle < 12 && first_run < 0; ++cycle) {
+    SolveSummary summary;
+    const auto budget = std::chrono::duration_cast<SolverClock::duration>(100ms * testing::kTimeScale);
+    ASSERT_TRUE(has_solution(solver.solve(s.problem, guesses, SolverClock::now() + budget, &solution, &summary)))
+        << summary.reason;
+    if (summary.iterations > 0) first_run = cycle;
+  }
+  ASSERT_NE(first_run, -1) << "Ipopt never ran again";
+  EXPECT_GE(first_run, 1) << "the 1 s estimate must make the first solves skip Ipopt";
+}
+
 TEST(IpoptSolver, RejectsBadOptionsNamingTheField) {
   testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
   auto expect_rejected = [&](IpoptOptions options, const std::string& field) {
@@ -58,6 +84,9 @@ TEST(IpoptSolver, RejectsBadOptionsNamingTheField) {
   options = IpoptOptions{};
   options.max_iterations = 0;
   expect_rejected(options, "max_iterations");
+  options = IpoptOptions{};
+  options.startup_estimate = -1.0;
+  expect_rejected(options, "startup_estimate");
 }
 
 }  // namespace

@@ -40,6 +40,10 @@ struct IpoptOptions {
   bool warm_start = true;
   bool warm_start_multipliers = false;
   double warm_mu_init = 1e-4;
+  // Seconds Ipopt needs to reach its first iterate on the target (first Jacobians and
+  // factorisation), if known; 0: estimated from the guesses' rollouts, then measured every solve.
+  // A solve whose deadline leaves less returns its best guess, and halves the estimate.
+  double startup_estimate = 0.0;
   void validate() const;           // ConfigError naming the field and value
 };
 
