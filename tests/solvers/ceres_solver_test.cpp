@@ -144,8 +144,9 @@ TEST(CeresSolver, HonoursAFiveMillisecondDeadline) {
   const SolveStatus status = solver.solve(s.problem, {}, start + budget, &solution, &summary);
   const double elapsed_ms = std::chrono::duration<double, std::milli>(SolverClock::now() - start).count();
   // Stated overshoot: none normally (two Jacobian evaluations are kept back for the evaluation or
-  // linear solve in flight at the stop and the final report); 2 ms allowed for the scheduler.
-  EXPECT_LT(elapsed_ms, (5.0 + 3.0) * testing::kTimeScale) << summary.reason;  // + scheduler jitter under ctest -j2
+  // linear solve in flight at the stop and the final report); 3 ms allowed for the scheduler
+  // under ctest -j2.
+  EXPECT_LT(elapsed_ms, (5.0 + 3.0) * testing::kTimeScale) << summary.reason;
   ASSERT_EQ(status, SolveStatus::kBudgetExhausted) << summary.reason;
   EXPECT_TRUE(solution.valid);
   EXPECT_TRUE(s.problem.is_feasible(solution.inputs, 1e-12));
