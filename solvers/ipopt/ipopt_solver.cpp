@@ -410,7 +410,6 @@ struct IpoptSolver::Impl {
   Ipopt::SmartPtr<MultipleShootingNlp> nlp;
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app;
   int nx = 0, nu = 0, horizon = 0;
-  bool initialized = false;
   bool have_multipliers = false;
   // How long Ipopt takes to reach its first iterate (initialisation, first derivatives and
   // factorisation), from past solves; before the first, a multiple of the guesses' rollout time.
@@ -436,7 +435,6 @@ IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options) : opti
   app.Options()->SetStringValue("hessian_approximation", "limited-memory");
   app.Options()->SetIntegerValue("limited_memory_max_history", options_.lbfgs_history);
   if (app.Initialize() != Ipopt::Solve_Succeeded) throw ConfigError("IpoptSolver: Ipopt failed to initialise");
-  impl_->initialized = true;
 }
 
 IpoptSolver::~IpoptSolver() = default;
