@@ -59,7 +59,6 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     }
     rate_count_ = static_cast<int>(rate_inputs_.size());
     next_states_ = Eigen::MatrixXd::Zero(nx_, horizon_);
-    wear_ = Eigen::VectorXd::Zero(horizon_);
     d_x_next_ = Eigen::VectorXd::Zero(nx_);
     d_u_ = Eigen::VectorXd::Zero(nu_);
     d_u_before_ = Eigen::VectorXd::Zero(nu_);
@@ -305,7 +304,6 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
       double wear = 0.0;
       values_ok_ = problem_->model().step(state_at(x, k), input(x, k), problem_->dt(), next_states_.col(k), &wear) &&
                    std::isfinite(wear);
-      wear_[k] = wear;
       objective_ += problem_->stage_cost_without_wear(k, state_after(x, k), input(x, k), input_before(x, k), d_x_next_,
                                                       d_u_, d_u_before_) +
                     lambda * wear;
@@ -386,7 +384,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   const OcpProblem* problem_ = nullptr;
   Deadline deadline_{};
   Eigen::MatrixXd next_states_;  // F(x_k, u_k), nx x N
-  Eigen::VectorXd wear_, d_x_next_, d_u_, d_u_before_;
+  Eigen::VectorXd d_x_next_, d_u_, d_u_before_;
   double objective_ = 0.0;
   bool values_ready_ = false, values_ok_ = false, derivatives_ready_ = false, derivatives_ok_ = false;
   Eigen::VectorXd start_, final_, lambda_, z_lower_, z_upper_;
