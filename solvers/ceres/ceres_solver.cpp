@@ -281,7 +281,7 @@ struct CeresSolver::Impl {
 };
 
 CeresSolver::CeresSolver(const OcpProblem& problem_shape, CeresOptions options)
-    : options_(std::move(options)), nx_(problem_shape.state_size()), nu_(problem_shape.input_size()),
+    : Solver(problem_shape), options_(std::move(options)), nx_(problem_shape.state_size()), nu_(problem_shape.input_size()),
       horizon_(problem_shape.horizon()) {
   options_.validate();
   impl_ = std::make_unique<Impl>(problem_shape, options_);
@@ -317,10 +317,6 @@ bool CeresSolver::evaluate_residuals(const OcpProblem& problem, const Eigen::Ref
 
 SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
                                   Solution* out, SolveSummary* summary) noexcept {
-  if (problem.state_size() != nx_ || problem.input_size() != nu_ || problem.horizon() != horizon_) {
-    summary->reason = "the problem's shape differs from the one the solver was built for";
-    return SolveStatus::kInvalidInput;
-  }
   Impl& s = *impl_;
   try {
     s.residuals.bind(problem);

@@ -65,6 +65,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     start_ = Eigen::VectorXd::Zero(variables());
     final_ = Eigen::VectorXd::Zero(variables());
     lambda_ = Eigen::VectorXd::Zero(constraints());
+    constraints_ = Eigen::VectorXd::Zero(constraints());
     z_lower_ = Eigen::VectorXd::Zero(variables());
     z_upper_ = Eigen::VectorXd::Zero(variables());
   }
@@ -336,16 +337,12 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     }
   }
 
+  // The largest dynamics defect at x (the rows write_constraints gives Ipopt).
   double defect_of(const Ipopt::Number* x) {
     evaluate_values(x);
     if (!values_ok_) return std::numeric_limits<double>::infinity();
-    double largest = 0.0;
-    for (int k = 0; k < horizon_; ++k) {
-      Eigen::VectorXd defect = state_after(x, k) - next_states_.col(k);
-      defect[StateIndex::kPsi] = wrap_angle(defect[StateIndex::kPsi]);
-      largest = std::max(largest, defect.cwiseAbs().maxCoeff());
-    }
-    return largest;
+    write_constraints(x, constraints_.data());
+    return constraints_.head(horizon_ * nx_).cwiseAbs().maxCoeff();
   }
 
   void write_structure(Ipopt::Index* i_row, Ipopt::Index* j_col) const {
@@ -387,7 +384,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   Eigen::VectorXd d_x_next_, d_u_, d_u_before_;
   double objective_ = 0.0;
   bool values_ready_ = false, values_ok_ = false, derivatives_ready_ = false, derivatives_ok_ = false;
-  Eigen::VectorXd start_, final_, lambda_, z_lower_, z_upper_;
+  Eigen::VectorXd start_, final_, lambda_, z_lower_, z_upper_, constraints_;
   bool use_warm_multipliers_ = false, have_final_ = false;
   Ipopt::SolverReturn final_status_ = Ipopt::INTERNAL_ERROR;
   int iterations_ = 0;
@@ -398,16 +395,12 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
 
 struct IpoptSolver::Impl {
   explicit Impl(const OcpProblem& shape) : nlp(new MultipleShootingNlp(shape)), app(IpoptApplicationFactory()) {
-    nx = shape.state_size();
-    nu = shape.input_size();
-    horizon = shape.horizon();
-    inputs = best_inputs = Eigen::MatrixXd::Zero(nu, horizon);
-    states = best_states = Eigen::MatrixXd::Zero(nx, horizon + 1);
-    stage_costs = Eigen::VectorXd::Zero(horizon);
+    inputs = best_inputs = Eigen::MatrixXd::Zero(shape.input_size(), shape.horizon());
+    states = best_states = Eigen::MatrixXd::Zero(shape.state_size(), shape.horizon() + 1);
+    stage_costs = Eigen::VectorXd::Zero(shape.horizon());
   }
   Ipopt::SmartPtr<MultipleShootingNlp> nlp;
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app;
-  int nx = 0, nu = 0, horizon = 0;
   bool have_multipliers = false;
   // How long Ipopt takes to reach its first iterate (initialisation, first derivatives and
   // factorisation), from past solves; before the first, a multiple of the guesses' rollout time.
@@ -416,7 +409,8 @@ struct IpoptSolver::Impl {
   Eigen::VectorXd stage_costs;
 };
 
-IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options) : options_(std::move(options)) {
+IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options)
+    : Solver(problem), options_(std::move(options)) {
   options_.validate();
   impl_ = std::make_unique<Impl>(problem);
   impl_->startup_estimate = std::chrono::duration_cast<SolverClock::duration>(
@@ -444,10 +438,6 @@ void IpoptSolver::reset_warm_start() noexcept {
 SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
                                   Solution* out, SolveSummary* summary) noexcept {
   Impl& s = *impl_;
-  if (problem.state_size() != s.nx || problem.input_size() != s.nu || problem.horizon() != s.horizon) {
-    summary->reason = "the problem's shape differs from the one the solver was built for";
-    return SolveStatus::kInvalidInput;
-  }
   try {
     const auto guesses_start = SolverClock::now();
     long rollouts = 0;

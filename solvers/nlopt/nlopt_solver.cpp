@@ -138,7 +138,7 @@ struct NloptSolver::Evaluation {
 };
 
 NloptSolver::NloptSolver(const OcpProblem& problem, NloptOptions options)
-    : options_(std::move(options)), nx_(problem.state_size()), nu_(problem.input_size()), horizon_(problem.horizon()),
+    : Solver(problem), options_(std::move(options)), nx_(problem.state_size()), nu_(problem.input_size()), horizon_(problem.horizon()),
       evaluation_(std::make_unique<Evaluation>()) {
   options_.validate();
   const auto size = static_cast<std::size_t>(nu_ * horizon_);
@@ -167,10 +167,6 @@ NloptSolver::~NloptSolver() = default;
 
 SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
                                   Solution* out, SolveSummary* summary) noexcept {
-  if (problem.state_size() != nx_ || problem.input_size() != nu_ || problem.horizon() != horizon_) {
-    summary->reason = "the problem's shape differs from the one the solver was built for";
-    return SolveStatus::kInvalidInput;
-  }
   Evaluation& e = *evaluation_;
   e.problem = &problem;
   e.deadline = deadline;

@@ -46,7 +46,7 @@ void SaOptions::validate() const {
 }
 
 SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, SaOptions options)
-    : options_(options), nx_(problem.state_size()), nu_(problem.input_size()), horizon_(problem.horizon()) {
+    : Solver(problem), options_(options), nx_(problem.state_size()), nu_(problem.input_size()), horizon_(problem.horizon()) {
   options_.validate();
   knot_count_ = (options_.knots == 0 || options_.knots > horizon_) ? horizon_ : options_.knots;
   group_size_ = problem.model().input_group_size();
@@ -132,10 +132,6 @@ void SimulatedAnnealingSolver::interpolate(const Eigen::MatrixXd& knots, int fir
 
 SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses,
                                                Deadline deadline, Solution* out, SolveSummary* summary) noexcept {
-  if (problem.state_size() != nx_ || problem.input_size() != nu_ || problem.horizon() != horizon_) {
-    summary->reason = "the problem's shape differs from the one the solver was built for";
-    return SolveStatus::kInvalidInput;
-  }
   long rollouts = 0;
   const double start_cost = cheapest_start(problem, guesses, base_, states_, candidate_inputs_, candidate_states_,
                                            candidate_stage_costs_, &rollouts);

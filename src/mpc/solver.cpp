@@ -79,6 +79,9 @@ SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guess
     return finish(SolveStatus::kInvalidInput, "the output Solution is not sized for the problem");
   }
   out->valid = false;
+  if (problem.state_size() != state_size_ || problem.input_size() != input_size_ || problem.horizon() != horizon_) {
+    return finish(SolveStatus::kInvalidInput, "the problem's shape differs from the one the solver was built for");
+  }
   if (!problem.initial_state().allFinite() || !problem.reference_poses().allFinite() ||
       !problem.reference_twists().allFinite() || !problem.previous_input().allFinite()) {
     return finish(SolveStatus::kInvalidInput, "the problem's state, reference or previous input is not finite");

@@ -66,7 +66,7 @@ void expect_plan_column(const ControlOutput& out, int column, InputParameterizat
 class FakeSolver final : public Solver {
  public:
   FakeSolver(const OcpProblem& shape, FakeScript* script)
-      : script_(script), stage_costs_(Eigen::VectorXd::Zero(shape.horizon())) {}
+      : Solver(shape), script_(script), stage_costs_(Eigen::VectorXd::Zero(shape.horizon())) {}
   const char* name() const noexcept override { return "fake"; }
 
  private:

@@ -80,14 +80,22 @@ class Solver {
   virtual const char* name() const noexcept = 0;
 
   // noexcept: every failure is a status. `out` must have been resized for the problem (the
-  // controller does this at construction). Guesses of the wrong size or with NaN are skipped;
+  // controller does this at construction); a problem of another shape than the one the solver was
+  // built for is refused with kInvalidInput. Guesses of the wrong size or with NaN are skipped;
   // with no usable guess the solver starts from zero inputs projected onto the bounds.
   SolveStatus solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                     SolveSummary* summary) noexcept;
 
+ protected:
+  // Every backend is built for one problem shape (its buffers are sized for it).
+  explicit Solver(const OcpProblem& shape) noexcept
+      : state_size_(shape.state_size()), input_size_(shape.input_size()), horizon_(shape.horizon()) {}
+
  private:
   virtual SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
                                Solution* out, SolveSummary* summary) noexcept = 0;
+
+  int state_size_, input_size_, horizon_;
 };
 
 }  // namespace swerve
