@@ -64,7 +64,7 @@ class ShootingResiduals final : public ceres::CostFunction {
     effort_root_ = (2.0 * problem.weights().effort).cwiseSqrt();
     rate_root_ = (2.0 * problem.weights().rate).cwiseSqrt();
     evaluations_ = 0;
-    stop_ = Deadline::max();
+    stop_ = Deadline(TimePoint::max());
   }
   // From `stop` on, residual-only evaluations are refused (see Evaluate).
   void set_stop(Deadline stop) noexcept { stop_ = stop; }
@@ -75,7 +75,7 @@ class ShootingResiduals final : public ceres::CostFunction {
     // point of its line search or trust region) as a rejected step, so refusing them ends the
     // iteration at once. Evaluations with Jacobians are never refused: Ceres asks for them at a
     // point it has accepted, and a failure there makes it throw away every step it took.
-    if (jacobians == nullptr && SolverClock::now() >= stop_) return false;
+    if (jacobians == nullptr && stop_.passed()) return false;
     ++evaluations_;
     const OcpProblem& problem = *problem_;
     const CostWeights& weights = problem.weights();
@@ -161,7 +161,7 @@ class ShootingResiduals final : public ceres::CostFunction {
 
  private:
   const OcpProblem* problem_ = nullptr;
-  Deadline stop_ = Deadline::max();
+  Deadline stop_{TimePoint::max()};
   int nx_, nu_, horizon_, stage_rows_;
   double penalty_root_;  // sqrt(2 step_penalty_weight)
   Eigen::VectorXd effort_root_, rate_root_;
@@ -179,19 +179,19 @@ class DeadlineCallback final : public ceres::IterationCallback {
  public:
   void arm(Deadline stop) noexcept {
     stop_ = stop;
-    previous_ = SolverClock::now();
+    previous_ = stop.now();
   }
 
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& /*summary*/) override {
-    const auto now = SolverClock::now();
-    const auto last_iteration = now - previous_;
+    const TimePoint now = stop_.now();
+    const Duration last_iteration = now - previous_;
     previous_ = now;
-    return now + last_iteration >= stop_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+    return now + last_iteration >= stop_.at() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
   }
 
  private:
   Deadline stop_{};
-  SolverClock::time_point previous_{};
+  TimePoint previous_{};
 };
 
 }  // namespace
@@ -320,7 +320,7 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   Impl& s = *impl_;
   try {
     s.residuals.bind(problem);
-    const auto solve_start = SolverClock::now();
+    const TimePoint solve_start = deadline.now();
     long start_rollouts = 0;
     const double start_cost = cheapest_start(problem, guesses, s.start_inputs, s.start_states, s.candidate_inputs,
                                              s.candidate_states, s.stage_costs, &start_rollouts);
@@ -342,25 +342,26 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
 
     // One Evaluate with Jacobians costs about kJacobianRolloutCost rollouts: when even pricing one
     // would overrun the deadline, the start is the answer.
-    const auto guesses_time = SolverClock::now() - solve_start;
-    if (SolverClock::now() + kJacobianRolloutCost * guesses_time / start_rollouts >= deadline) {
+    const Duration guesses_time = deadline.now() - solve_start;
+    if (deadline.now() + kJacobianRolloutCost * guesses_time / start_rollouts >= deadline.at()) {
       return return_start("the deadline left no time for a Ceres iteration");
     }
     // One Evaluate with Jacobians at the start prices an iteration; twice that is kept back for
     // the projection, rollout and report after Ceres returns (and Ceres' own wrap-up).
     s.parameters = s.start_inputs;
-    const auto evaluate_start = SolverClock::now();
+    const TimePoint evaluate_start = deadline.now();
     const bool start_differentiable =
         s.residuals.Evaluate(s.blocks.data(), s.residual_scratch.data(), s.jacobian_blocks.data());
-    const auto evaluate_time = SolverClock::now() - evaluate_start;
+    const Duration evaluate_time = deadline.now() - evaluate_start;
     if (!start_differentiable) return return_start("the model's Jacobians failed at the start; returning the start");
-    const Deadline stop = deadline - 2 * evaluate_time;
-    const auto now = SolverClock::now();
+    const Deadline stop = deadline.earlier_by(2 * evaluate_time);
+    const TimePoint now = deadline.now();
     // Ceres evaluates the start again before its first step: less than that left means no step.
-    if (stop - now <= evaluate_time) return return_start("the deadline left no time for a Ceres iteration");
+    if (stop.at() - now <= evaluate_time) return return_start("the deadline left no time for a Ceres iteration");
 
     s.set_bounds(problem);
-    s.solver_options.max_solver_time_in_seconds = std::chrono::duration<double>(stop - now).count();
+    // Ceres' own time limit backs up the callback on the steady clock only (see the Ipopt note).
+    s.solver_options.max_solver_time_in_seconds = deadline.on_steady_clock() ? to_seconds(stop.at() - now) : 1e9;
     s.callback.arm(stop);
     s.residuals.set_stop(stop);
     ceres::Solve(s.solver_options, &s.problem, &s.ceres_summary);

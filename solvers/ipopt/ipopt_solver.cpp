@@ -17,6 +17,7 @@ namespace swerve {
 namespace {
 
 constexpr double kIpoptInfinity = 1e20;  // beyond Ipopt's nlp_{lower,upper}_bound_inf (1e19)
+constexpr double kNoCpuTimeLimit = 1e9;  // s: no limit of Ipopt's own
 
 double clamp_to_ipopt(double bound) { return std::clamp(bound, -kIpoptInfinity, kIpoptInfinity); }
 
@@ -86,9 +87,9 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     have_final_ = false;
     iterations_ = 0;
     evaluations_ = 0;
-    last_iteration_ = SolverClock::now();
-    first_callback_ = SolverClock::time_point{};
-    longest_iteration_ = SolverClock::duration::zero();
+    last_iteration_ = deadline.now();
+    first_callback_ = TimePoint{};
+    longest_iteration_ = Duration::zero();
   }
 
   // The final iterate's inputs (nu x N) and its largest dynamics defect.
@@ -114,7 +115,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
 
   bool has_final() const { return have_final_; }
   // When iteration 0 (Ipopt's initialisation: first evaluations and factorisation) ended.
-  SolverClock::time_point first_callback() const { return first_callback_; }
+  TimePoint first_callback() const { return first_callback_; }
   int iterations() const { return iterations_; }
   long evaluations() const { return evaluations_; }
   Ipopt::SolverReturn final_status() const { return final_status_; }
@@ -254,12 +255,12 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     (void)mode, (void)obj_value, (void)inf_pr, (void)inf_du, (void)mu, (void)d_norm, (void)regularization_size;
     (void)alpha_du, (void)alpha_pr, (void)ls_trials, (void)ip_data, (void)ip_cq;
     iterations_ = iter;
-    const auto now = SolverClock::now();
+    const TimePoint now = deadline_.now();
     if (iter == 0) first_callback_ = now;
     longest_iteration_ = std::max(longest_iteration_, now - last_iteration_);
     last_iteration_ = now;
     // Stop when one more iteration (the longest so far) and the final rollout would not fit.
-    return now + longest_iteration_ + longest_iteration_ / 4 < deadline_;
+    return now + longest_iteration_ + longest_iteration_ / 4 < deadline_.at();
   }
 
   void finalize_solution(Ipopt::SolverReturn status, Ipopt::Index n, const Ipopt::Number* x, const Ipopt::Number* z_L,
@@ -389,8 +390,8 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   Ipopt::SolverReturn final_status_ = Ipopt::INTERNAL_ERROR;
   int iterations_ = 0;
   long evaluations_ = 0;
-  SolverClock::time_point last_iteration_{}, first_callback_{};
-  SolverClock::duration longest_iteration_{};
+  TimePoint last_iteration_{}, first_callback_{};
+  Duration longest_iteration_{};
 };
 
 struct IpoptSolver::Impl {
@@ -404,7 +405,7 @@ struct IpoptSolver::Impl {
   bool have_multipliers = false;
   // How long Ipopt takes to reach its first iterate (initialisation, first derivatives and
   // factorisation), from past solves; before the first, a multiple of the guesses' rollout time.
-  SolverClock::duration startup_estimate{};
+  Duration startup_estimate{};
   Eigen::MatrixXd inputs, best_inputs, states, best_states;
   Eigen::VectorXd stage_costs;
 };
@@ -413,8 +414,7 @@ IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options)
     : Solver(problem), options_(std::move(options)) {
   options_.validate();
   impl_ = std::make_unique<Impl>(problem);
-  impl_->startup_estimate = std::chrono::duration_cast<SolverClock::duration>(
-      std::chrono::duration<double>(options_.startup_estimate));
+  impl_->startup_estimate = to_duration(options_.startup_estimate);
   Ipopt::IpoptApplication& app = *impl_->app;
   app.Options()->SetStringValue("sb", "yes");  // no banner
   app.Options()->SetIntegerValue("print_level", options_.print_level);
@@ -439,7 +439,7 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
                                   Solution* out, SolveSummary* summary) noexcept {
   Impl& s = *impl_;
   try {
-    const auto guesses_start = SolverClock::now();
+    const TimePoint guesses_start = deadline.now();
     long rollouts = 0;
     double best_cost = cheapest_start(problem, guesses, s.best_inputs, s.best_states, s.inputs, s.states,
                                       s.stage_costs, &rollouts);
@@ -454,12 +454,12 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     summary->cost = problem.evaluate(out->inputs, s.states);
     // Ipopt cannot be stopped before its first iterate: when that would overrun the deadline, the
     // best guess is the answer (a usable plan, as the deadline contract asks).
-    const auto now = SolverClock::now();
-    if (s.startup_estimate == SolverClock::duration::zero()) {
+    const TimePoint now = deadline.now();
+    if (s.startup_estimate == Duration::zero()) {
       // Ipopt's startup: the first Jacobians and a factorisation.
       s.startup_estimate = (kJacobianRolloutCost + 2) * (now - guesses_start) / rollouts;
     }
-    if (now + s.startup_estimate >= deadline) {
+    if (now + s.startup_estimate >= deadline.at()) {
       // Halved on every skip: one slow start (the very first solve pays Ipopt's one-time setup,
       // ~25 ms) must not keep Ipopt from ever running again.
       s.startup_estimate /= 2;
@@ -481,13 +481,15 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
       options.SetNumericValue("warm_start_bound_push", 1e-9);
       options.SetNumericValue("warm_start_mult_bound_push", 1e-9);
     }
-    const double remaining = std::chrono::duration<double>(deadline - SolverClock::now()).count();
+    // Ipopt's own CPU-time limit backs up the intermediate callback on the steady clock; on an
+    // injected clock only the callback may stop it (CPU time would make the result nondeterministic).
+    const double remaining = deadline.on_steady_clock() ? to_seconds(deadline.remaining()) : kNoCpuTimeLimit;
     options.SetNumericValue("max_cpu_time", std::max(1e-6, remaining));
-    const auto optimize_start = SolverClock::now();
+    const TimePoint optimize_start = deadline.now();
     const Ipopt::ApplicationReturnStatus status = s.app->OptimizeTNLP(Ipopt::SmartPtr<Ipopt::TNLP>(GetRawPtr(s.nlp)));
     if (s.nlp->first_callback() > optimize_start) {
       // Rises at once, falls halfway: a start that took longer is believed, a shorter one averaged.
-      const SolverClock::duration startup = s.nlp->first_callback() - optimize_start;
+      const Duration startup = s.nlp->first_callback() - optimize_start;
       s.startup_estimate = startup > s.startup_estimate ? startup : (startup + s.startup_estimate) / 2;
     }
     summary->iterations = s.nlp->iterations();

@@ -64,7 +64,7 @@ struct NloptSolver::Evaluation {
   double best_cost = std::numeric_limits<double>::infinity();
   long evaluations = 0;
   bool deadline_hit = false;
-  SolverClock::duration longest{};  // the longest evaluation so far
+  Duration longest{};  // the longest evaluation so far
 
   // Derivative-free: f(x) is the cost of the projected input sequence. Gradient algorithms: the
   // cost of x itself and its exact gradient (adjoint), as their bounds and constraints keep x
@@ -72,8 +72,8 @@ struct NloptSolver::Evaluation {
   static double objective(unsigned n, const double* x, double* gradient, void* data) {
     auto* self = static_cast<Evaluation*>(data);
     // Room for this evaluation, the final one in do_solve and one more of slack (as SA does).
-    const auto start = SolverClock::now();
-    if (start + 3 * self->longest >= self->deadline) {
+    const TimePoint start = self->deadline.now();
+    if (start + 3 * self->longest >= self->deadline.at()) {
       self->deadline_hit = true;
       throw nlopt::forced_stop();
     }
@@ -96,7 +96,7 @@ struct NloptSolver::Evaluation {
       self->problem->project(self->inputs);
       cost = self->problem->rollout(self->inputs, 0, self->states, self->stage_costs);
     }
-    self->longest = std::max(self->longest, SolverClock::now() - start);
+    self->longest = std::max(self->longest, self->deadline.now() - start);
     ++self->evaluations;
     if (!std::isfinite(cost)) return std::numeric_limits<double>::max();
     if (feasible && cost < self->best_cost) {
@@ -172,11 +172,11 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   e.deadline = deadline;
   e.evaluations = 0;
   e.deadline_hit = false;
-  const auto first_rollout = SolverClock::now();
+  const TimePoint first_rollout = deadline.now();
   long start_rollouts = 0;
   const double start_cost = cheapest_start(problem, guesses, e.best_inputs, e.best_states, e.inputs, e.states,
                                            e.stage_costs, &start_rollouts);
-  e.longest = (SolverClock::now() - first_rollout) / start_rollouts;
+  e.longest = (deadline.now() - first_rollout) / start_rollouts;
   if (e.derivatives != nullptr) e.longest *= kJacobianRolloutCost;  // an evaluation with the gradient
   Eigen::MatrixXd::Map(x_.data(), nu_, horizon_) = e.best_inputs;
   e.best_cost = start_cost;  // nothing worse than the start comes back
@@ -203,8 +203,8 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     opt.set_ftol_rel(options_.ftol_rel);
     opt.set_maxeval(options_.max_evaluations);
     opt.set_initial_step(step_);
-    const double remaining = std::chrono::duration<double>(deadline - SolverClock::now()).count();
-    opt.set_maxtime(std::max(1e-6, remaining));
+    // NLopt's own time limit backs up the objective's deadline check on the steady clock only.
+    if (deadline.on_steady_clock()) opt.set_maxtime(std::max(1e-6, to_seconds(deadline.remaining())));
     double minimum = 0.0;
     result = opt.optimize(x_, minimum);
   } catch (const nlopt::forced_stop&) {

@@ -143,13 +143,13 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   knots_.setZero();
   raw_ = base_;
   inputs_ = base_;
-  const auto rollout_start = SolverClock::now();
+  const auto rollout_start = deadline.now();
   double current_cost = problem.rollout(inputs_, 0, states_, stage_costs_);
   // The longest a proposal can take (a full rollout). The loop stops while one more proposal and the
   // final cost evaluation still fit before the deadline, so the solver returns on time.
-  const auto full_rollout = SolverClock::now() - rollout_start;
-  const auto loop_start = SolverClock::now();
-  const double loop_budget = std::chrono::duration<double>(deadline - 2 * full_rollout - loop_start).count();
+  const auto full_rollout = deadline.now() - rollout_start;
+  const auto loop_start = deadline.now();
+  const double loop_budget = to_seconds(deadline.at() - 2 * full_rollout - loop_start);
   ++rollouts;
   summary->initial_cost = current_cost;
   out->inputs = inputs_;
@@ -169,12 +169,12 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   const int groups = nu_ / group_size_;
 
   auto longest_proposal = full_rollout;  // grows if a proposal ever takes longer than a full rollout
-  auto now = SolverClock::now();
+  auto now = deadline.now();
   for (; iteration < options_.max_iterations; ++iteration) {
     const auto proposal_start = now;
     // Room for one more proposal, the final evaluation, and one rollout's worth of slack for the
     // scheduler (measured overruns without it: up to 0.2 ms on a 20 ms budget).
-    if (proposal_start + longest_proposal + 2 * full_rollout >= deadline) {
+    if (proposal_start + longest_proposal + 2 * full_rollout >= deadline.at()) {
       deadline_hit = true;
       break;
     }
@@ -212,14 +212,14 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
       if (candidate_inputs_.col(k) != inputs_.col(k)) changed = k;
     }
     if (changed == horizon_) {  // the projection undid the move
-      now = SolverClock::now();
+      now = deadline.now();
       continue;
     }
     candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
     candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
     const double candidate_cost = problem.rollout(candidate_inputs_, changed, candidate_states_, candidate_stage_costs_);
     ++rollouts;
-    now = SolverClock::now();
+    now = deadline.now();
     longest_proposal = std::max(longest_proposal, now - proposal_start);
     const double delta = candidate_cost - current_cost;
 
@@ -268,7 +268,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
       inputs_ = out->inputs;
       current_cost = problem.rollout(inputs_, 0, states_, stage_costs_);
       ++rollouts;
-      now = SolverClock::now();
+      now = deadline.now();
       // Warmer again: half of the way back up the schedule.
       progress_at_reheat += 0.5 * std::max(0.0, progress);
     }

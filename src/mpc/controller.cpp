@@ -103,6 +103,7 @@ void ControllerOptions::validate() const {
   require_non_negative("wheel_speed_smoothness", wheel_speed_smoothness);
   require_non_negative("twist_smoothness", twist_smoothness);
   if (max_plan_age < 0) reject("max_plan_age", max_plan_age, "must be >= 0");
+  stale_measurement.validate();
   prediction.validate();
 }
 
@@ -110,7 +111,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
                        ControllerOptions options, const SolverFactory& make_solver, BaselineOptions baseline_options,
                        std::string name)
     : name_(std::move(name)), options_(validated(options)), layout_(vehicle.layout), reference_(std::move(reference)),
-      baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()) {
+      baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()),
+      monitor_(6 + vehicle.layout.size(), options_.stale_measurement) {
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
@@ -143,6 +145,7 @@ void Controller::reset() noexcept {
   applied_decision_.setZero();
   previous_input_known_ = false;
   baseline_.reset();
+  monitor_.reset();
   for (int i = 0; i < modules_; ++i) output_.modules[i] = ModuleCommand{};
 }
 
@@ -219,6 +222,21 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
     output_.source = CommandSource::kBaseline;
     return;
   }
+  safe_stop(measured);
+}
+
+bool Controller::motion_commanded() const noexcept {
+  for (int i = 0; i < modules_; ++i) {
+    const ModuleCommand& command = output_.modules[i];
+    if (std::abs(command.wheel_speed) * layout_.wheel_radius() > options_.stale_measurement.moving_speed ||
+        std::abs(command.steering_rate) > options_.stale_measurement.moving_speed) {
+      return true;
+    }
+  }
+  return false;
+}
+
+void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
   fill_safe_stop(layout_, options_.dt, measured, &output_.modules);
   for (int i = 0; i < modules_; ++i) {
     applied_input_[2 * i] = 0.0;
@@ -229,18 +247,40 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
   output_.source = CommandSource::kSafeStop;
 }
 
-const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {
+const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
+  output_.step_time_s = to_seconds(clock().now() - step_start);
+  return output_;
+}
+
+const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
+                                      double measured_at) noexcept {
+  // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
+  const TimePoint step_start = clock().now();
+  const Deadline deadline(step_start + to_duration(options_.solve_budget), clock());
   output_.solve = SolveSummary{};
+  output_.measurement_stale = false;
   // The previous plan moves on by one cycle whatever happens now.
   if (plan_.valid) {
     plan_.shift();
     ++plan_age_;
   }
   if (!is_plausible_state(measured, layout_) || !std::isfinite(t)) {
+    monitor_.reset();
     output_.solve.status = SolveStatus::kInvalidInput;
     output_.solve.reason = "measured state rejected (wrong size, NaN/inf or implausible)";
     fall_back(measured, false, output_.solve.reason);
-    return output_;
+    return finish(step_start);
+  }
+  if (const char* stale = monitor_.check(measured, t, measured_at, motion_commanded())) {
+    // A stale measurement says nothing about where the vehicle is now: neither an old plan nor the
+    // baseline can be trusted on it, so stop safely until fresh measurements return.
+    output_.measurement_stale = true;
+    output_.solve.status = SolveStatus::kInvalidInput;
+    output_.solve.reason = stale;
+    output_.reason = stale;
+    plan_.valid = false;
+    safe_stop(measured);
+    return finish(step_start);
   }
   // Update the problem in place: state, last applied input, reference window.
   problem_->set_initial_state(measured);
@@ -266,15 +306,17 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
       problem_->project(baseline_guess_);
     }
   }
+  if (deadline.passed()) {
+    // The plan and the problem update alone used the budget: no time is left to solve.
+    fall_back(measured, baseline_usable, "no time left to solve after the baseline plan and the problem update");
+    return finish(step_start);
+  }
   InitialGuesses guesses;
   if (plan_.valid && plan_age_ == 1) guesses.add(&plan_.inputs);
   if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_guess_);
 
-  const auto budget = std::chrono::duration_cast<SolverClock::duration>(std::chrono::duration<double>(options_.solve_budget));
-  const auto grace = std::chrono::duration_cast<SolverClock::duration>(std::chrono::duration<double>(options_.overrun_grace));
-  const Deadline deadline = SolverClock::now() + budget;
   const SolveStatus status = solver_->solve(*problem_, guesses, deadline, &solution_, &output_.solve);
-  const bool late = SolverClock::now() > deadline + grace;
+  const bool late = clock().now() > deadline.at() + to_duration(options_.overrun_grace);
   if (has_solution(status) && solution_.valid && !late && problem_->is_feasible(solution_.inputs, 1e-6)) {
     plan_.inputs = solution_.inputs;
     plan_.states = solution_.states;
@@ -284,13 +326,13 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     apply_decision(plan_.inputs, 0, measured);
     output_.source = CommandSource::kOptimizer;
     output_.reason = output_.solve.reason;
-    return output_;
+    return finish(step_start);
   }
-  const char* why = late ? "the solver overran its deadline"
+  const char* why = late ? "the step overran its deadline"
                          : (has_solution(status) ? "the solver returned an infeasible or invalid plan"
                                                  : "the solver failed");
   fall_back(measured, baseline_usable, why);
-  return output_;
+  return finish(step_start);
 }
 
 }  // namespace swerve

@@ -177,9 +177,11 @@ class PredictionStep {
   bool step(const Eigen::Ref<const Vector>& x, const Eigen::Ref<const Vector>& u, double dt, Eigen::Ref<Vector> x_next,
             T* stage_wear) const noexcept {
     const ModuleLimits& limits = layout_.limits();
-    // End stops: the steering rate is clipped so the angle stays inside the module's range.
+    // End stops: the steering rate is clipped so the angle stays inside the module's range. A
+    // [-pi, pi] range means none: the module turns freely through +-pi (a clip there left a
+    // module reversed by pi unable to steer one way, and the tracking stuck).
     u_applied_ = u;
-    for (int i = 0; i < modules_; ++i) {
+    for (int i = 0; i < modules_ && limits.has_steering_end_stops(); ++i) {
       const T& angle = x[StateIndex::steering(i)];
       T& rate = u_applied_[InputIndex::steering_rate(i)];
       rate = clamp_by_value<T>(rate, (limits.min_steering_angle - angle) / dt, (limits.max_steering_angle - angle) / dt);

@@ -4,6 +4,15 @@
 #include <limits>
 
 namespace swerve {
+namespace {
+class SteadyClock final : public Clock {
+ public:
+  TimePoint now() const noexcept override { return SolverClock::now(); }
+};
+const SteadyClock kSteadyClock;
+}  // namespace
+
+const Clock& steady_clock() noexcept { return kSteadyClock; }
 
 const char* to_string(SolveStatus status) noexcept {
   switch (status) {
@@ -64,14 +73,14 @@ double cheapest_start(const OcpProblem& problem, const InitialGuesses& guesses, 
 
 SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                           SolveSummary* summary) noexcept {
-  const auto start = SolverClock::now();
+  const TimePoint start = deadline.now();
   SolveSummary local_summary;
   SolveSummary& report = summary != nullptr ? *summary : local_summary;
   report = SolveSummary{};
   auto finish = [&](SolveStatus status, const char* reason) {
     report.status = status;
     if (reason != nullptr) report.reason = reason;
-    report.solve_time_s = std::chrono::duration<double>(SolverClock::now() - start).count();
+    report.solve_time_s = to_seconds(deadline.now() - start);
     return status;
   };
   if (out == nullptr || out->inputs.rows() != problem.input_size() || out->inputs.cols() != problem.horizon() ||
@@ -86,7 +95,7 @@ SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guess
       !problem.reference_twists().allFinite() || !problem.previous_input().allFinite()) {
     return finish(SolveStatus::kInvalidInput, "the problem's state, reference or previous input is not finite");
   }
-  if (deadline <= start) return finish(SolveStatus::kInvalidInput, "the deadline has already passed");
+  if (deadline.at() <= start) return finish(SolveStatus::kInvalidInput, "the deadline has already passed");
   const SolveStatus status = do_solve(problem, guesses, deadline, out, &report);
   if (has_solution(status) && (!out->inputs.allFinite() || !std::isfinite(out->cost))) {
     out->valid = false;

@@ -24,6 +24,8 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
   std::vector<double> solve_ms;
   double iterations_sum = 0.0;
   solve_ms.reserve(log.size());
+  std::vector<double> step_ms;
+  step_ms.reserve(log.size());
   for (const StepRecord& record : log) {
     const double e_position = record.position_error();
     const double e_heading = std::abs(record.heading_error());
@@ -37,7 +39,11 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
     if (record.solve_time_s >= 0.0) {
       solve_ms.push_back(1e3 * record.solve_time_s);
       iterations_sum += std::max(0, record.solve_iterations);
-      if (record.solve_time_s > solve_budget) ++m.deadline_misses;
+      if (record.step_time_s < 0.0 && record.solve_time_s > solve_budget) ++m.deadline_misses;
+    }
+    if (record.step_time_s >= 0.0) {
+      step_ms.push_back(1e3 * record.step_time_s);
+      if (record.step_time_s > solve_budget) ++m.deadline_misses;
     }
     if (record.source != CommandSource::kOptimizer) ++m.fallbacks;
   }
@@ -58,6 +64,10 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
     m.solve_time_p99_ms = percentile(solve_ms, 99.0);
     m.solve_time_max_ms = *std::max_element(solve_ms.begin(), solve_ms.end());
     m.solve_iterations_mean = iterations_sum / static_cast<double>(solve_ms.size());
+  }
+  if (!step_ms.empty()) {
+    m.step_time_p99_ms = percentile(step_ms, 99.0);
+    m.step_time_max_ms = *std::max_element(step_ms.begin(), step_ms.end());
   }
   return m;
 }

@@ -104,6 +104,8 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
         {"solve_time_p50_ms", m.solve_time_p50_ms},
         {"solve_time_p99_ms", m.solve_time_p99_ms},
         {"solve_time_max_ms", m.solve_time_max_ms},
+        {"step_time_p99_ms", m.step_time_p99_ms},
+        {"step_time_max_ms", m.step_time_max_ms},
         {"deadline_misses", m.deadline_misses},
         {"solve_iterations_mean", m.solve_iterations_mean},
         {"fallbacks", m.fallbacks},

@@ -42,7 +42,7 @@ ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverride
 }
 
 ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioController& controller,
-                             const ProgressCallback& progress, std::size_t index) {
+                             const ProgressCallback& progress, std::size_t index, const Clock* clock) {
   ControllerRun run;
   run.name = controller.name;
   run.kind = controller.config.kind;
@@ -53,6 +53,7 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
 
   std::unique_ptr<TrackingController> tracker =
       make_controller(controller.config, scenario.vehicle, scenario.reference);
+  if (clock != nullptr) tracker->set_clock(*clock);
   Simulator plant(scenario.vehicle, scenario.simulator);
   plant.reset(scenario.initial_state);
   const double period = scenario.simulator.control_period;
@@ -73,6 +74,7 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     record.solve_status = output.solve.status;
     record.solve_time_s = output.solve.status == SolveStatus::kNotRun ? -1.0 : output.solve.solve_time_s;
     record.solve_iterations = output.solve.iterations;
+    record.step_time_s = output.step_time_s;
     run.log.push_back(std::move(record));
     if (!plant.advance(output.modules)) {
       run.failure = "the plant diverged at t = " + std::to_string(plant.time()) + " s";
@@ -85,10 +87,11 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
   return run;
 }
 
-std::vector<ControllerRun> run_scenario(const ScenarioConfig& scenario, const ProgressCallback& progress) {
+std::vector<ControllerRun> run_scenario(const ScenarioConfig& scenario, const ProgressCallback& progress,
+                                        const Clock* clock) {
   std::vector<ControllerRun> runs;
   for (std::size_t i = 0; i < scenario.controllers.size(); ++i) {
-    runs.push_back(run_controller(scenario, scenario.controllers[i], progress, i));
+    runs.push_back(run_controller(scenario, scenario.controllers[i], progress, i, clock));
   }
   return runs;
 }

@@ -13,12 +13,11 @@
 #include <functional>
 #include <limits>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "mpc/closed_loop.hpp"
 #include "support/allocation_counter.hpp"  // the one .cpp of mpc_tests that includes it
-#include "support/time_scale.hpp"
+#include "support/fake_clocks.hpp"
 #include "swerve/config/config_error.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 
@@ -40,6 +39,7 @@ struct FakeScript {
   FakeMode mode = FakeMode::kGood;
   double overrun_s = 0.0;  // kOverrun: how far past the deadline it returns
   int calls = 0;
+  testing::ManualClock clock;  // the controller's clock: only a scripted overrun moves it
 };
 
 // The plan it returns when it works, readable off the commands: with body-twist inputs, step k
@@ -82,8 +82,7 @@ class FakeSolver final : public Solver {
         out->cost = 1.0;
         return SolveStatus::kConverged;
       case FakeMode::kOverrun:
-        std::this_thread::sleep_until(deadline + std::chrono::duration_cast<SolverClock::duration>(
-                                                     std::chrono::duration<double>(script_->overrun_s)));
+        script_->clock.advance(deadline.remaining() + to_duration(script_->overrun_s));
         break;
       case FakeMode::kGood:
         break;
@@ -112,15 +111,19 @@ constexpr InputParameterization kParameterizations[] = {InputParameterization::k
 ControllerOptions fast_options(InputParameterization parameterization = InputParameterization::kBodyTwist) {
   ControllerOptions options;
   options.parameterization = parameterization;
-  options.solve_budget = 0.005 * testing::kTimeScale;
-  options.overrun_grace = 0.002 * testing::kTimeScale;
+  options.solve_budget = 0.005;
+  options.overrun_grace = 0.002;
   options.max_plan_age = 3;
+  // These tests repeat one measured state on purpose; the staleness check has tests of its own.
+  options.stale_measurement.frozen_cycles = 1000;
   return options;
 }
 
 Controller make_fake_controller(FakeScript* script, ControllerOptions options = fast_options()) {
-  return Controller(small_robot(), testing::line_reference(0.5), options,
-                    [script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, script); });
+  Controller controller(small_robot(), testing::line_reference(0.5), options,
+                        [script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, script); });
+  controller.set_clock(script->clock);
+  return controller;
 }
 
 // At rest on the start of the line reference, steering straight ahead.
@@ -184,7 +187,7 @@ TEST(Controller, TreatsANaNPlanAsANumericalErrorAndFallsBack) {
 
 TEST(Controller, DiscardsAPlanThatArrivesAfterTheDeadlineAndFallsBack) {
   // The late solver still reports kConverged with a valid plan; lateness alone rejects it.
-  expect_fallback_chain(FakeMode::kOverrun, SolveStatus::kConverged, "the solver overran its deadline");
+  expect_fallback_chain(FakeMode::kOverrun, SolveStatus::kConverged, "the step overran its deadline");
 }
 
 TEST(Controller, BaseSolverReportsANaNPlanAsNumericalError) {
@@ -362,10 +365,10 @@ TEST(Controller, RejectsAFactoryThatReturnsNoSolver) {
 // Closed loop: the SA controller on the model it predicts with.
 
 // The SA solver with default options except a fixed seed and an iteration cap that a solve reaches
-// well inside its (generous) wall-clock budget: the run then does not depend on the machine's load
-// and each solve takes ~15-30 ms instead of the whole budget. (Not bit-repeatable: SA cools on the
-// larger of its iteration share and its time share.)
+// well inside its budget. The controllers run on a WorkClock that advances 10 us per read (SA reads
+// once per proposal), so every run is the same on any machine and under any load.
 constexpr int kSaIterations = 200;
+constexpr double kClockTick = 10e-6;
 
 Controller::SolverFactory sa_factory(std::uint64_t seed, int max_iterations = kSaIterations) {
   return [seed, max_iterations](const OcpProblem& problem) {
@@ -379,10 +382,9 @@ Controller::SolverFactory sa_factory(std::uint64_t seed, int max_iterations = kS
 ControllerOptions closed_loop_options(double wear_weight, InputParameterization parameterization) {
   ControllerOptions options;
   options.parameterization = parameterization;
-  // Generous: the iteration cap, not the clock, ends a solve (scaled for slow sanitizer builds),
-  // and a loaded test machine must not turn slow solves into fallbacks.
-  options.solve_budget = 0.1 * testing::kTimeScale;
-  options.overrun_grace = 0.02 * testing::kTimeScale;
+  // The iteration cap, not the clock, ends a solve: 200 proposals read the clock ~200 times (2 ms).
+  options.solve_budget = 0.1;
+  options.overrun_grace = 0.02;
   options.wear_weight = wear_weight;
   return options;
 }
@@ -404,6 +406,8 @@ void expect_convergence(const std::shared_ptr<const Reference>& reference, doubl
   for (const InputParameterization parameterization : kParameterizations) {
     SCOPED_TRACE(to_string(parameterization));
     Controller controller(params, reference, closed_loop_options(1.0, parameterization), sa_factory(7));
+    const testing::WorkClock clock(kClockTick);
+    controller.set_clock(clock);
     const auto result = run_closed_loop(controller, *reference, params, 0.05, offset_start(lateral_offset), 6.0);
     ASSERT_TRUE(result.model_ok);
     EXPECT_TRUE(result.commands_finite);
@@ -443,6 +447,9 @@ TEST(Controller, WearTermLowersTheWearOnAnArc) {
     SCOPED_TRACE(to_string(parameterization));
     Controller without_wear(params, reference, closed_loop_options(0.0, parameterization), sa_factory(7));
     Controller with_wear(params, reference, closed_loop_options(1.0, parameterization), sa_factory(7));
+    const testing::WorkClock clock(kClockTick);
+    without_wear.set_clock(clock);
+    with_wear.set_clock(clock);
     const auto plain = run_closed_loop(without_wear, *reference, params, 0.05, start, 3.0);
     const auto aware = run_closed_loop(with_wear, *reference, params, 0.05, start, 3.0);
     ASSERT_TRUE(plain.model_ok && aware.model_ok);
@@ -479,12 +486,16 @@ TEST(Controller, DoesNotBrakeBeyondTheDriveLimitWhenItStartsOrResumesInMotion) {
     options.max_plan_age = 0;  // one rejected measurement goes straight to the safe stop
     {
       Controller controller(params, reference, options, sa_factory(7, 100));
+      const testing::WorkClock clock(kClockTick);
+      controller.set_clock(clock);
       const ControlOutput& first = controller.step(moving, 0.0);
       ASSERT_EQ(first.source, CommandSource::kOptimizer) << reason_of(first);
       EXPECT_GT(slowest_wheel(first), moving[3] / radius - 2.0) << "started at " << moving[3] << " m/s";
     }
     {
       Controller controller(params, reference, options, sa_factory(7, 100));
+      const testing::WorkClock clock(kClockTick);
+      controller.set_clock(clock);
       testing::ModelPlant plant(params, options.dt);
       Eigen::VectorXd state = moving;
       double t = 0.0;
@@ -521,6 +532,8 @@ TEST(Controller, StepAllocatesNothingAfterTheFirstCycles) {
     SCOPED_TRACE(to_string(parameterization));
     const ControllerOptions options = closed_loop_options(1.0, parameterization);
     Controller controller(params, reference, options, sa_factory(3, 100));
+    const testing::WorkClock clock(kClockTick);
+    controller.set_clock(clock);
     testing::ModelPlant plant(params, options.dt);
     Eigen::VectorXd state = offset_start(0.1);
     Eigen::VectorXd nan_state = state;

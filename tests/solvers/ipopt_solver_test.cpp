@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "support/linear_models.hpp"
+#include "support/fake_clocks.hpp"
 #include "support/swerve_problems.hpp"
 #include "support/time_scale.hpp"
 #include "swerve/config/config_error.hpp"
@@ -41,10 +42,15 @@ TEST(IpoptSolver, OneSlowStartDoesNotKeepIpoptFromRunningAgain) {
   // Regression: the startup estimate only ever rose, so after one slow first solve (Ipopt's
   // one-time setup, ~25 ms) every later 20 ms solve skipped Ipopt and returned its guess; the
   // offset60 run then tracked at twice the baseline's error. Skips now halve the estimate.
+  // On a clock charged per model evaluation (10 us per step, 50 us with Jacobians), so the
+  // halving sequence 1 s, 0.5 s, ... meets the 100 ms budget at the same cycle on every machine.
   testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, 10);
+  testing::WorkClock clock;
+  const testing::ClockedModel model(s.model, &clock, 10e-6, 50e-6);
+  const std::unique_ptr<OcpProblem> problem = testing::problem_on(model, s.problem);
   IpoptOptions options;
-  options.startup_estimate = 1.0 * testing::kTimeScale;  // s: as if the first solve had been very slow
-  IpoptSolver solver(s.problem, options);
+  options.startup_estimate = 1.0;  // s: as if the first solve had been very slow
+  IpoptSolver solver(*problem, options);
   Solution solution;
   solution.resize(10, 3, 10);
   const Eigen::MatrixXd held = s.problem.previous_input().replicate(1, 10);
@@ -53,13 +59,13 @@ TEST(IpoptSolver, OneSlowStartDoesNotKeepIpoptFromRunningAgain) {
   int first_run = -1;
   for (int cycle = 0; cycle < 12 && first_run < 0; ++cycle) {
     SolveSummary summary;
-    const auto budget = std::chrono::duration_cast<SolverClock::duration>(100ms * testing::kTimeScale);
-    ASSERT_TRUE(has_solution(solver.solve(s.problem, guesses, SolverClock::now() + budget, &solution, &summary)))
+    ASSERT_TRUE(has_solution(solver.solve(*problem, guesses, Deadline(clock.now() + 100ms, clock), &solution, &summary)))
         << summary.reason;
     if (summary.iterations > 0) first_run = cycle;
   }
   ASSERT_NE(first_run, -1) << "Ipopt never ran again";
-  EXPECT_GE(first_run, 1) << "the 1 s estimate must make the first solves skip Ipopt";
+  // 1 s, 0.5, 0.25 and 0.125 s estimates skip; the fifth solve (0.0625 s) runs Ipopt.
+  EXPECT_EQ(first_run, 4) << "the 1 s estimate must make the first solves skip Ipopt";
 }
 
 TEST(IpoptSolver, RejectsBadOptionsNamingTheField) {

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <limits>
 
+#include "support/fake_clocks.hpp"
 #include "support/linear_models.hpp"
 #include "swerve/config/config_error.hpp"
 
@@ -118,21 +119,29 @@ TEST(SimulatedAnnealing, MoreTimeNeverGivesAWorseBestCost) {
 }
 
 TEST(SimulatedAnnealing, HonoursTheDeadline) {
+  // On a clock that advances 2 us per model step (80 us per full rollout of 40 steps), the solve
+  // must return by its 3 ms deadline: the loop keeps room for one more proposal and the final
+  // evaluation. Deterministic: no wall clock.
   const DoubleIntegratorModel model;
-  const OcpProblem problem = make_lq_problem(model, 40);
+  testing::WorkClock clock;
+  const testing::ClockedModel clocked(model, &clock, 2e-6, 2e-6);
+  const OcpProblem problem = make_lq_problem(clocked, 40);
   SaOptions options;
   options.max_iterations = 100000000;
   SimulatedAnnealingSolver solver(problem, options);
   Solution solution;
   solution.resize(6, 3, 40);
   SolveSummary summary;
-  const auto start = SolverClock::now();
-  const SolveStatus status = solver.solve(problem, {}, start + 3ms, &solution, &summary);
-  const double elapsed = std::chrono::duration<double>(SolverClock::now() - start).count();
+  const TimePoint start = clock.now();
+  const SolveStatus status = solver.solve(problem, {}, Deadline(start + 3ms, clock), &solution, &summary);
+  const Duration elapsed = clock.now() - start;
   EXPECT_EQ(status, SolveStatus::kBudgetExhausted);
   EXPECT_TRUE(solution.valid);
-  // Stated overhead: one proposal plus the final evaluation, well under 2 ms here.
-  EXPECT_LT(elapsed, 0.003 + 0.002);
+  EXPECT_LE(elapsed, 3ms);
+  // ...and uses its time: it stops within two full rollouts and one proposal (240 us) of it.
+  EXPECT_GE(elapsed, 3ms - 240us) << summary.iterations << " iterations";
+  // The summary's solve time is read off the same clock.
+  EXPECT_DOUBLE_EQ(summary.solve_time_s, to_seconds(elapsed));
 }
 
 TEST(SimulatedAnnealing, WarmStartReachesATargetCostInFewerIterationsThanCold) {

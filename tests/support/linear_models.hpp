@@ -65,7 +65,7 @@ class ModelWithoutJacobians final : public PredictionModel {
 
 // The known-answer tracking problem every backend is tested on: from rest at the origin, follow a
 // line at (0.1, 0.05, 0.01) per step, with effort, rate and wear terms all active.
-inline OcpProblem make_lq_problem(const DoubleIntegratorModel& model, int horizon, InputBounds bounds = {}) {
+inline OcpProblem make_lq_problem(const PredictionModel& model, int horizon, InputBounds bounds = {}) {
   CostWeights w;
   w.pose = {10.0, 10.0, 5.0};
   w.terminal_scale = 10.0;

@@ -11,6 +11,7 @@
 
 #include "swerve/models/vehicle_params.hpp"
 #include "swerve/mpc/kinematic_baseline.hpp"
+#include "swerve/mpc/measurement_monitor.hpp"
 #include "swerve/mpc/ocp_problem.hpp"
 #include "swerve/mpc/reference.hpp"
 #include "swerve/mpc/tracking_controller.hpp"
@@ -28,7 +29,7 @@ const char* to_string(InputParameterization parameterization) noexcept;  // "bod
 struct ControllerOptions {
   int horizon = 20;                  // N (paper-notes assumption 7)
   double dt = 0.05;                  // s
-  double solve_budget = 0.02;        // s of wall clock per solve (the deadline)
+  double solve_budget = 0.02;        // s of wall clock for the whole step(): baseline plan, problem update, solve
   double overrun_grace = 0.002;      // s past the deadline before an answer counts as late
   Eigen::Vector3d pose_weight{10.0, 10.0, 5.0};
   Eigen::Vector3d twist_weight{0.0, 0.0, 0.0};
@@ -43,6 +44,7 @@ struct ControllerOptions {
   double twist_smoothness = 1.0;     // S on the change of the body twist per step (kBodyTwist)
   bool baseline_guess = true;        // also start the solver from the kinematic baseline's plan
   int max_plan_age = 5;              // cycles a previous plan may stand in for a failed solve
+  StalenessOptions stale_measurement;  // when a measurement is too old or frozen to act on
   void validate() const;             // throws ConfigError naming the field and value
 };
 
@@ -57,7 +59,9 @@ class Controller final : public TrackingController {
              std::string name = "wear_mpc");
 
   const char* name() const noexcept override { return name_.c_str(); }
-  const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t) noexcept override;
+  using TrackingController::step;
+  const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
+                            double measured_at) noexcept override;
   void reset() noexcept override;
 
   const OcpProblem& problem() const noexcept { return *problem_; }
@@ -74,6 +78,9 @@ class Controller final : public TrackingController {
   void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                            const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
+  void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
+  bool motion_commanded() const noexcept;
+  const ControlOutput& finish(TimePoint step_start) noexcept;
 
   std::string name_;
   ControllerOptions options_;
@@ -94,6 +101,7 @@ class Controller final : public TrackingController {
   Eigen::VectorXd fallback_input_;   // 2n
   InputBounds module_bounds_;        // the drives' limits on module inputs
   bool previous_input_known_ = false;  // false until a command of ours reaches the drives
+  MeasurementMonitor monitor_;
   ControlOutput output_;
 };
 

@@ -4,7 +4,7 @@
 //   (u_-1: the measured twist)
 //   pose_k+1 = pose_k + dt [R(psi_k) (vx, vy); r]
 // solved exactly each cycle by Gauss-Newton on the heading (the problem is linear-quadratic once
-// the headings are fixed), then per-module inverse kinematics with the 180 deg flip; the steering
+// the headings are fixed, and solved in O(N) by a Riccati recursion), then per-module inverse kinematics with the 180 deg flip; the steering
 // reaches its target under the module's rate limit and the wheels run at the IK speed. It is
 // tuned for tracking and knows nothing of wear, as the paper defines it.
 #pragma once
@@ -37,7 +37,11 @@ class KinematicBaseline final : public TrackingController {
  public:
   KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference, BaselineOptions options);
   const char* name() const noexcept override { return "kinematic_baseline"; }
-  const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t) noexcept override;
+  using TrackingController::step;
+  // The baseline trusts its measurement (the paper's controller); the staleness checks are the
+  // wear-aware controller's.
+  const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
+                            double measured_at) noexcept override;
   void reset() noexcept override;
 
   // The planning core, also used by the wear-aware controller for its initial guess.
@@ -64,11 +68,13 @@ class KinematicBaseline final : public TrackingController {
   Eigen::MatrixXd twists_;                            // 3 x N
   Eigen::MatrixXd reference_poses_, reference_twists_;  // 3 x N
   Eigen::MatrixXd inputs_;                            // 2n x N
-  Eigen::MatrixXd prediction_jacobian_;               // 3N x 3N
-  Eigen::MatrixXd weighted_jacobian_;                 // 3N x 3N
-  Eigen::MatrixXd hessian_;                           // 3N x 3N
-  Eigen::VectorXd gradient_, solution_, weights_, free_response_, target_;
-  Eigen::LDLT<Eigen::MatrixXd> factorization_;
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
+  using Vector6 = Eigen::Matrix<double, 6, 1>;
+  Eigen::VectorXd weights_, target_;                  // 3N: pose weights and targets of steps 1..N
+  Eigen::VectorXd headings_;                          // N: the headings the rotations are taken at
+  Eigen::MatrixXd feedback_;                          // 3 x 6N: the Riccati gains K_k
+  Eigen::MatrixXd feedforward_;                       // 3 x N
+
   ModuleStates module_states_;
   ControlOutput output_;
 };

@@ -25,16 +25,33 @@ struct ControlOutput {
   CommandSource source = CommandSource::kSafeStop;
   const char* reason = "";     // static text
   SolveSummary solve;          // of this cycle's solve (status kNotRun when none ran)
+  double step_time_s = -1.0;   // the whole step(), on the controller's clock (< 0 before the first)
+  bool measurement_stale = false;  // the measurement was judged stale this cycle (see Controller)
 };
 
 class TrackingController {
  public:
   virtual ~TrackingController() = default;
   virtual const char* name() const noexcept = 0;
-  // `measured_state`: pose_world (x, y, psi), v_body (vx, vy, r), steering angles delta_1..n.
-  virtual const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t) noexcept = 0;
+  // `measured_state`: pose_world (x, y, psi), v_body (vx, vy, r), steering angles delta_1..n, taken
+  // at `measured_at` (s, the same time base as t; a measurement older than the controller accepts
+  // is stale).
+  virtual const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
+                                    double measured_at) noexcept = 0;
+  // A measurement taken now.
+  const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t) noexcept {
+    return step(measured_state, t, t);
+  }
   // Forget plans and remembered inputs (a new run from a new state).
   virtual void reset() noexcept = 0;
+
+  // The clock step() is timed and its deadline kept on: the steady clock unless a test or a
+  // simulated-time host injects another. Not owned; it must outlive the controller.
+  void set_clock(const Clock& clock) noexcept { clock_ = &clock; }
+  const Clock& clock() const noexcept { return *clock_; }
+
+ private:
+  const Clock* clock_ = &steady_clock();
 };
 
 }  // namespace swerve

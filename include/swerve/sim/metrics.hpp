@@ -23,6 +23,7 @@ struct StepRecord {
   CommandSource source = CommandSource::kSafeStop;
   SolveStatus solve_status = SolveStatus::kNotRun;
   double solve_time_s = 0.0;                                  // < 0 when no solve ran
+  double step_time_s = -1.0;                                  // the whole controller step; < 0 unknown
   int solve_iterations = -1;
 
   double position_error() const { return (pose_world.head<2>() - reference_pose_world.head<2>()).norm(); }
@@ -39,7 +40,8 @@ struct RunMetrics {
   double frictional_energy_J = 0.0;
   double steering_effort = 0.0;    // integral of sum_i steering_rate_i^2 dt (rad^2/s)
   double solve_time_mean_ms = 0.0, solve_time_p50_ms = 0.0, solve_time_p99_ms = 0.0, solve_time_max_ms = 0.0;
-  int deadline_misses = 0;         // solves that took longer than the budget
+  double step_time_p99_ms = 0.0, step_time_max_ms = 0.0;  // the whole step (plan, update, solve)
+  int deadline_misses = 0;         // steps (or, where unknown, solves) that took longer than the budget
   int fallbacks = 0;               // periods whose command did not come from the optimiser
   double solve_iterations_mean = 0.0;
 };

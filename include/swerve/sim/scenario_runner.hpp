@@ -10,6 +10,7 @@
 
 #include "swerve/config/scenario_config.hpp"
 #include "swerve/sim/metrics.hpp"
+#include "swerve/solvers/deadline.hpp"
 
 namespace swerve {
 
@@ -38,11 +39,15 @@ using ProgressCallback = std::function<void(std::size_t, int, int)>;
 // Applies the overrides to a copy of the scenario (ConfigError for unknown names or backends).
 ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverrides& overrides);
 
-// Runs one controller of the scenario on the plant.
+// Runs one controller of the scenario on the plant. `clock`: what the controller's deadline is kept
+// on (nullptr: the steady clock); a clock that advances by the work done makes a run repeatable
+// bit for bit, whatever the machine's load.
 ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioController& controller,
-                             const ProgressCallback& progress = {}, std::size_t index = 0);
+                             const ProgressCallback& progress = {}, std::size_t index = 0,
+                             const Clock* clock = nullptr);
 
 // Runs every controller of the scenario, in order.
-std::vector<ControllerRun> run_scenario(const ScenarioConfig& scenario, const ProgressCallback& progress = {});
+std::vector<ControllerRun> run_scenario(const ScenarioConfig& scenario, const ProgressCallback& progress = {},
+                                        const Clock* clock = nullptr);
 
 }  // namespace swerve

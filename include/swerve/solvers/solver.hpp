@@ -6,9 +6,8 @@
 
 #include <Eigen/Core>
 
-#include <chrono>
-
 #include "swerve/mpc/ocp_problem.hpp"
+#include "swerve/solvers/deadline.hpp"
 
 namespace swerve {
 
@@ -21,9 +20,6 @@ inline bool has_solution(SolveStatus status) noexcept {
   return status == SolveStatus::kConverged || status == SolveStatus::kBudgetExhausted;
 }
 
-using SolverClock = std::chrono::steady_clock;
-using Deadline = SolverClock::time_point;
-
 struct SolveSummary {
   SolveStatus status = SolveStatus::kNotRun;
   const char* reason = "solve() not called";  // static text: never allocated on the real-time path
@@ -31,7 +27,7 @@ struct SolveSummary {
   long rollouts = -1;
   CostBreakdown cost;           // of the returned plan
   double initial_cost = -1.0;   // of the best initial guess
-  double solve_time_s = -1.0;
+  double solve_time_s = -1.0;   // on the deadline's clock
   // Multiple shooting (Ipopt): the largest dynamics defect |x_{k+1} - F(x_k, u_k)| of the
   // optimiser's final iterate; 0 for single-shooting backends, whose plans are rollouts.
   double max_defect = 0.0;

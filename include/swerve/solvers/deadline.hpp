@@ -1,0 +1,56 @@
+// The time every real-time part of SwerveMPC reads, and the deadline a solve must meet. Time comes
+// from a Clock, the steady clock by default; tests inject a clock that advances by the work done
+// (per model evaluation), so deadline logic is tested deterministically rather than by wall time.
+#pragma once
+
+#include <chrono>
+
+namespace swerve {
+
+using SolverClock = std::chrono::steady_clock;
+using TimePoint = SolverClock::time_point;
+using Duration = SolverClock::duration;
+
+class Clock {
+ public:
+  virtual ~Clock() = default;
+  virtual TimePoint now() const noexcept = 0;
+};
+
+// The process's steady clock (the default everywhere). A namespace-scope object: no
+// function-local static on the real-time path.
+const Clock& steady_clock() noexcept;
+
+inline Duration to_duration(double seconds) noexcept {
+  return std::chrono::duration_cast<Duration>(std::chrono::duration<double>(seconds));
+}
+inline double to_seconds(Duration duration) noexcept { return std::chrono::duration<double>(duration).count(); }
+
+// A point in time on a given clock. Built implicitly from a steady-clock time point, so
+// `SolverClock::now() + 20ms` still reads as a deadline; `Deadline(at, clock)` names another clock.
+class Deadline {
+ public:
+  Deadline() noexcept : Deadline(TimePoint{}) {}  // long past, on the steady clock
+  Deadline(TimePoint at, const Clock& clock = steady_clock()) noexcept : at_(at), clock_(&clock) {}  // NOLINT
+
+  // `budget` from now on `clock`.
+  static Deadline in(Duration budget, const Clock& clock = steady_clock()) noexcept {
+    return Deadline(clock.now() + budget, clock);
+  }
+
+  TimePoint at() const noexcept { return at_; }
+  const Clock& clock() const noexcept { return *clock_; }
+  TimePoint now() const noexcept { return clock_->now(); }
+  Duration remaining() const noexcept { return at_ - clock_->now(); }
+  bool passed() const noexcept { return clock_->now() >= at_; }
+  // Whether this is the process's steady clock (a library's own wall-time limit then agrees with it).
+  bool on_steady_clock() const noexcept { return clock_ == &steady_clock(); }
+  // The same clock, `margin` earlier (a backend keeping slack for its final evaluation).
+  Deadline earlier_by(Duration margin) const noexcept { return Deadline(at_ - margin, *clock_); }
+
+ private:
+  TimePoint at_;
+  const Clock* clock_;
+};
+
+}  // namespace swerve
