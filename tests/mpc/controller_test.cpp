@@ -516,6 +516,178 @@ TEST(Controller, DoesNotBrakeBeyondTheDriveLimitWhenItStartsOrResumesInMotion) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The whole step inside its budget, stale measurements, a module reversed by pi.
+
+// A reference whose every sample costs `cost_s` on a ManualClock: the controller samples it once
+// per horizon step, so the work before the solve has a known price.
+class ChargedReference final : public Reference {
+ public:
+  ChargedReference(std::shared_ptr<const Reference> inner, testing::ManualClock* clock, double cost_s)
+      : inner_(std::move(inner)), clock_(clock), cost_s_(cost_s) {}
+  ReferenceSample sample(double t) const noexcept override {
+    clock_->advance_s(cost_s_);
+    return inner_->sample(t);
+  }
+  double duration() const noexcept override { return inner_->duration(); }
+
+ private:
+  std::shared_ptr<const Reference> inner_;
+  testing::ManualClock* clock_;
+  double cost_s_;
+};
+
+// Records the time the solver was given.
+class DeadlineRecorder final : public Solver {
+ public:
+  DeadlineRecorder(const OcpProblem& shape, double* remaining_s) : Solver(shape), remaining_s_(remaining_s) {}
+  const char* name() const noexcept override { return "deadline_recorder"; }
+
+ private:
+  SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
+                       SolveSummary* summary) noexcept override {
+    *remaining_s_ = to_seconds(deadline.remaining());
+    Eigen::MatrixXd candidate_inputs = out->inputs, candidate_states = out->states;
+    Eigen::VectorXd stage_costs(problem.horizon());
+    long rollouts = 0;
+    out->cost = cheapest_start(problem, guesses, out->inputs, out->states, candidate_inputs, candidate_states,
+                               stage_costs, &rollouts);
+    summary->reason = "deadline recorder: the cheapest start";
+    return SolveStatus::kConverged;
+  }
+  double* remaining_s_;
+};
+
+TEST(Controller, TheDeadlineCoversTheWholeStepNotOnlyTheSolve) {
+  // 20 reference samples at 0.1 ms each use 2 ms of the 5 ms budget before the solve: the solver
+  // gets the 3 ms left, and the step reports the 2 ms it really took.
+  testing::ManualClock clock;
+  const auto reference = std::make_shared<ChargedReference>(testing::line_reference(0.5), &clock, 1e-4);
+  double remaining_s = -1.0;
+  ControllerOptions options = fast_options();
+  Controller controller(small_robot(), reference, options, [&remaining_s](const OcpProblem& p) {
+    return std::make_unique<DeadlineRecorder>(p, &remaining_s);
+  });
+  controller.set_clock(clock);
+  const ControlOutput& out = controller.step(at_rest(), 0.0);
+  ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+  EXPECT_NEAR(remaining_s, options.solve_budget - options.horizon * 1e-4, 1e-9);
+  EXPECT_NEAR(out.step_time_s, options.horizon * 1e-4, 1e-9);
+}
+
+TEST(Controller, SkipsTheSolveAndUsesTheBaselineWhenThePlanAloneUsesTheBudget) {
+  // 20 samples at 1 ms: 20 ms of work before the solve against a 5 ms budget (what a horizon of
+  // 1000 did to the dense baseline plan). The solver must not run; the baseline plan is sent, and
+  // the step reports its real duration rather than an on-time optimiser command.
+  testing::ManualClock clock;
+  const auto reference = std::make_shared<ChargedReference>(testing::line_reference(0.5), &clock, 1e-3);
+  double remaining_s = -1.0;
+  Controller controller(small_robot(), reference, fast_options(), [&remaining_s](const OcpProblem& p) {
+    return std::make_unique<DeadlineRecorder>(p, &remaining_s);
+  });
+  controller.set_clock(clock);
+  const ControlOutput& out = controller.step(at_rest(), 0.0);
+  EXPECT_EQ(remaining_s, -1.0) << "the solver ran";
+  EXPECT_EQ(out.source, CommandSource::kBaseline) << reason_of(out);
+  EXPECT_EQ(reason_of(out), "no time left to solve after the baseline plan and the problem update");
+  EXPECT_NEAR(out.step_time_s, 0.02, 1e-9);
+  EXPECT_TRUE(all_finite(out));
+}
+
+// Moving straight ahead at 0.5 m/s on the line, wheels aligned.
+Eigen::VectorXd cruising() {
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(10);
+  x[3] = 0.5;
+  return x;
+}
+
+TEST(Controller, AFrozenMeasurementIsFlaggedWithinItsCyclesAndEndsInASafeStop) {
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.stale_measurement = StalenessOptions{};  // 3 identical measurements while moving
+  Controller controller = make_fake_controller(&script, options);
+  Eigen::VectorXd state = cruising();
+  double t = 0.0;
+  for (int k = 0; k < 4; ++k, t += options.dt) {  // fresh: the pose moves on every cycle
+    state[0] = 0.5 * t;
+    EXPECT_FALSE(controller.step(state, t).measurement_stale) << "cycle " << k;
+  }
+  // Now the same measurement again and again: the second repeat (third identical) is stale.
+  EXPECT_FALSE(controller.step(state, t).measurement_stale);
+  t += options.dt;
+  const ControlOutput& second = controller.step(state, t);
+  EXPECT_TRUE(second.measurement_stale);
+  EXPECT_EQ(second.source, CommandSource::kSafeStop);
+  EXPECT_EQ(second.solve.status, SolveStatus::kInvalidInput);
+  EXPECT_EQ(reason_of(second), "measurement stale: identical for stale_measurement.frozen_cycles cycles while moving");
+  // A safe stop brakes: every wheel slower than the 5 rad/s of cruising.
+  for (int i = 0; i < second.modules.size(); ++i) EXPECT_LT(std::abs(second.modules[i].wheel_speed), 5.0);
+  // Fresh measurements again: controlled at once. (The baseline's command: the fake plan's slow
+  // first step is out of reach of the measured 0.5 m/s within one step's drive limit.)
+  t += options.dt;
+  state[0] += 0.01;
+  const ControlOutput& back = controller.step(state, t);
+  EXPECT_FALSE(back.measurement_stale);
+  EXPECT_EQ(back.source, CommandSource::kBaseline) << reason_of(back);
+}
+
+TEST(Controller, ARepeatedMeasurementAtRestWithNoMotionCommandedIsNotStale) {
+  // A noiseless standstill repeats exactly, and that is fine: nothing moves or is asked to.
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.stale_measurement = StalenessOptions{};
+  Controller controller = make_fake_controller(&script, options);
+  // Reference held at its start (t < 0) so nothing is asked to move; the fake plan drives slowly,
+  // so use the failing solver: the baseline then holds still at the reference.
+  script.mode = FakeMode::kFail;
+  for (int k = 0; k < 10; ++k) {
+    const ControlOutput& out = controller.step(at_rest(), -1.0);
+    EXPECT_FALSE(out.measurement_stale) << "cycle " << k << ": " << reason_of(out);
+  }
+}
+
+TEST(Controller, AnOldOrFutureTimestampIsStaleAtOnce) {
+  FakeScript script;
+  Controller controller = make_fake_controller(&script);
+  const double max_age = fast_options().stale_measurement.max_age;
+  const ControlOutput& old = controller.step(cruising(), 1.0, 1.0 - max_age - 0.01);
+  EXPECT_TRUE(old.measurement_stale);
+  EXPECT_EQ(old.source, CommandSource::kSafeStop);
+  EXPECT_EQ(reason_of(old), "measurement stale: older than stale_measurement.max_age");
+  const ControlOutput& future = controller.step(cruising(), 1.05, 1.2);
+  EXPECT_TRUE(future.measurement_stale);
+  EXPECT_EQ(reason_of(future), "measurement timestamp is not finite or lies in the future");
+  const ControlOutput& fresh = controller.step(cruising(), 1.1, 1.1 - 0.5 * max_age);
+  EXPECT_FALSE(fresh.measurement_stale);
+  EXPECT_EQ(fresh.source, CommandSource::kBaseline) << reason_of(fresh);  // as in the frozen test
+}
+
+TEST(Controller, AModuleStartingReversedByPiRecoversTheTracking) {
+  // Regression: the prediction clipped the steering at +-pi even without end stops, so a module
+  // turned by pi (wheel reversed) could not be steered one way and the tracking stuck 0.84 m off.
+  // The travel direction is 0.5 rad off the heading, to the side that makes the module at +-pi
+  // steer past pi (the pi - 0.5 turn the other way round is what the clip left it).
+  const VehicleParams params = small_robot();
+  SpeedProfile profile;
+  profile.speed = 0.5;
+  for (const double reversed : {kPi, -kPi}) {
+    SCOPED_TRACE(::testing::Message() << "module 0 at " << reversed);
+    const double heading_offset = reversed > 0.0 ? -0.5 : 0.5;  // module direction +-0.5 rad in the body
+    const auto reference =
+        std::make_shared<PathReference>(make_line_curve({0.0, 0.0}, 0.0, 50.0), profile, heading_offset);
+    Controller controller(params, reference, closed_loop_options(1.0, InputParameterization::kBodyTwist),
+                          sa_factory(7));
+    const testing::WorkClock clock(kClockTick);
+    controller.set_clock(clock);
+    Eigen::VectorXd start = Eigen::VectorXd::Zero(10);
+    start[2] = heading_offset;
+    start[6] = reversed;
+    const auto result = run_closed_loop(controller, *reference, params, 0.05, start, 6.0);
+    ASSERT_TRUE(result.model_ok);
+    EXPECT_LT(result.worst_late_position_error, kConvergedPosition);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Real time: step() allocates nothing once running.
 
 TEST(Controller, StepAllocatesNothingAfterTheFirstCycles) {

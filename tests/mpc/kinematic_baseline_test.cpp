@@ -85,6 +85,67 @@ TEST(KinematicBaseline, PlansTheReferenceTwistWhenTheReferenceIsAlreadyMet) {
   }
 }
 
+// The baseline's problem with the headings fixed at psi_k (one Gauss-Newton iteration from the
+// reference's yaw rate), solved the textbook way: stack the predictions Y = Y0 + G U, form the
+// normal equations (G'WG + R + D'SD) U = G'W(T - Y0) + R U_ref + D'S d0 and solve them densely.
+Eigen::MatrixXd dense_plan(const BaselineOptions& o, const Eigen::Vector3d& pose, const Eigen::Vector3d& twist,
+                           const Eigen::MatrixXd& poses, const Eigen::MatrixXd& twists) {
+  const int n = o.horizon, n3 = 3 * n;
+  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(n3, n3), h(n3, n3);
+  Eigen::VectorXd w(n3), target(n3), b = Eigen::VectorXd::Zero(n3);
+  double psi = pose.z();
+  for (int j = 0; j < n; ++j) {
+    Eigen::Matrix3d rotation;
+    rotation << std::cos(psi), -std::sin(psi), 0, std::sin(psi), std::cos(psi), 0, 0, 0, 1;
+    for (int k = j; k < n; ++k) g.block<3, 3>(3 * k, 3 * j) = o.dt * rotation;
+    psi += o.dt * twists(2, j);
+    target.segment<3>(3 * j) = poses.col(j) - pose;
+    target[3 * j + 2] = psi + wrap_angle(poses(2, j) - psi) - pose.z();
+    w.segment<3>(3 * j) = (j == n - 1 ? o.terminal_scale : 1.0) * o.pose_weight;
+  }
+  h = g.transpose() * w.asDiagonal() * g;
+  b = g.transpose() * w.asDiagonal() * target;
+  for (int k = 0; k < n; ++k) {
+    for (int a = 0; a < 3; ++a) {
+      const int i = 3 * k + a;
+      h(i, i) += o.twist_weight[a] + o.rate_weight[a] * (k + 1 < n ? 2.0 : 1.0);
+      if (k + 1 < n) h(i, i + 3) = h(i + 3, i) = h(i, i + 3) - o.rate_weight[a];
+      b[i] += o.twist_weight[a] * twists(a, k) + (k == 0 ? o.rate_weight[a] * twist[a] : 0.0);
+    }
+  }
+  const Eigen::VectorXd u = h.ldlt().solve(b);
+  return Eigen::Map<const Eigen::MatrixXd>(u.data(), 3, n);
+}
+
+TEST(KinematicBaseline, RiccatiPlanEqualsTheDenseNormalEquationsOptimum) {
+  // The O(N) recursion must give the same optimum as the O(N^3) dense solve it replaced, for a
+  // reference the vehicle is off (pose, heading and twist), on drives whose limits never bind.
+  ModuleLimits unbounded = testing::small_robot_limits();
+  unbounded.max_drive_speed = 1e3;
+  unbounded.max_drive_acceleration = 1e6;
+  const ModuleLayout layout = ModuleLayout::rectangle(0.6, 0.5, 0.1, unbounded);
+  const auto reference = testing::line_reference(0.5);
+  for (const int horizon : {1, 7, 40}) {
+    SCOPED_TRACE(::testing::Message() << "horizon " << horizon);
+    BaselineOptions options;
+    options.horizon = horizon;
+    options.gauss_newton_iterations = 1;
+    options.twist_weight = {0.05, 0.1, 0.2};
+    options.rate_weight = {0.5, 0.3, 0.7};
+    Eigen::MatrixXd poses, twists;
+    met_reference(Eigen::Vector3d(0.1, 0.05, 0.2), Eigen::Vector3d(0.3, 0.05, 0.2), horizon, options.dt, &poses,
+                  &twists);
+    const Eigen::Vector3d pose(0.0, 0.0, 0.1), twist(0.25, 0.0, 0.1);
+    KinematicBaseline baseline(layout, reference, options);
+    ASSERT_TRUE(baseline.plan_twists(pose, twist, poses, twists));
+    const Eigen::MatrixXd expected = dense_plan(options, pose, twist, poses, twists);
+    // Both solve a well-conditioned SPD system (condition ~1e3): agreement to 1e-9 m/s is rounding.
+    EXPECT_LT((baseline.twist_plan() - expected).cwiseAbs().maxCoeff(), 1e-9)
+        << "first steps\n" << baseline.twist_plan().leftCols(std::min(3, horizon)) << "\nexpected\n"
+        << expected.leftCols(std::min(3, horizon));
+  }
+}
+
 TEST(KinematicBaseline, PlanRespectsTheDriveAccelerationLimit) {
   const ModuleLayout layout = small_robot().layout;
   const double max_change = layout.limits().max_drive_acceleration * 0.05;  // 0.1 m/s per step
