@@ -42,7 +42,7 @@ TuningResult tune_horizon(const VehicleParams& vehicle, const ControllerConfig& 
     entry.config.mpc.horizon = entry.config.baseline.horizon = horizon;
     entry.config.mpc.dt = entry.config.baseline.dt = target.control_period;
     entry.config.mpc.solve_budget = budget_here;
-    const ControllerRun run = run_controller(scenario, entry);
+    const ControllerRun run = run_controller(scenario, entry, {}, 0, options.clock);
     std::vector<double> proposals;
     for (const StepRecord& record : run.log) {
       if (record.solve_time_s >= 0.0) proposals.push_back(std::max(0, record.solve_iterations));

@@ -11,6 +11,7 @@
 #include "swerve/config/controller_config.hpp"
 #include "swerve/config/target_config.hpp"
 #include "swerve/models/vehicle_params.hpp"
+#include "swerve/solvers/deadline.hpp"
 
 namespace swerve {
 
@@ -18,6 +19,7 @@ struct TuningOptions {
   std::vector<int> horizons{5, 10, 20, 30, 40};
   int cycles = 20;          // closed-loop periods measured per horizon
   int min_proposals = 50;   // median optimiser proposals per solve a horizon needs to qualify
+  const Clock* clock = nullptr;  // the controllers' clock (nullptr: the steady clock; tests inject one)
   void validate() const;    // ConfigError naming the field and value
 };
 
