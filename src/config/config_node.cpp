@@ -188,7 +188,7 @@ ConfigNode ConfigNode::load_file(const std::string& file_path) {
   std::error_code error;
   const fs::file_status status = fs::status(file_path, error);
   if (status.type() == fs::file_type::not_found || (error && !fs::exists(status))) {
-    throw ConfigError(shown + ": cannot open the file for reading (no such file)");
+    throw ConfigError(shown + ": cannot open the file for reading");
   }
   if (error) throw ConfigError(shown + ": cannot open the file for reading (" + error.message() + ")");
   if (!fs::is_regular_file(status)) {
