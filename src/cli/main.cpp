@@ -2,7 +2,6 @@
 // registered subcommand, and turns every failure into one line on stderr and a non-zero exit code:
 // 2 when the command line is wrong, 1 otherwise; never a stack trace or a core dump.
 #include <CLI/CLI.hpp>
-
 #include <algorithm>
 #include <cstdlib>
 #include <exception>
@@ -80,7 +79,8 @@ int run_main(int argc, char** argv) {
   }
 
   if (!action) {
-    return report("a command is required (commands: " + command_names + "; see --help)", swerve::cli::kExitUsage);
+    return report("a command is required (commands: " + command_names + "; see --help)",
+                  swerve::cli::kExitUsage);
   }
   try {
     return action();

@@ -11,13 +11,14 @@ namespace {
 TEST(FindInvalidUtf8, AcceptsAsciiAndEveryLengthOfWellFormedSequence) {
   EXPECT_EQ(find_invalid_utf8(""), std::string::npos);
   EXPECT_EQ(find_invalid_utf8("plain ascii"), std::string::npos);
-  EXPECT_EQ(find_invalid_utf8("caf\xc3\xa9 \xe2\x86\x92 \xf0\x9f\x9a\x97 \xf4\x8f\xbf\xbf"), std::string::npos);
+  EXPECT_EQ(find_invalid_utf8("caf\xc3\xa9 \xe2\x86\x92 \xf0\x9f\x9a\x97 \xf4\x8f\xbf\xbf"),
+            std::string::npos);
 }
 
 TEST(FindInvalidUtf8, ReportsTheOffsetOfTheFirstBadByte) {
-  EXPECT_EQ(find_invalid_utf8("caf\xe9"), 3u);             // Latin-1, not UTF-8
-  EXPECT_EQ(find_invalid_utf8("ab\x80"), 2u);              // stray continuation byte
-  EXPECT_EQ(find_invalid_utf8("ok\xc3"), 2u);              // truncated sequence
+  EXPECT_EQ(find_invalid_utf8("caf\xe9"), 3u);  // Latin-1, not UTF-8
+  EXPECT_EQ(find_invalid_utf8("ab\x80"), 2u);   // stray continuation byte
+  EXPECT_EQ(find_invalid_utf8("ok\xc3"), 2u);   // truncated sequence
 }
 
 TEST(FindInvalidUtf8, RejectsOverlongFormsSurrogatesAndCodePointsAboveTheRange) {
@@ -34,12 +35,13 @@ TEST(PrintableValue, LeavesShortPrintableTextAlone) {
 }
 
 TEST(PrintableValue, EscapesControlCharactersAndInvalidBytes) {
-  EXPECT_EQ(printable_value("a\nb\tc\rd\x01" "e\x7f"), "a\\nb\\tc\\rd\\x01e\\x7f");
+  EXPECT_EQ(printable_value("a\nb\tc\rd\x01\x7f"), "a\\nb\\tc\\rd\\x01\\x7f");
   EXPECT_EQ(printable_value("caf\xe9"), "caf\\xe9");
 }
 
 TEST(PrintableValue, CutsLongTextAndSaysHowLongItWas) {
-  EXPECT_EQ(printable_value(std::string(1000, 'x')), std::string(kMaxEchoedValueChars, 'x') + "... (1000 bytes)");
+  EXPECT_EQ(printable_value(std::string(1000, 'x')),
+            std::string(kMaxEchoedValueChars, 'x') + "... (1000 bytes)");
   EXPECT_EQ(printable_value("abcdef", 3), "abc... (6 bytes)");
   EXPECT_EQ(printable_value("abc", 3), "abc");
 }
