@@ -23,7 +23,7 @@ Command make_check_config_command() {
               for (const std::string& file : *files) {
                 try {
                   const nlohmann::json loaded = load_any_config_file(file);
-                  if (!*quiet) std::cout << loaded.dump(2) << "\n";
+                  if (!*quiet) std::cout << loaded.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
                 } catch (const ConfigError& error) {
                   std::cerr << "swerve-mpc check-config: " << error.what() << "\n";
                   exit_code = kExitFailure;

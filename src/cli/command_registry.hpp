@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,13 @@ namespace swerve::cli {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;  // the command ran and found a problem (bad config, failed run)
 inline constexpr int kExitUsage = 2;    // the command line itself is wrong
+
+// Thrown by a command when its command line is wrong in a way only the command can see (an option
+// value that does not fit the loaded scenario); main reports it with kExitUsage.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 struct Command {
   std::string name;

@@ -6,15 +6,20 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <charconv>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
+#include <optional>
 
 #include "command_registry.hpp"
+#include "swerve/config/error_text.hpp"
 #include "swerve/config/scenario_config.hpp"
 #include "swerve/sim/run_report.hpp"
+#include "swerve/solvers/solver_factory.hpp"
 
 namespace swerve::cli {
 namespace {
@@ -23,23 +28,54 @@ struct RunArguments {
   std::string scenario_file;
   std::string out_dir;
   std::vector<std::string> controllers;
-  std::int64_t seed = -1;
+  std::string seed;  // checked by seed_value(); kept as text so no conversion can clamp or wrap it
   std::string backend;
   bool quiet = false;
 };
 
+// The seed a --seed value names: a decimal integer in [0, 2^64 - 1], the simulator's seed type;
+// nullopt for anything else (a sign, a fraction, trailing text, too many digits).
+std::optional<std::uint64_t> seed_value(const std::string& text) {
+  std::uint64_t value = 0;
+  const char* end = text.data() + text.size();
+  const auto [stop, error] = std::from_chars(text.data(), end, value);
+  if (text.empty() || error != std::errc() || stop != end) return std::nullopt;
+  return value;
+}
+
+const CLI::Validator kSeedRule(
+    [](std::string& text) -> std::string {
+      if (seed_value(text)) return "";
+      return "'" + printable_value(text) + "': must be an integer in [0, " +
+             std::to_string(std::numeric_limits<std::uint64_t>::max()) + "]";
+    },
+    "SEED");
+
+// The factory's list of built backends is the rule; a typo is a command-line error, found before
+// anything is loaded.
+const CLI::Validator kBackendRule(
+    [](std::string& name) -> std::string {
+      const std::vector<std::string>& built = built_backends();
+      if (std::find(built.begin(), built.end(), name) != built.end()) return "";
+      std::string listing;
+      for (const std::string& b : built) listing += (listing.empty() ? "" : ", ") + b;
+      return "'" + printable_value(name) + "' was not built (built: " + listing + ")";
+    },
+    "BACKEND");
+
 void declare_common(CLI::App& app, RunArguments* a) {
   app.add_option("scenario", a->scenario_file, "Scenario YAML (configs/scenarios/)")->required();
   app.add_option("-o,--out", a->out_dir, "Output directory [out/<scenario name>]");
-  app.add_option("--seed", a->seed, "Simulator seed (overrides the scenario's)")->check(CLI::NonNegativeNumber);
-  app.add_option("--backend", a->backend, "Solver backend of the wear-aware controllers (sa, ipopt, nlopt, ceres)");
+  app.add_option("--seed", a->seed, "Simulator seed, an integer >= 0 (overrides the scenario's)")->check(kSeedRule);
+  app.add_option("--backend", a->backend, "Solver backend of the wear-aware controllers (sa, ipopt, nlopt, ceres)")
+      ->check(kBackendRule);
   app.add_flag("-q,--quiet", a->quiet, "No progress bar");
 }
 
 RunOverrides overrides_of(const RunArguments& a) {
   RunOverrides o;
   o.controllers = a.controllers;
-  if (a.seed >= 0) o.seed = static_cast<std::uint64_t>(a.seed);
+  if (!a.seed.empty()) o.seed = seed_value(a.seed);
   if (!a.backend.empty()) o.backend = a.backend;
   return o;
 }
@@ -63,9 +99,29 @@ std::string out_dir_of(const RunArguments& a, const ScenarioConfig& s) {
   return a.out_dir.empty() ? "out/" + s.name : a.out_dir;
 }
 
+// The scenario with the command line's overrides; an override that does not fit the scenario (an
+// unknown or repeated --controllers name) is a command-line error.
+ScenarioConfig with_overrides(const ScenarioConfig& loaded, const RunOverrides& overrides) {
+  try {
+    return apply_overrides(loaded, overrides);
+  } catch (const OverrideError& error) {
+    throw UsageError(error.what());
+  }
+}
+
+// Fails before any simulation when the output directory cannot be written.
+void prepare_out_dir(const std::string& out_dir) {
+  try {
+    prepare_output_directory(out_dir);
+  } catch (const std::runtime_error& error) {
+    throw std::runtime_error(std::string("--out ") + error.what() + "; nothing was run");
+  }
+}
+
 int run(const RunArguments& a) {
-  const ScenarioConfig scenario = apply_overrides(load_scenario_config_file(a.scenario_file), overrides_of(a));
+  const ScenarioConfig scenario = with_overrides(load_scenario_config_file(a.scenario_file), overrides_of(a));
   const std::string out_dir = out_dir_of(a, scenario);
+  prepare_out_dir(out_dir);
   std::vector<ControllerRun> runs;
   const ProgressCallback progress = progress_bar(scenario, a.quiet);
   for (std::size_t i = 0; i < scenario.controllers.size(); ++i) {
@@ -87,11 +143,11 @@ int sweep(const RunArguments& a, const std::vector<double>& lambdas) {
   const ScenarioConfig loaded = load_scenario_config_file(a.scenario_file);
   RunOverrides base_overrides = overrides_of(a);
   const std::string out_dir = out_dir_of(a, loaded) + "/sweep";
-  std::filesystem::create_directories(out_dir);
+  prepare_out_dir(out_dir);
   // The baseline once, then the wear-aware controller at every lambda.
   RunOverrides baseline_only = base_overrides;
   baseline_only.controllers = {"kinematic_baseline"};
-  const ScenarioConfig baseline_scenario = apply_overrides(loaded, baseline_only);
+  const ScenarioConfig baseline_scenario = with_overrides(loaded, baseline_only);
   const ControllerRun baseline = run_controller(baseline_scenario, baseline_scenario.controllers.front());
   nlohmann::json points = nlohmann::json::array();
   std::printf("%-12s %12s %14s %14s %10s\n", "wear_weight", "rmse [m]", "wear total", "vs base [%]", "p99 [ms]");
@@ -101,7 +157,7 @@ int sweep(const RunArguments& a, const std::vector<double>& lambdas) {
     RunOverrides o = base_overrides;
     o.controllers = {"wear_mpc"};
     o.wear_weight = lambda;
-    const ScenarioConfig s = apply_overrides(loaded, o);
+    const ScenarioConfig s = with_overrides(loaded, o);
     const ControllerRun r = run_controller(s, s.controllers.front());
     const double reduction = wear_reduction_pct(r.metrics, baseline.metrics);
     std::printf("%-12g %12.4f %14.2f %14.2f %10.2f%s\n", lambda, r.metrics.tracking_rmse_m, r.metrics.wear_total,
@@ -118,7 +174,8 @@ int sweep(const RunArguments& a, const std::vector<double>& lambdas) {
       {"points", points},
       {"baseline", {{"tracking_rmse_m", baseline.metrics.tracking_rmse_m}, {"wear_total", baseline.metrics.wear_total}}}};
   // The plot script reads a summary beside the sweep for the scenario's name and units.
-  std::ofstream(out_dir + "/sweep.json") << sweep_json.dump(2) << "\n";
+  std::ofstream(out_dir + "/sweep.json") << sweep_json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace)
+                                          << "\n";
   write_run_outputs(baseline_scenario, {baseline}, out_dir);
   std::cout << "written: " << out_dir << "/sweep.json\n";
   return kExitOk;

@@ -20,6 +20,12 @@ struct TuneArguments {
 };
 
 int tune(const TuneArguments& a) {
+  // The options come from the command line only: breaking their rules is a command-line error.
+  try {
+    a.options.validate();
+  } catch (const ConfigError& error) {
+    throw UsageError(std::string("tune: ") + error.what());
+  }
   const VehicleParams vehicle = load_vehicle_config_file(a.vehicle_file);
   const ControllerConfig controller = load_controller_config_file(a.controller_file);
   const TargetConfig target = load_target_config_file(a.target_file);

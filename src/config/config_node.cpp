@@ -4,7 +4,11 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <set>
@@ -34,7 +38,7 @@ std::string describe_node(const YAML::Node& node) {
     case YAML::NodeType::Undefined:
       return "nothing";
     case YAML::NodeType::Scalar:
-      return "'" + node.Scalar() + "'";
+      return "'" + printable_value(node.Scalar()) + "'";
     case YAML::NodeType::Sequence:
       return "a list of " + std::to_string(node.size());
     case YAML::NodeType::Map:
@@ -58,6 +62,83 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
   }
   return row[b.size()];
 }
+
+const char* describe_file_type(std::filesystem::file_type type) {
+  switch (type) {
+    case std::filesystem::file_type::directory:
+      return "a directory";
+    case std::filesystem::file_type::character:
+      return "a character device";
+    case std::filesystem::file_type::block:
+      return "a block device";
+    case std::filesystem::file_type::fifo:
+      return "a pipe";
+    case std::filesystem::file_type::socket:
+      return "a socket";
+    default:
+      return "not a regular file";
+  }
+}
+
+std::string file_too_large(const std::string& file_path, const std::string& size) {
+  return printable_value(file_path, std::string::npos) + ": " + size +
+         " bytes: config files are limited to 1 MiB (" + std::to_string(kMaxConfigFileBytes) + " bytes)";
+}
+
+// Walks the whole document once, before any loader reads it, so that every later read can trust
+// its text: each key is a plain scalar, every key and scalar is UTF-8 (the JSON report and the
+// terminal need it; finding out after a simulation loses the run), and the expanded document stays
+// within kMaxConfigValues (a later walk, such as expect_all_read, stays bounded too).
+class TextChecker {
+ public:
+  explicit TextChecker(const std::string& source) : source_(source) {}
+
+  void check(const YAML::Node& node, const std::string& path) {
+    if (++values_ > kMaxConfigValues) {
+      throw ConfigError(printable_value(source_, std::string::npos) + ": more than " +
+                        std::to_string(kMaxConfigValues) +
+                        " values once anchors and aliases are expanded: config files are limited to that");
+    }
+    switch (node.Type()) {
+      case YAML::NodeType::Scalar:
+        check_utf8(node.Scalar(), path, "value");
+        return;
+      case YAML::NodeType::Sequence:
+        for (std::size_t i = 0; i < node.size(); ++i) check(node[i], path + "[" + std::to_string(i) + "]");
+        return;
+      case YAML::NodeType::Map:
+        for (const auto& entry : node) {
+          if (!entry.first.IsScalar()) fail(path, "= " + describe_node(entry.first) + ": a key must be a plain string");
+          const std::string& key = entry.first.Scalar();
+          const std::string key_path = join_path(path, key);
+          check_utf8(key, key_path, "key");
+          check(entry.second, key_path);
+        }
+        return;
+      default:
+        return;
+    }
+  }
+
+ private:
+  void check_utf8(const std::string& text, const std::string& path, const char* what) {
+    const std::size_t bad = find_invalid_utf8(text);
+    if (bad == std::string::npos) return;
+    char byte[8];
+    std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned>(static_cast<unsigned char>(text[bad])));
+    fail(path, "= '" + printable_value(text) + "': the " + what + " is not valid UTF-8 (byte " + byte +
+                   " at offset " + std::to_string(bad) + "); config text must be UTF-8");
+  }
+
+  [[noreturn]] void fail(const std::string& path, const std::string& what) const {
+    std::string message = printable_value(source_, std::string::npos);
+    if (!path.empty()) message += ": " + printable_value(path, 2 * kMaxEchoedValueChars);
+    throw ConfigError(message + (what.rfind("= ", 0) == 0 ? " " : ": ") + what);
+  }
+
+  const std::string& source_;
+  std::size_t values_ = 0;
+};
 
 }  // namespace
 
@@ -101,26 +182,55 @@ ConfigNode& ConfigNode::operator=(const ConfigNode& other) {
 ConfigNode::~ConfigNode() = default;
 
 ConfigNode ConfigNode::load_file(const std::string& file_path) {
-  std::ifstream in(file_path);
-  if (!in) throw ConfigError(file_path + ": cannot open the file for reading");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parse(text.str(), file_path);
+  namespace fs = std::filesystem;
+  const std::string shown = printable_value(file_path, std::string::npos);
+  // Checked before reading: a directory reads as an empty document and /dev/zero never ends.
+  std::error_code error;
+  const fs::file_status status = fs::status(file_path, error);
+  if (status.type() == fs::file_type::not_found || (error && !fs::exists(status))) {
+    throw ConfigError(shown + ": cannot open the file for reading");
+  }
+  if (error) throw ConfigError(shown + ": cannot open the file for reading (" + error.message() + ")");
+  if (!fs::is_regular_file(status)) {
+    throw ConfigError(shown + ": " + describe_file_type(status.type()) + ", not a regular file: give a YAML file");
+  }
+  const std::uintmax_t size = fs::file_size(file_path, error);
+  if (!error && size > kMaxConfigFileBytes) throw ConfigError(file_too_large(file_path, std::to_string(size)));
+  std::ifstream in(file_path, std::ios::binary);
+  if (!in) throw ConfigError(shown + ": cannot open the file for reading (" + std::strerror(errno) + ")");
+  // Read at most one byte past the limit, so a file that grew since the size check stays bounded.
+  std::string text(kMaxConfigFileBytes + 1, '\0');
+  in.read(&text[0], static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (in.bad()) throw ConfigError(shown + ": read error");
+  if (text.size() > kMaxConfigFileBytes) throw ConfigError(file_too_large(file_path, "more than " + std::to_string(kMaxConfigFileBytes)));
+  return parse(text, file_path);
 }
 
 ConfigNode ConfigNode::parse(const std::string& yaml_text, const std::string& source_name) {
   auto document = std::make_shared<Document>();
   document->source = source_name;
+  const std::string shown = printable_value(source_name, std::string::npos);
+  std::vector<YAML::Node> documents;
   try {
-    document->root = YAML::Load(yaml_text);
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(source_name + ":" + std::to_string(e.mark.line + 1) + ":" +
-                      std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
+    documents = YAML::LoadAll(yaml_text);
+  } catch (const YAML::Exception& e) {
+    const std::string where =
+        e.mark.is_null() ? shown : shown + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1);
+    throw ConfigError(where + ": YAML syntax error: " + printable_value(e.msg, 2 * kMaxEchoedValueChars));
   }
+  // Loaders read one document; a second one after `---` would otherwise be silently ignored.
+  if (documents.size() > 1) {
+    const YAML::Mark mark = documents[1].Mark();
+    throw ConfigError((mark.is_null() ? shown : shown + ":" + std::to_string(mark.line + 1)) +
+                      ": a second YAML document (after '---'): a config file holds exactly one document");
+  }
+  if (documents.empty()) throw ConfigError(shown + ": the file is empty: expected a map of keys at the top level");
+  document->root = documents.front();
   if (!document->root.IsMap()) {
-    throw ConfigError(source_name + ": expected a map of keys at the top level, got " +
-                      describe_node(document->root));
+    throw ConfigError(shown + ": expected a map of keys at the top level, got " + describe_node(document->root));
   }
+  TextChecker(source_name).check(document->root, "");
   return ConfigNode(document, document->root, "");
 }
 
@@ -194,8 +304,8 @@ double ConfigNode::as_double(const Bound& bound) const {
   } catch (const YAML::Exception&) {
     fail("expected a number, got " + describe_node(*node_));
   }
-  if (!std::isfinite(value)) fail("= " + node_->Scalar() + ": must be a finite number");
-  if (!bound.contains(value)) fail("= " + node_->Scalar() + ": " + bound.describe());
+  if (!std::isfinite(value)) fail("= " + printable_value(node_->Scalar()) + ": must be a finite number");
+  if (!bound.contains(value)) fail("= " + printable_value(node_->Scalar()) + ": " + bound.describe());
   return value;
 }
 
@@ -209,7 +319,7 @@ int ConfigNode::as_int(int lower, int upper) const {
     fail("expected an integer, got " + describe_node(*node_));
   }
   if (value < lower || value > upper) {
-    fail("= " + node_->Scalar() + ": must be in [" + std::to_string(lower) + ", " +
+    fail("= " + printable_value(node_->Scalar()) + ": must be in [" + std::to_string(lower) + ", " +
          std::to_string(upper) + "]");
   }
   return static_cast<int>(value);
@@ -256,7 +366,7 @@ std::string ConfigNode::as_choice(std::initializer_list<const char*> allowed) co
     listing += listing.empty() ? "" : ", ";
     listing += option;
   }
-  fail("= '" + value + "': must be one of: " + listing);
+  fail("= '" + printable_value(value) + "': must be one of: " + listing);
 }
 
 double ConfigNode::get_double(const std::string& key, const Bound& bound) const {
@@ -297,7 +407,9 @@ std::string ConfigNode::get_choice_or(const std::string& key, std::initializer_l
 }
 
 void ConfigNode::fail(const std::string& what) const {
-  const std::string where = path_.empty() ? document_->source : document_->source + ": " + path_;
+  // Keys were checked for UTF-8 at parse time, but may still be long or hold a newline.
+  const std::string source = printable_value(document_->source, std::string::npos);
+  const std::string where = path_.empty() ? source : source + ": " + printable_value(path_, 2 * kMaxEchoedValueChars);
   // "= value: rule" reads best glued to the path; everything else after a colon.
   throw ConfigError(what.rfind("= ", 0) == 0 ? where + " " + what : where + ": " + what);
 }
@@ -345,7 +457,7 @@ std::string ConfigNode::to_yaml() const {
   out.SetMapFormat(YAML::Flow);
   out.SetSeqFormat(YAML::Flow);
   out << *node_;
-  return out.c_str();
+  return printable_value(out.c_str());
 }
 
 }  // namespace swerve::config

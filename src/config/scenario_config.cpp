@@ -77,7 +77,25 @@ std::shared_ptr<const Reference> load_reference(const ConfigNode& node, const st
   }
 }
 
+// The step count of a run, or -1 when it is not a finite number within [1, kMaxScenarioSteps].
+int step_count(double duration, double control_period) {
+  const double steps = std::ceil(duration / control_period - 1e-9);
+  if (!std::isfinite(steps) || steps < 1.0 || steps > kMaxScenarioSteps) return -1;
+  return static_cast<int>(steps);
+}
+
+std::string step_limit_rule(double control_period) {
+  return "must give at most " + std::to_string(kMaxScenarioSteps) + " control periods (" +
+         format(kMaxScenarioSteps * control_period) + " s at " + format(control_period) + " s)";
+}
+
 }  // namespace
+
+int ScenarioConfig::steps() const {
+  const int count = step_count(duration, simulator.control_period);
+  if (count < 0) throw_invalid_field("ScenarioConfig", "duration", duration, step_limit_rule(simulator.control_period));
+  return count;
+}
 
 ScenarioConfig load_scenario_config(const ConfigNode& node) {
   const std::string& file_path = node.source();
@@ -147,10 +165,10 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
     // The name becomes a file name (<out>/<name>.csv) and a JSON key: keep it to a plain word.
     if (c.name.empty() || c.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
                               std::string::npos) {
-      entry.fail_at("name", "'" + c.name + "': use letters, digits, '_' and '-' only");
+      entry.fail_at("name", "'" + printable_value(c.name) + "': use letters, digits, '_' and '-' only");
     }
     for (const ScenarioController& other : s.controllers) {
-      if (other.name == c.name) entry.fail_at("name", "'" + c.name + "' appears twice");
+      if (other.name == c.name) entry.fail_at("name", "'" + printable_value(c.name) + "' appears twice");
     }
     c.config_file = resolve_beside(file_path, entry.get_string("config"));
     try {
@@ -182,10 +200,28 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
                        ": all controllers of a scenario share the control period");
     }
   }
+  if (step_count(s.duration, s.simulator.control_period) < 0) {
+    const std::string rule = ": " + step_limit_rule(s.simulator.control_period);
+    if (node.has("duration")) node.fail_at("duration", "= " + node.child("duration").to_yaml() + rule);
+    node.fail_at("duration", "= " + format(s.duration) + " (the reference's duration)" + rule);
+  }
   if (const auto paper = node.optional_child("paper")) {
     s.paper_wear_reduction_pct = paper->get_double("wear_reduction_pct");
   }
   s.simulator.validate();
+  // Build what `run` builds (see the header): a rule only a constructor knows names this file.
+  try {
+    const Simulator plant(s.vehicle, s.simulator);
+  } catch (const ConfigError& error) {
+    node.fail_at("simulator", error.what());
+  }
+  for (std::size_t j = 0; j < s.controllers.size(); ++j) {
+    try {
+      (void)make_controller(s.controllers[j].config, s.vehicle, s.reference);
+    } catch (const ConfigError& error) {
+      controllers.at(j).fail(error.what());
+    }
+  }
   return s;
 }
 

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "swerve/kinematics/module_state.hpp"
+
 namespace swerve {
 namespace {
 
@@ -41,6 +43,10 @@ ModuleLayout::ModuleLayout(std::vector<Eigen::Vector2d> positions_body, double w
     : positions_body_(std::move(positions_body)), wheel_radius_(wheel_radius), limits_(limits) {
   const std::size_t count = positions_body_.size();
   if (count < 2) reject("ModuleLayout.modules", count, "need at least 2 modules");
+  // Every fixed-capacity buffer of the kinematics and controllers is sized by kMaxModules.
+  if (count > static_cast<std::size_t>(kMaxModules)) {
+    reject("ModuleLayout.modules", count, "at most " + std::to_string(kMaxModules) + " modules are supported");
+  }
   for (std::size_t i = 0; i < count; ++i) {
     const Eigen::Vector2d& p = positions_body_[i];
     if (!p.allFinite()) {
@@ -121,6 +127,10 @@ ModuleLayout load_module_layout(const config::ConfigNode& vehicle) {
   const double wheel_radius = vehicle.get_double("wheel_radius", Bound::positive());
   const config::ConfigNode modules = vehicle.child("modules");
   if (modules.size() < 2) modules.fail("= " + modules.to_yaml() + ": need at least 2 modules");
+  if (modules.size() > static_cast<std::size_t>(kMaxModules)) {
+    modules.fail("= a list of " + std::to_string(modules.size()) + ": at most " + std::to_string(kMaxModules) +
+                 " modules are supported");
+  }
   std::vector<Eigen::Vector2d> positions;
   for (std::size_t i = 0; i < modules.size(); ++i) {
     const config::ConfigNode module = modules.at(i);

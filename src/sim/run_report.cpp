@@ -140,18 +140,35 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
       {"controllers", controllers},
       {"comparison", comparison},
   };
-  return summary.dump(2);
+  // File and directory names come from the command line and need not be UTF-8: replace bad bytes
+  // rather than throw after the run (config text itself is checked at load).
+  return summary.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+void prepare_output_directory(const std::string& out_dir) {
+  namespace fs = std::filesystem;
+  const std::string shown = printable_value(out_dir, std::string::npos);
+  std::error_code error;
+  fs::create_directories(out_dir, error);
+  if (error || !fs::is_directory(out_dir)) {
+    throw std::runtime_error(shown + ": cannot create the output directory" +
+                             (error ? " (" + error.message() + ")" : " (it exists and is not a directory)"));
+  }
+  const fs::path probe = fs::path(out_dir) / ".swerve-mpc-write-probe";
+  {
+    std::ofstream out(probe);
+    if (!out || !(out << "probe\n") || !out.flush()) {
+      throw std::runtime_error(shown + ": the output directory is not writable");
+    }
+  }
+  fs::remove(probe, error);
 }
 
 void write_run_outputs(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs,
                        const std::string& out_dir) {
   namespace fs = std::filesystem;
   std::error_code error;
-  fs::create_directories(out_dir, error);
-  if (error || !fs::is_directory(out_dir)) {
-    throw std::runtime_error(out_dir + ": cannot create the output directory" +
-                             (error ? " (" + error.message() + ")" : ""));
-  }
+  prepare_output_directory(out_dir);
   const fs::path summary_path = fs::path(out_dir) / "summary.json";
   fs::remove(summary_path, error);  // a stale summary must not describe the new, partial logs
   for (const ControllerRun& run : runs) write_csv(run, (fs::path(out_dir) / (run.name + ".csv")).string());

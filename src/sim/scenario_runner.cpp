@@ -10,13 +10,17 @@ ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverride
   if (!overrides.controllers.empty()) {
     std::vector<ScenarioController> chosen;
     for (const std::string& name : overrides.controllers) {
+      // A repeated name would run the controller twice, but summary.json keys runs by name.
+      if (std::any_of(chosen.begin(), chosen.end(), [&](const ScenarioController& c) { return c.name == name; })) {
+        throw OverrideError("--controllers: '" + printable_value(name) + "' is given twice");
+      }
       const auto it = std::find_if(s.controllers.begin(), s.controllers.end(),
                                    [&](const ScenarioController& c) { return c.name == name; });
       if (it == s.controllers.end()) {
         std::string known;
         for (const ScenarioController& c : s.controllers) known += (known.empty() ? "" : ", ") + c.name;
-        throw ConfigError(scenario.file + ": --controllers: '" + name + "' is not a controller of this scenario (" +
-                          known + ")");
+        throw OverrideError(printable_value(scenario.file, std::string::npos) + ": --controllers: '" +
+                            printable_value(name) + "' is not a controller of this scenario (" + known + ")");
       }
       chosen.push_back(*it);
     }
@@ -29,7 +33,7 @@ ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverride
     try {
       probe.validate();
     } catch (const ConfigError& error) {
-      throw ConfigError(std::string("--backend: ") + error.what());
+      throw OverrideError(std::string("--backend: ") + error.what());
     }
   }
   for (ScenarioController& c : s.controllers) {
@@ -57,7 +61,7 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
   Simulator plant(scenario.vehicle, scenario.simulator);
   plant.reset(scenario.initial_state);
   const double period = scenario.simulator.control_period;
-  const int steps = static_cast<int>(std::ceil(scenario.duration / period - 1e-9));
+  const int steps = scenario.steps();
   const int n = plant.modules();
   run.log.reserve(static_cast<std::size_t>(steps));
   for (int k = 0; k < steps; ++k) {

@@ -11,7 +11,9 @@ void TuningOptions::validate() const {
   for (const int n : horizons) {
     if (n < 1 || n > 1000) throw_invalid_field("TuningOptions", "horizons[]", n, "must be in [1, 1000]");
   }
-  if (cycles < 1) throw_invalid_field("TuningOptions", "cycles", cycles, "must be >= 1");
+  if (cycles < 1 || cycles > kMaxScenarioSteps) {
+    throw_invalid_field("TuningOptions", "cycles", cycles, "must be in [1, " + std::to_string(kMaxScenarioSteps) + "]");
+  }
   if (min_proposals < 1) throw_invalid_field("TuningOptions", "min_proposals", min_proposals, "must be >= 1");
 }
 

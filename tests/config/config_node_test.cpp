@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <string>
 
@@ -143,6 +144,138 @@ TEST(ConfigNode, BoundDescriptionsReadAsRules) {
   EXPECT_EQ(Bound::closed(0, 1).describe(), "must be in [0, 1]");
   EXPECT_TRUE(Bound::half_open(0, 1).contains(1.0));
   EXPECT_FALSE(Bound::half_open(0, 1).contains(0.0));
+}
+
+
+// Issue 14 item 5: hostile files and text fail at load, in one line naming file and key.
+
+TEST(ConfigNode, RejectsASecondYamlDocument) {
+  const std::string message = error_of([] { ConfigNode::parse("a: 1\n---\nb: 2\n", "two.yaml"); });
+  EXPECT_NE(message.find("two.yaml:3: a second YAML document"), std::string::npos) << message;
+}
+
+TEST(ConfigNode, AcceptsExplicitDocumentMarkersAroundOneDocument) {
+  EXPECT_NO_THROW(ConfigNode::parse("---\na: 1\n...\n", "one.yaml"));
+}
+
+TEST(ConfigNode, RejectsAnEmptyDocumentNamingTheFile) {
+  const std::string message = error_of([] { ConfigNode::parse("", "empty.yaml"); });
+  EXPECT_NE(message.find("empty.yaml: the file is empty"), std::string::npos) << message;
+}
+
+TEST(ConfigNode, RejectsInvalidUtf8InAValueNamingTheKeyPath) {
+  const std::string message =
+      error_of([] { ConfigNode::parse("scenario:\n  description: \"caf\xe9\"\n", "s.yaml"); });
+  EXPECT_NE(message.find("s.yaml: scenario.description = 'caf\\xe9': the value is not valid UTF-8 (byte 0xe9 at "
+                         "offset 3)"),
+            std::string::npos)
+      << message;
+}
+
+TEST(ConfigNode, RejectsInvalidUtf8InAKey) {
+  const std::string message = error_of([] { ConfigNode::parse("vehicle:\n  m\xffss: 1\n", "v.yaml"); });
+  EXPECT_NE(message.find("v.yaml: vehicle.m\\xffss = 'm\\xffss': the key is not valid UTF-8"), std::string::npos)
+      << message;
+}
+
+TEST(ConfigNode, RejectsInvalidUtf8InsideAList) {
+  const std::string message = error_of([] { ConfigNode::parse("a:\n  - ok\n  - \"\xc3\"\n", "l.yaml"); });
+  EXPECT_NE(message.find("l.yaml: a[1] = "), std::string::npos) << message;
+}
+
+TEST(ConfigNode, AcceptsMultiByteUtf8Text) {
+  const ConfigNode root = ConfigNode::parse("a: \"caf\xc3\xa9 \xe2\x86\x92 \xf0\x9f\x9a\x97\"\n", "u.yaml");
+  EXPECT_EQ(root.get_string("a"), "caf\xc3\xa9 \xe2\x86\x92 \xf0\x9f\x9a\x97");
+}
+
+TEST(ConfigNode, RejectsAKeyThatIsNotAPlainString) {
+  const std::string message = error_of([] { ConfigNode::parse("target:\n  ? [a, b]\n  : 1\n", "k.yaml"); });
+  EXPECT_NE(message.find("k.yaml: target = a list of 2: a key must be a plain string"), std::string::npos) << message;
+}
+
+TEST(ConfigNode, RejectsADocumentThatAliasesExpandPastTheValueLimit) {
+  std::string text = "a0: &a0 [x, x, x, x, x, x, x, x, x, x]\n";
+  for (int level = 1; level <= 6; ++level) {
+    const std::string previous = "*a" + std::to_string(level - 1);
+    text += "a" + std::to_string(level) + ": &a" + std::to_string(level) + " [";
+    for (int i = 0; i < 10; ++i) text += (i ? ", " : "") + previous;
+    text += "]\n";
+  }
+  const std::string message = error_of([&] { ConfigNode::parse(text, "bomb.yaml"); });
+  EXPECT_NE(message.find("bomb.yaml: more than 1000000 values once anchors and aliases are expanded"),
+            std::string::npos)
+      << message;
+}
+
+TEST(ConfigNode, ShortensALongEchoedValue) {
+  const std::string long_value(100000, 'x');
+  const std::string message =
+      error_of([&] { ConfigNode::parse("a: " + long_value + "\n", "long.yaml").get_double("a"); });
+  EXPECT_NE(message.find("long.yaml: a: expected a number, got '" + std::string(kMaxEchoedValueChars, 'x') +
+                         "... (100000 bytes)'"),
+            std::string::npos)
+      << message;
+  EXPECT_LT(message.size(), 200u);
+}
+
+TEST(ConfigNode, KeepsAMultiLineValueOnOneLine) {
+  const std::string message =
+      error_of([] { ConfigNode::parse("a: |\n  1\n  2\n", "m.yaml").get_double("a", Bound::positive()); });
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  EXPECT_NE(message.find("got '1\\n2\\n'"), std::string::npos) << message;
+}
+
+TEST(ConfigNode, ShortensALongValueInAChoiceError) {
+  const std::string message = error_of(
+      [] { ConfigNode::parse("a: " + std::string(5000, 'y') + "\n", "c.yaml").get_choice("a", {"sa", "ipopt"}); });
+  EXPECT_NE(message.find("... (5000 bytes)': must be one of: sa, ipopt"), std::string::npos) << message;
+}
+
+TEST(ConfigNode, LoadFileRejectsADirectoryNamingIt) {
+  const std::string directory = SWERVE_SOURCE_DIR "/tests/config";
+  const std::string message = error_of([&] { ConfigNode::load_file(directory); });
+  EXPECT_EQ(message, directory + ": a directory, not a regular file: give a YAML file");
+}
+
+TEST(ConfigNode, LoadFileRejectsADeviceWithoutReadingIt) {
+  const std::string message = error_of([] { ConfigNode::load_file("/dev/zero"); });
+  EXPECT_EQ(message, "/dev/zero: a character device, not a regular file: give a YAML file");
+}
+
+TEST(ConfigNode, LoadFileRejectsAFileOverTheSizeLimit) {
+  const std::string path = SWERVE_BINARY_DIR "/config_node_test_oversized.yaml";
+  {
+    std::ofstream out(path);
+    out << "a:\n";
+    for (std::size_t written = 3; written <= kMaxConfigFileBytes; written += 6) out << "  - 1\n";
+  }
+  const std::string message = error_of([&] { ConfigNode::load_file(path); });
+  std::filesystem::remove(path);
+  EXPECT_NE(message.find(path + ": "), std::string::npos) << message;
+  EXPECT_NE(message.find(" bytes: config files are limited to 1 MiB (1048576 bytes)"), std::string::npos) << message;
+}
+
+TEST(ConfigNode, LoadFileAcceptsAFileAtTheSizeLimit) {
+  const std::string path = SWERVE_BINARY_DIR "/config_node_test_at_limit.yaml";
+  {
+    std::ofstream out(path);
+    out << "a: 1\n" << std::string(kMaxConfigFileBytes - 5, '#');  // a comment fills the rest
+  }
+  ASSERT_EQ(std::filesystem::file_size(path), kMaxConfigFileBytes);
+  EXPECT_NO_THROW(ConfigNode::load_file(path));
+  std::filesystem::remove(path);
+}
+
+TEST(ConfigError, KeepsItsMessageToOneBoundedLine) {
+  const ConfigError error("f.yaml: a = " + std::string(5000, 'z') + "\nsecond line");
+  const std::string message = error.what();
+  EXPECT_EQ(message.find('\n'), std::string::npos);
+  EXPECT_LT(message.size(), kMaxConfigErrorChars + 40);
+}
+
+TEST(ConfigError, InvalidFieldShortensTheValue) {
+  const std::string message = error_of([] { throw_invalid_field("Options", "name", std::string(300, 'n'), "bad"); });
+  EXPECT_EQ(message, "Options.name = " + std::string(kMaxEchoedValueChars, 'n') + "... (300 bytes): bad");
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // ModuleLayout: builder geometry by hand, validation messages naming module and value, YAML loading.
 #include "swerve/kinematics/module_layout.hpp"
+#include "swerve/kinematics/module_state.hpp"
 
 #include <gtest/gtest.h>
 
@@ -69,6 +70,14 @@ TEST(ModuleLayout, FewerThanTwoModulesIsRejected) {
   EXPECT_NE(message.find("ModuleLayout.modules = 1"), std::string::npos) << message;
 }
 
+TEST(ModuleLayout, MoreModulesThanTheKinematicsSupportIsRejected) {
+  // kMaxModules sizes every real-time buffer: a layout past it must fail here, where a config
+  // loader sees it, not later when a Kinematics or controller is built.
+  EXPECT_NO_THROW(ModuleLayout::multi_axle(kMaxModules / 2, 0.3, 0.6, 0.05));
+  const std::string message = error_of([] { ModuleLayout::multi_axle(kMaxModules / 2 + 1, 0.3, 0.6, 0.05); });
+  EXPECT_NE(message.find("ModuleLayout.modules = 18: at most 16 modules are supported"), std::string::npos) << message;
+}
+
 TEST(ModuleLayout, CoincidentModulesAreRejectedNamingBothModules) {
   const std::string message = error_of([] { ModuleLayout({{0.3, 0.2}, {-0.3, 0.2}, {0.3, 0.2}}, 0.05); });
   EXPECT_NE(message.find("modules[2].position"), std::string::npos) << message;
@@ -107,6 +116,14 @@ TEST(ModuleLayout, LoadsFromAVehicleYamlSection) {
   EXPECT_DOUBLE_EQ(layout.limits().max_steering_rate, 6.0);
   EXPECT_DOUBLE_EQ(layout.limits().max_drive_acceleration, ModuleLimits{}.max_drive_acceleration);
   EXPECT_TRUE(layout.limits().has_steering_end_stops());
+}
+
+TEST(ModuleLayout, YamlWithMoreModulesThanSupportedNamesFileAndKey) {
+  std::string text = "vehicle:\n  wheel_radius: 0.06\n  modules:\n";
+  for (int i = 0; i <= kMaxModules; ++i) text += "    - {position: [" + std::to_string(0.5 * i) + ", 0.3]}\n";
+  const auto root = config::ConfigNode::parse(text, "configs/vehicles/long.yaml");
+  const std::string message = error_of([&] { load_module_layout(root.child("vehicle")); });
+  EXPECT_EQ(message, "configs/vehicles/long.yaml: vehicle.modules = a list of 17: at most 16 modules are supported");
 }
 
 TEST(ModuleLayout, YamlErrorsNameFileKeyPathAndValue) {

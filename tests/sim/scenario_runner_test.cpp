@@ -160,5 +160,47 @@ TEST(RunReport, AnUnwritableOutputDirectoryIsAClearError) {
   EXPECT_THROW(write_run_outputs(scenario, runs, "/proc/swerve_cannot_write_here"), std::runtime_error);
 }
 
+TEST(ScenarioRunner, ARepeatedControllerOverrideIsAnOverrideError) {
+  // Running a controller twice would leave one summary.json entry for two runs.
+  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_curve_baseline.yaml"));
+  RunOverrides twice;
+  twice.controllers = {"kinematic_baseline", "kinematic_baseline"};
+  try {
+    apply_overrides(scenario, twice);
+    FAIL() << "a repeated controller name was accepted";
+  } catch (const OverrideError& error) {
+    EXPECT_NE(std::string(error.what()).find("--controllers: 'kinematic_baseline' is given twice"), std::string::npos)
+        << error.what();
+  }
+  RunOverrides unknown;
+  unknown.controllers = {"no_such_controller"};
+  EXPECT_THROW(apply_overrides(scenario, unknown), OverrideError);
+}
+
+TEST(ScenarioConfig, StepCountIsBoundedInsteadOfOverflowing) {
+  ScenarioConfig scenario = load_scenario_config_file(data_file("short_curve_baseline.yaml"));
+  EXPECT_EQ(scenario.steps(), 40);  // 2 s at 50 ms
+  scenario.duration = kMaxScenarioSteps * scenario.simulator.control_period;
+  EXPECT_EQ(scenario.steps(), kMaxScenarioSteps);
+  scenario.duration = 1e9;  // 2e10 steps: more than an int holds
+  EXPECT_THROW(scenario.steps(), ConfigError);
+}
+
+TEST(RunReport, OutputDirectoryIsCheckedBeforeAnythingRuns) {
+  const std::string file = data_file("short_curve_baseline.yaml");
+  try {
+    prepare_output_directory(file);  // an existing regular file cannot be the output directory
+    FAIL() << "a regular file was accepted as the output directory";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find(file + ": cannot create the output directory"), std::string::npos)
+        << error.what();
+  }
+  const std::string fresh = std::string(SWERVE_BINARY_DIR) + "/run_report_test_out/nested";
+  std::filesystem::remove_all(fresh);
+  EXPECT_NO_THROW(prepare_output_directory(fresh));
+  EXPECT_TRUE(std::filesystem::is_directory(fresh));
+  EXPECT_TRUE(std::filesystem::is_empty(fresh));  // the probe file is gone
+}
+
 }  // namespace
 }  // namespace swerve

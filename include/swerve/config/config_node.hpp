@@ -19,6 +19,13 @@ class Node;
 
 namespace swerve::config {
 
+// Config files larger than this are refused before parsing: every shipped config is under 10 KiB,
+// and without a limit a stray /dev/zero or a 50 MB list ends in std::bad_alloc after a minute.
+inline constexpr std::size_t kMaxConfigFileBytes = std::size_t{1} << 20;  // 1 MiB
+// A document may hold at most this many values (map keys, map values and list elements) once YAML
+// aliases are expanded: 1 MiB of text holds fewer, so only an alias bomb ("billion laughs") hits it.
+inline constexpr std::size_t kMaxConfigValues = 1000000;
+
 // An allowed interval for a number, described in words for error messages ("must be > 0").
 struct Bound {
   double lower = -1e308;
@@ -39,9 +46,13 @@ struct Bound {
 
 class ConfigNode {
  public:
-  // Parses a file; a missing file or a YAML syntax error throws ConfigError with file:line:column.
+  // Parses a file. Throws ConfigError naming the file when it is missing, not a regular file,
+  // larger than kMaxConfigFileBytes, or fails parse().
   static ConfigNode load_file(const std::string& file_path);
-  // Parses text; `source_name` stands in for the file name in messages.
+  // Parses text; `source_name` stands in for the file name in messages. Throws ConfigError for a
+  // YAML syntax error (file:line:column), a second document after `---`, a top level that is not a
+  // map, a key that is not a plain scalar, text that is not UTF-8 (naming the key path), and more
+  // than kMaxConfigValues values.
   static ConfigNode parse(const std::string& yaml_text, const std::string& source_name = "<string>");
 
   ConfigNode(const ConfigNode&);
@@ -97,7 +108,8 @@ class ConfigNode {
   // Duplicate keys in one map are reported here too.
   void expect_all_read() const;
 
-  // The value of this node rendered back as flow-style YAML (for error messages and echoing).
+  // The value of this node rendered back as flow-style YAML for error messages: one line, cut to
+  // kMaxEchoedValueChars characters.
   std::string to_yaml() const;
 
  private:

@@ -16,6 +16,11 @@
 
 namespace swerve {
 
+// Longest run a scenario may ask for, in control periods. Each period keeps a log record (about
+// 1.5 kB for 16 modules), so 100000 periods (83 min of simulated time at 50 ms) stay near 150 MB;
+// without a bound, duration: 1e9 overflowed the step count and 1e7 ran out of memory mid-run.
+inline constexpr int kMaxScenarioSteps = 100000;
+
 struct ScenarioController {
   std::string name;         // e.g. wear_mpc, dynamic_no_wear, kinematic_baseline
   std::string config_file;  // resolved path
@@ -36,10 +41,15 @@ struct ScenarioConfig {
   std::optional<double> paper_wear_reduction_pct;  // the paper's figure, where it has one
 
   explicit ScenarioConfig(VehicleParams v) : vehicle(std::move(v)) {}
+
+  // Control periods in the run: ceil(duration / simulator.control_period). Throws ConfigError
+  // when that is not a number in [1, kMaxScenarioSteps] (the loader rejects such files first).
+  int steps() const;
 };
 
 // Keys (defaults in brackets; SI units, radians):
 //   name, description [""], vehicle (file), duration [the reference's duration]
+//     (at most kMaxScenarioSteps control periods)
 //   reference: {type: line | arc | sine | figure_eight | csv, speed [1], acceleration [0],
 //     stop_at_end [false], heading_offset [0]; line: start [[0,0]], direction [0], length;
 //     arc: start [[0,0]], direction [0], radius, sweep; sine: amplitude, wavelength, length;
@@ -51,6 +61,8 @@ struct ScenarioConfig {
 //   controllers: [{name, config (file), wear_weight [from file], backend [from file]}]  (>= 1)
 //   paper: {wear_reduction_pct}  [absent]
 // The plant's control period is the first controller's dt; every controller must share it.
+// After loading, the plant and every controller are built once and dropped, so that a file that
+// loads (and passes `check-config`) is one that `run` accepts: constructor-only rules count too.
 ScenarioConfig load_scenario_config(const config::ConfigNode& scenario_node);
 ScenarioConfig load_scenario_config_file(const std::string& file_path);
 

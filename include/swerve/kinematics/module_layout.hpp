@@ -28,7 +28,7 @@ struct ModuleLimits {
 
 class ModuleLayout {
  public:
-  // Validates: >= 2 modules, finite positions, no two modules closer than 1 mm, the modules not
+  // Validates: 2 to kMaxModules (16) modules, finite positions, no two modules closer than 1 mm, the modules not
   // all on one point (forward kinematics needs rank 3), wheel radius > 0, limits valid.
   ModuleLayout(std::vector<Eigen::Vector2d> positions_body, double wheel_radius,
                ModuleLimits limits = ModuleLimits{});

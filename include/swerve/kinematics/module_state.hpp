@@ -13,7 +13,8 @@
 namespace swerve {
 
 // Largest module count the real-time kinematics supports (a 2 x 8 multi-axle carrier). Layouts
-// with more modules are rejected when a Kinematics is built.
+// with more modules are rejected when the ModuleLayout is built, so a vehicle config that loads
+// can always be driven.
 inline constexpr int kMaxModules = 16;
 
 // Status of a per-cycle kinematics call. On anything but kOk the outputs hold a documented safe

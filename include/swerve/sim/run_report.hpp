@@ -18,6 +18,11 @@ double wear_reduction_pct(const RunMetrics& controller, const RunMetrics& refere
 // summary.json as text (2-space indented).
 std::string summary_json(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs);
 
+// Creates out_dir and proves it writable by creating and removing a probe file, so that a bad
+// output directory is reported before a run rather than after it. Throws std::runtime_error
+// naming the path that failed.
+void prepare_output_directory(const std::string& out_dir);
+
 // Writes <out_dir>/<controller>.csv for each run, then <out_dir>/summary.json (through a temporary
 // file and a rename). Creates out_dir. Throws std::runtime_error naming the path that failed.
 void write_run_outputs(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs,

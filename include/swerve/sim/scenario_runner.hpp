@@ -26,8 +26,15 @@ struct ControllerRun {
   std::string failure;
 };
 
+// An override that does not fit the scenario (an unknown or repeated controller name, an unbuilt
+// backend): the request is wrong, not the file. The CLI reports it as a command-line error.
+class OverrideError : public ConfigError {
+ public:
+  using ConfigError::ConfigError;
+};
+
 struct RunOverrides {
-  std::vector<std::string> controllers;  // run only these (empty: all); unknown names are errors
+  std::vector<std::string> controllers;  // run only these, once each (empty: all); unknown names are errors
   std::optional<std::uint64_t> seed;     // the simulator's seed
   std::optional<std::string> backend;    // every wear_mpc controller's backend
   std::optional<double> wear_weight;     // every wear_mpc controller's lambda (sweeps)
@@ -36,7 +43,8 @@ struct RunOverrides {
 // Called after every control period with (controller index, steps done, steps in the run).
 using ProgressCallback = std::function<void(std::size_t, int, int)>;
 
-// Applies the overrides to a copy of the scenario (ConfigError for unknown names or backends).
+// Applies the overrides to a copy of the scenario (OverrideError for unknown or repeated names and
+// unbuilt backends).
 ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverrides& overrides);
 
 // Runs one controller of the scenario on the plant. `clock`: what the controller's deadline is kept
