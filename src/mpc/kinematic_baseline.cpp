@@ -61,7 +61,6 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
   feedback_ = Eigen::MatrixXd::Zero(3, 6 * horizon_);
   feedforward_ = Eigen::MatrixXd::Zero(3, horizon_);
   module_states_ = ModuleStates(modules_);
-  steering_setpoint_ = Eigen::VectorXd::Zero(modules_);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
   for (int k = 0; k < horizon_; ++k) {
     const double scale = k == horizon_ - 1 ? options_.terminal_scale : 1.0;
@@ -72,34 +71,6 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
 void KinematicBaseline::reset() noexcept {
   drive_sign_.setOnes();
   twists_.setZero();
-  command_memory_ = false;
-}
-
-void KinematicBaseline::follow_measurement(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
-  // What the drives were last told is where they are, up to their lag, and it carries neither the
-  // sensors' noise nor their delay: a deadbeat steering command off a delayed, noisy angle
-  // oscillates (one step of delay alone took the wear of a 90 deg crab run from 0.4 J to 228 J).
-  // A fixed-gain observer: the memory is pulled towards the measurement by kObserverGain per cycle,
-  // which removes a bias (a start taken from one noisy sample would otherwise leave two modules
-  // misaligned for good) while passing on about a quarter of the noise. It jumps to the
-  // measurement when the two part by more than lag and noise explain: at the start, after a reset
-  // or a safe stop, or when a module was pushed or stalled.
-  const Eigen::Vector3d measured_twist = measured.segment<3>(3);
-  const ModuleLayout& layout = kinematics_.layout();
-  bool twist_apart = !command_memory_;
-  for (const Eigen::Vector2d& p : layout.positions_body()) {
-    const Eigen::Vector3d d = measured_twist - commanded_twist_;
-    twist_apart = twist_apart || Eigen::Vector2d(d.x() - d.z() * p.y(), d.y() + d.z() * p.x()).norm() > kTwistResync;
-  }
-  commanded_twist_ = twist_apart ? measured_twist : commanded_twist_ + kObserverGain * (measured_twist - commanded_twist_);
-  for (int i = 0; i < modules_; ++i) {
-    const double angle = measured[6 + i];
-    const double apart = wrap_angle(angle - steering_setpoint_[i]);
-    steering_setpoint_[i] = !command_memory_ || std::abs(apart) > kSteeringResync
-                                ? angle
-                                : wrap_angle(steering_setpoint_[i] + kObserverGain * apart);
-  }
-  command_memory_ = true;
 }
 
 bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
@@ -247,7 +218,6 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
     output_.source = CommandSource::kSafeStop;
     output_.reason = "measured state rejected (wrong size, NaN/inf or implausible)";
-    command_memory_ = false;
     return output_;
   }
   for (int k = 0; k < horizon_; ++k) {
@@ -255,24 +225,20 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     reference_poses_.col(k) = sample.pose_world;
     reference_twists_.col(k) = sample.twist_body;
   }
-  follow_measurement(measured);
-  if (!plan_twists(measured.head<3>(), commanded_twist_, reference_poses_, reference_twists_)) {
+  if (!plan_twists(measured.head<3>(), measured.segment<3>(3), reference_poses_, reference_twists_)) {
     fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
     output_.source = CommandSource::kSafeStop;
     output_.reason = "the kinematic plan failed";
-    command_memory_ = false;
     return output_;
   }
-  module_inputs(steering_setpoint_, inputs_);
+  module_inputs(measured.segment(6, modules_), inputs_);
   commit_first_step();
   for (int i = 0; i < modules_; ++i) {
     ModuleCommand& command = output_.modules[i];
     command.steering_rate = inputs_(2 * i, 0);
-    steering_setpoint_[i] = wrap_angle(steering_setpoint_[i] + options_.dt * command.steering_rate);
-    command.steering_angle = steering_setpoint_[i];
+    command.steering_angle = wrap_angle(measured[6 + i] + options_.dt * command.steering_rate);
     command.wheel_speed = inputs_(2 * i + 1, 0);
   }
-  commanded_twist_ = twists_.col(0);
   output_.source = CommandSource::kOptimizer;
   output_.reason = "kinematic plan";
   output_.solve.status = SolveStatus::kConverged;

@@ -63,20 +63,7 @@ class KinematicBaseline final : public TrackingController {
   Kinematics kinematics_;
   std::shared_ptr<const Reference> reference_;
   int modules_, horizon_;
-  // step() plans from the command memory, not the raw measurement (see follow_measurement).
-  void follow_measurement(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
-  // How far the measurement may part from the command memory before the memory follows it: well
-  // beyond the drives' lag (3 rad/s x 0.05 s = 0.15 rad; 2 m/s^2 x 0.05 s = 0.1 m/s) and beyond
-  // sensor noise (0.02 rad, 0.02 m/s in the noise studies), well below a real disturbance.
-  static constexpr double kSteeringResync = 0.35;  // rad
-  static constexpr double kTwistResync = 0.25;     // m/s at any module
-  // Per cycle: noise passes as sqrt(g / (2 - g)) = 0.23 of its sigma; a bias halves in 7 cycles.
-  static constexpr double kObserverGain = 0.1;
-
   Eigen::VectorXi drive_sign_;                        // per module, +1 or -1 (flip decision)
-  Eigen::VectorXd steering_setpoint_;                 // n: the steering angles last commanded
-  Eigen::Vector3d commanded_twist_ = Eigen::Vector3d::Zero();  // the body twist last commanded
-  bool command_memory_ = false;                       // false: follow the next measurement
   Eigen::VectorXi planned_first_sign_;                // the decision module_inputs made for step 0
   Eigen::MatrixXd twists_;                            // 3 x N
   Eigen::MatrixXd reference_poses_, reference_twists_;  // 3 x N
