@@ -83,6 +83,12 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
     c.mpc.overrun_grace = node.get_double_or("overrun_grace", c.mpc.overrun_grace, Bound::non_negative());
     c.mpc.baseline_guess = node.get_bool_or("baseline_guess", c.mpc.baseline_guess);
     c.mpc.max_plan_age = node.get_int_or("max_plan_age", c.mpc.max_plan_age, 0);
+    if (const auto stale = node.optional_child("stale_measurement")) {
+      StalenessOptions& o = c.mpc.stale_measurement;
+      o.max_age = stale->get_double_or("max_age", o.max_age, Bound::positive());
+      o.frozen_cycles = stale->get_int_or("frozen_cycles", o.frozen_cycles, 2, 1000000);
+      o.moving_speed = stale->get_double_or("moving_speed", o.moving_speed, Bound::positive());
+    }
     if (const auto weights = node.optional_child("weights")) load_weights(*weights, &c.mpc);
     c.mpc.parameterization = node.get_choice_or("inputs", {"body_twist", "module_rates"}, "body_twist") == "module_rates"
                                  ? InputParameterization::kModuleRates

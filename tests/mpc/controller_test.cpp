@@ -729,5 +729,32 @@ TEST(Controller, StepAllocatesNothingAfterTheFirstCycles) {
   }
 }
 
+// The baseline's step too (its plan is also the wear-aware controller's guess and fallback), on a
+// long horizon where the old dense plan's temporaries would have shown.
+TEST(KinematicBaseline, StepAllocatesNothingAfterConstruction) {
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (ASan)";
+  const VehicleParams params = small_robot();
+  BaselineOptions options;
+  options.horizon = 200;
+  KinematicBaseline baseline(params.layout, testing::arc_reference(0.5), options);
+  testing::ModelPlant plant(params, options.dt);
+  Eigen::VectorXd state = offset_start(0.1);
+  Eigen::VectorXd nan_state = state;
+  nan_state[0] = kNaN;
+  long allocations = 0;
+  double t = 0.0;
+  for (int k = 0; k < 10; ++k, t += options.dt) {
+    const ControlOutput* out = nullptr;
+    {
+      const testing::AllocationCounter counter;
+      if (k == 5) baseline.step(nan_state, t);  // the safe stop too
+      out = &baseline.step(state, t);
+      allocations += counter.count();
+    }
+    ASSERT_TRUE(plant.step(out->modules, &state, nullptr));
+  }
+  EXPECT_EQ(allocations, 0);
+}
+
 }  // namespace
 }  // namespace swerve

@@ -2,7 +2,10 @@
 // place from the measured state and the reference, solves it from the shifted previous plan and
 // the kinematic baseline's plan before a wall-clock deadline, and returns module commands. On a
 // failed, late or invalid solve it falls back (previous plan while it is fresh, then the baseline,
-// then a safe stop) and says why. step() is noexcept and allocates nothing after construction.
+// then a safe stop) and says why. step() is noexcept; with the SA backend (and in every fallback,
+// the kinematic baseline included) it allocates nothing after construction. Ipopt, NLopt and Ceres
+// allocate inside their libraries on every solve (measured at 4 modules, N = 20: Ipopt ~15 000,
+// Ceres ~2 000, NLopt 13 allocations per step): choose SA where a hard no-allocation rule holds.
 #pragma once
 
 #include <functional>
