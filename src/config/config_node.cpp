@@ -80,9 +80,13 @@ const char* describe_file_type(std::filesystem::file_type type) {
   }
 }
 
-std::string file_too_large(const std::string& file_path, const std::string& size) {
-  return printable_value(file_path, std::string::npos) + ": " + size +
-         " bytes: config files are limited to 1 MiB (" + std::to_string(kMaxConfigFileBytes) + " bytes)";
+std::string file_too_large(const std::string& file_path, const std::string& size, const TextFileRules& rules) {
+  constexpr std::size_t kMiB = std::size_t{1} << 20;
+  const std::string limit = rules.max_bytes % kMiB == 0 ? std::to_string(rules.max_bytes / kMiB) + " MiB (" +
+                                                              std::to_string(rules.max_bytes) + " bytes)"
+                                                        : std::to_string(rules.max_bytes) + " bytes";
+  return printable_value(file_path, std::string::npos) + ": " + size + " bytes: " + rules.kind_plural +
+         " are limited to " + limit;
 }
 
 // Walks the whole document once, before any loader reads it, so that every later read can trust
@@ -181,7 +185,7 @@ ConfigNode& ConfigNode::operator=(const ConfigNode& other) {
 
 ConfigNode::~ConfigNode() = default;
 
-ConfigNode ConfigNode::load_file(const std::string& file_path) {
+std::string read_text_file(const std::string& file_path, const TextFileRules& rules) {
   namespace fs = std::filesystem;
   const std::string shown = printable_value(file_path, std::string::npos);
   // Checked before reading: a directory reads as an empty document and /dev/zero never ends.
@@ -192,19 +196,26 @@ ConfigNode ConfigNode::load_file(const std::string& file_path) {
   }
   if (error) throw ConfigError(shown + ": cannot open the file for reading (" + error.message() + ")");
   if (!fs::is_regular_file(status)) {
-    throw ConfigError(shown + ": " + describe_file_type(status.type()) + ", not a regular file: give a YAML file");
+    throw ConfigError(shown + ": " + describe_file_type(status.type()) + ", not a regular file: give a " +
+                      rules.format + " file");
   }
   const std::uintmax_t size = fs::file_size(file_path, error);
-  if (!error && size > kMaxConfigFileBytes) throw ConfigError(file_too_large(file_path, std::to_string(size)));
+  if (!error && size > rules.max_bytes) throw ConfigError(file_too_large(file_path, std::to_string(size), rules));
   std::ifstream in(file_path, std::ios::binary);
   if (!in) throw ConfigError(shown + ": cannot open the file for reading (" + std::strerror(errno) + ")");
   // Read at most one byte past the limit, so a file that grew since the size check stays bounded.
-  std::string text(kMaxConfigFileBytes + 1, '\0');
+  std::string text(rules.max_bytes + 1, '\0');
   in.read(&text[0], static_cast<std::streamsize>(text.size()));
   text.resize(static_cast<std::size_t>(in.gcount()));
   if (in.bad()) throw ConfigError(shown + ": read error");
-  if (text.size() > kMaxConfigFileBytes) throw ConfigError(file_too_large(file_path, "more than " + std::to_string(kMaxConfigFileBytes)));
-  return parse(text, file_path);
+  if (text.size() > rules.max_bytes) {
+    throw ConfigError(file_too_large(file_path, "more than " + std::to_string(rules.max_bytes), rules));
+  }
+  return text;
+}
+
+ConfigNode ConfigNode::load_file(const std::string& file_path) {
+  return parse(read_text_file(file_path, TextFileRules{}), file_path);
 }
 
 ConfigNode ConfigNode::parse(const std::string& yaml_text, const std::string& source_name) {

@@ -2,6 +2,8 @@
 // one (every section through the library's checked loaders, then no unread keys). A ConfigError is
 // the expected answer to bad input; its message must be one line of at most ~1000 characters.
 // Anything else (another exception, a crash, a sanitizer report, a hang) is a finding.
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <string>
@@ -20,7 +22,11 @@ const std::string kSourceName = std::string(SWERVE_SOURCE_DIR) + "/configs/scena
 // The ConfigError promise (config_error.hpp): kMaxConfigErrorChars plus the "... (N bytes)" tail.
 constexpr std::size_t kMaxMessageChars = swerve::kMaxConfigErrorChars + 100;
 
+// SWERVE_FUZZ_VERBOSE=1 prints each input's outcome (to see what a corpus file exercises).
+const bool kVerbose = std::getenv("SWERVE_FUZZ_VERBOSE") != nullptr;
+
 void check_message(const char* message) {
+  if (kVerbose) std::fprintf(stderr, "ConfigError: %s\n", message);
   const std::size_t length = std::strlen(message);
   SWERVE_FUZZ_CHECK(length > 0, "empty ConfigError message");
   SWERVE_FUZZ_CHECK(length <= kMaxMessageChars, "ConfigError message of %zu chars: %.200s...", length, message);
@@ -41,6 +47,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       }
     }
     root.expect_all_read();
+    if (kVerbose) std::fprintf(stderr, "loaded\n");
   } catch (const swerve::ConfigError& error) {
     check_message(error.what());
   } catch (const std::exception& error) {
