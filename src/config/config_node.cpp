@@ -1,6 +1,7 @@
 // Checked YAML access: every failure names the file, the key path, the value and the rule.
 #include "swerve/config/config_node.hpp"
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -88,6 +89,47 @@ std::string file_too_large(const std::string& file_path, const std::string& size
   return printable_value(file_path, std::string::npos) + ": " + size + " bytes: " + rules.kind_plural +
          " are limited to " + limit;
 }
+
+std::string syntax_error(const std::string& shown, const YAML::Mark& mark, const std::string& what) {
+  const std::string where =
+      mark.is_null() ? shown : shown + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+  return where + ": YAML syntax error: " + what;
+}
+
+// Parser events of a YAML stream, kept only as where each document starts and where its root is.
+class DocumentStarts final : public YAML::EventHandler {
+ public:
+  int documents() const { return static_cast<int>(starts_.size()); }
+  const YAML::Mark& start(int document) const { return starts_[static_cast<std::size_t>(document)]; }
+  const YAML::Mark& root(int document) const { return roots_[static_cast<std::size_t>(document)]; }
+
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    starts_.push_back(mark);
+    roots_.push_back(YAML::Mark::null_mark());
+    depth_ = 0;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t) override { node(mark); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { node(mark); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t, const std::string&) override { node(mark); }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(mark);
+    ++depth_;
+  }
+  void OnSequenceEnd() override { --depth_; }
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(mark);
+    ++depth_;
+  }
+  void OnMapEnd() override { --depth_; }
+
+ private:
+  void node(const YAML::Mark& mark) {
+    if (depth_ == 0 && !roots_.empty()) roots_.back() = mark;
+  }
+  std::vector<YAML::Mark> starts_, roots_;
+  int depth_ = 0;
+};
 
 // Walks the whole document once, before any loader reads it, so that every later read can trust
 // its text: each key is a plain scalar, every key and scalar is UTF-8 (the JSON report and the
@@ -222,22 +264,37 @@ ConfigNode ConfigNode::parse(const std::string& yaml_text, const std::string& so
   auto document = std::make_shared<Document>();
   document->source = source_name;
   const std::string shown = printable_value(source_name, std::string::npos);
-  std::vector<YAML::Node> documents;
+  // The documents are counted (at most two) before the first is built: yaml-cpp 0.7's LoadAll never
+  // returns on some malformed text (a lone ',': jbeder/yaml-cpp#1040, fixed after 0.8.0), handing
+  // back a null document at the same place again and again until memory runs out.
+  DocumentStarts starts;
   try {
-    documents = YAML::LoadAll(yaml_text);
+    std::istringstream stream(yaml_text);
+    YAML::Parser parser(stream);
+    while (starts.documents() < 2 && parser.HandleNextDocument(starts)) {
+    }
   } catch (const YAML::Exception& e) {
-    const std::string where =
-        e.mark.is_null() ? shown : shown + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1);
-    throw ConfigError(where + ": YAML syntax error: " + printable_value(e.msg, 2 * kMaxEchoedValueChars));
+    throw ConfigError(syntax_error(shown, e.mark, printable_value(e.msg, 2 * kMaxEchoedValueChars)));
+  }
+  if (starts.documents() == 2 && starts.start(1).pos == starts.start(0).pos) {
+    const auto at = static_cast<std::size_t>(std::max(0, starts.start(1).pos));
+    throw ConfigError(syntax_error(shown, starts.start(1),
+                                   "unexpected '" + printable_value(yaml_text.substr(at, 1)) + "'"));
   }
   // Loaders read one document; a second one after `---` would otherwise be silently ignored.
-  if (documents.size() > 1) {
-    const YAML::Mark mark = documents[1].Mark();
+  if (starts.documents() > 1) {
+    const YAML::Mark mark = starts.root(1);
     throw ConfigError((mark.is_null() ? shown : shown + ":" + std::to_string(mark.line + 1)) +
                       ": a second YAML document (after '---'): a config file holds exactly one document");
   }
-  if (documents.empty()) throw ConfigError(shown + ": the file is empty: expected a map of keys at the top level");
-  document->root = documents.front();
+  if (starts.documents() == 0) {
+    throw ConfigError(shown + ": the file is empty: expected a map of keys at the top level");
+  }
+  try {
+    document->root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {  // not expected: the same text just parsed
+    throw ConfigError(syntax_error(shown, e.mark, printable_value(e.msg, 2 * kMaxEchoedValueChars)));
+  }
   if (!document->root.IsMap()) {
     throw ConfigError(shown + ": expected a map of keys at the top level, got " + describe_node(document->root));
   }

@@ -154,6 +154,22 @@ TEST(ConfigNode, RejectsASecondYamlDocument) {
   EXPECT_NE(message.find("two.yaml:3: a second YAML document"), std::string::npos) << message;
 }
 
+// Found by tests/fuzz/config_fuzzer: yaml-cpp 0.7's LoadAll never returns on a lone ',' (it hands
+// back null documents at the same place until memory runs out, jbeder/yaml-cpp#1040).
+TEST(ConfigNode, AStrayCommaIsASyntaxErrorNotAnEndlessParse) {
+  EXPECT_EQ(error_of([] { ConfigNode::parse(",", "comma.yaml"); }),
+            "comma.yaml:1:1: YAML syntax error: unexpected ','");
+  EXPECT_EQ(error_of([] { ConfigNode::parse("  ,a: 1\n", "comma.yaml"); }),
+            "comma.yaml:1:3: YAML syntax error: unexpected ','");
+  const std::string message = error_of([] { ConfigNode::parse("a: 1\n---\n,\n", "comma.yaml"); });
+  EXPECT_NE(message.find("comma.yaml:"), std::string::npos) << message;
+}
+
+TEST(ConfigNode, RejectsAnEmptySecondYamlDocumentToo) {
+  const std::string message = error_of([] { ConfigNode::parse("a: 1\n---\n", "two.yaml"); });
+  EXPECT_NE(message.find("two.yaml:3: a second YAML document"), std::string::npos) << message;
+}
+
 TEST(ConfigNode, AcceptsExplicitDocumentMarkersAroundOneDocument) {
   EXPECT_NO_THROW(ConfigNode::parse("---\na: 1\n...\n", "one.yaml"));
 }
