@@ -134,7 +134,8 @@ class DocumentStarts final : public YAML::EventHandler {
 // Walks the whole document once, before any loader reads it, so that every later read can trust
 // its text: each key is a plain scalar, every key and scalar is UTF-8 (the JSON report and the
 // terminal need it; finding out after a simulation loses the run), and the expanded document stays
-// within kMaxConfigValues (a later walk, such as expect_all_read, stays bounded too).
+// within kMaxConfigValues and kMaxConfigDepth, without cycles (so later walks, such as
+// expect_all_read, stay bounded too).
 class TextChecker {
  public:
   explicit TextChecker(const std::string& source) : source_(source) {}
@@ -150,9 +151,12 @@ class TextChecker {
         check_utf8(node.Scalar(), path, "value");
         return;
       case YAML::NodeType::Sequence:
+        enter(node, path);
         for (std::size_t i = 0; i < node.size(); ++i) check(node[i], path + "[" + std::to_string(i) + "]");
+        ancestors_.pop_back();
         return;
       case YAML::NodeType::Map:
+        enter(node, path);
         for (const auto& entry : node) {
           if (!entry.first.IsScalar()) fail(path, "= " + describe_node(entry.first) + ": a key must be a plain string");
           const std::string& key = entry.first.Scalar();
@@ -160,6 +164,7 @@ class TextChecker {
           check_utf8(key, key_path, "key");
           check(entry.second, key_path);
         }
+        ancestors_.pop_back();
         return;
       default:
         return;
@@ -167,6 +172,18 @@ class TextChecker {
   }
 
  private:
+  // A list or map inside itself (`c: &c [*c]`) would make every later walk endless, and deep
+  // nesting would overflow the stack of every recursive walk: both are refused here, first.
+  void enter(const YAML::Node& node, const std::string& path) {
+    for (const YAML::Node& ancestor : ancestors_) {
+      if (ancestor.is(node)) fail(path, "an alias of a list or map that contains it: config values cannot nest in themselves");
+    }
+    if (ancestors_.size() >= kMaxConfigDepth) {
+      fail(path, "nested deeper than " + std::to_string(kMaxConfigDepth) + " lists and maps: config files are limited to that");
+    }
+    ancestors_.push_back(node);
+  }
+
   void check_utf8(const std::string& text, const std::string& path, const char* what) {
     const std::size_t bad = find_invalid_utf8(text);
     if (bad == std::string::npos) return;
@@ -184,6 +201,7 @@ class TextChecker {
 
   const std::string& source_;
   std::size_t values_ = 0;
+  std::vector<YAML::Node> ancestors_;  // the lists and maps from the root down to the node checked
 };
 
 }  // namespace

@@ -165,6 +165,27 @@ TEST(ConfigNode, AStrayCommaIsASyntaxErrorNotAnEndlessParse) {
   EXPECT_NE(message.find("comma.yaml:"), std::string::npos) << message;
 }
 
+// Found by tests/fuzz/config_fuzzer: a list that contains itself through an alias sent the text
+// check into endless recursion (a stack overflow).
+TEST(ConfigNode, RejectsAnAliasOfAListInsideItself) {
+  EXPECT_EQ(error_of([] { ConfigNode::parse("a: 1\nc: &c [1, *c]\n", "cycle.yaml"); }),
+            "cycle.yaml: c[1]: an alias of a list or map that contains it: config values cannot nest in themselves");
+  EXPECT_EQ(error_of([] { ConfigNode::parse("m: &m {k: *m}\n", "cycle.yaml"); }),
+            "cycle.yaml: m.k: an alias of a list or map that contains it: config values cannot nest in themselves");
+  // Aliases that repeat a node without nesting it in itself stay fine.
+  EXPECT_NO_THROW(ConfigNode::parse("a: &a [1, 2]\nb: [*a, *a]\n", "shared.yaml"));
+}
+
+TEST(ConfigNode, RejectsNestingDeeperThanTheLimit) {
+  const auto nested = [](std::size_t depth) {
+    return "a: " + std::string(depth, '[') + std::string(depth, ']') + "\n";
+  };
+  EXPECT_NO_THROW(ConfigNode::parse(nested(kMaxConfigDepth - 1), "deep.yaml"));  // + the root map
+  const std::string message = error_of([&] { ConfigNode::parse(nested(kMaxConfigDepth), "deep.yaml"); });
+  EXPECT_NE(message.find("deep.yaml: a"), std::string::npos) << message;
+  EXPECT_NE(message.find(": nested deeper than 64 lists and maps"), std::string::npos) << message;
+}
+
 TEST(ConfigNode, RejectsAnEmptySecondYamlDocumentToo) {
   const std::string message = error_of([] { ConfigNode::parse("a: 1\n---\n", "two.yaml"); });
   EXPECT_NE(message.find("two.yaml:3: a second YAML document"), std::string::npos) << message;

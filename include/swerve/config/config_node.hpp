@@ -26,6 +26,10 @@ inline constexpr std::size_t kMaxConfigFileBytes = std::size_t{1} << 20;  // 1 M
 // aliases are expanded: 1 MiB of text holds fewer, so only an alias bomb ("billion laughs") hits it.
 inline constexpr std::size_t kMaxConfigValues = 1000000;
 
+// Lists and maps may nest this deep (the shipped configs reach 4), and an alias may not name a list
+// or map that contains it (`c: &c [*c]`): a cycle or a 4000-deep `[[[[...` overflowed the stack.
+inline constexpr std::size_t kMaxConfigDepth = 64;
+
 // What read_text_file accepts, and the words its messages use ("config files are limited to 1 MiB",
 // "give a YAML file").
 struct TextFileRules {
