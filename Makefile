@@ -13,8 +13,10 @@ TEST_DIR    := $(BUILD_DIR)/test
 ASAN_DIR    := $(BUILD_DIR)/asan
 FUZZ_DIR    := $(BUILD_DIR)/fuzz
 
-# `make fuzz`: executions per fuzz target (CI-sized) and libFuzzer's other flags.
-FUZZ_RUNS ?= 20000
+# `make fuzz`: executions per fuzz target, CI-sized (each well under a minute here; a controller
+# step solves an OCP, so that target runs ~100x slower per input), and libFuzzer's other flags.
+FUZZ_RUNS_config          ?= 20000
+FUZZ_RUNS_controller_step ?= 2000
 FUZZ_ARGS ?= -max_len=4096 -timeout=10 -rss_limit_mb=4096 -print_final_stats=1
 FUZZERS   := config controller_step
 
@@ -62,19 +64,20 @@ asan: deps $(ASAN_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(ASAN_DIR) -j $(JOBS)
 	cd $(ASAN_DIR) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j $(JOBS)
 
-# Builds the fuzz targets and runs each for FUZZ_RUNS executions on a fresh copy of its committed
-# corpus (tests/fuzz/corpus/<name>/ -> $(FUZZ_DIR)/corpus/<name>/); any finding fails, and its
-# input lands in $(FUZZ_DIR)/findings/<name>/ (crash-*, leak-*, timeout-*, oom-*).
+# Builds the fuzz targets and runs each for FUZZ_RUNS_<name> executions on a fresh copy of its
+# committed corpus (tests/fuzz/corpus/<name>/ -> $(FUZZ_DIR)/corpus/<name>/); any finding fails,
+# and its input lands in $(FUZZ_DIR)/findings/<name>/ (crash-*, leak-*, timeout-*, oom-*).
+define run_fuzzer
+	rm -rf $(FUZZ_DIR)/corpus/$(1) && mkdir -p $(FUZZ_DIR)/corpus/$(1) $(FUZZ_DIR)/findings/$(1)
+	cp tests/fuzz/corpus/$(1)/* $(FUZZ_DIR)/corpus/$(1)/
+	$(FUZZ_DIR)/tests/fuzz/$(1)_fuzzer -runs=$(FUZZ_RUNS_$(1)) $(FUZZ_ARGS) \
+	  -artifact_prefix=$(FUZZ_DIR)/findings/$(1)/ $(FUZZ_DIR)/corpus/$(1)
+
+endef
+
 fuzz: fuzz-deps $(FUZZ_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(FUZZ_DIR) -j $(JOBS) --target $(addsuffix _fuzzer,$(FUZZERS))
-	@for name in $(FUZZERS); do \
-	  rm -rf $(FUZZ_DIR)/corpus/$$name && mkdir -p $(FUZZ_DIR)/corpus/$$name $(FUZZ_DIR)/findings/$$name && \
-	  cp tests/fuzz/corpus/$$name/* $(FUZZ_DIR)/corpus/$$name/ && \
-	  echo "fuzz: $${name}_fuzzer, $(FUZZ_RUNS) runs" && \
-	  $(FUZZ_DIR)/tests/fuzz/$${name}_fuzzer -runs=$(FUZZ_RUNS) $(FUZZ_ARGS) \
-	    -artifact_prefix=$(FUZZ_DIR)/findings/$$name/ $(FUZZ_DIR)/corpus/$$name || exit 1; \
-	done
-
+	$(foreach name,$(FUZZERS),$(call run_fuzzer,$(name)))
 install: deps $(RELEASE_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(RELEASE_DIR) -j $(JOBS)
 	$(CMAKE) --install $(RELEASE_DIR) --prefix $(PREFIX)

@@ -49,7 +49,7 @@ struct Harness {
     sa.max_iterations = 30;
     sa.seed = 7;
     swerve::ControllerOptions options;
-    options.horizon = 10;
+    options.horizon = 6;  // short, so a sanitized run makes ~50 inputs a second
     controller = std::make_unique<swerve::Controller>(
         vehicle, reference, options,
         [sa](const swerve::OcpProblem& shape) { return std::make_unique<swerve::SimulatedAnnealingSolver>(shape, sa); });
@@ -80,7 +80,7 @@ class Reader {
   std::size_t position_ = 0;
 };
 
-constexpr int kMaxStepsPerInput = 8;
+constexpr int kMaxStepsPerInput = 6;
 constexpr double kTolerance = 1e-9;
 
 bool within(double value, double limit) { return std::isfinite(value) && std::abs(value) <= limit * (1.0 + kTolerance) + kTolerance; }

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes the seed inputs of controller_step_fuzzer (tests/fuzz/corpus/controller_step/*.bin).
 
-Each input is up to 8 records: a flags byte (bit 0: reset() before the step; bit 1: a wrong-sized
+Each input is up to 6 records: a flags byte (bit 0: reset() before the step; bit 1: a wrong-sized
 measurement, its size the next byte mod 33), the measurement's doubles (10 for the 4-module AGV),
 then t and measured_at, all little-endian doubles. Run: python3 tests/fuzz/make_controller_step_corpus.py
 """
