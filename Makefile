@@ -14,7 +14,7 @@ ASAN_DIR    := $(BUILD_DIR)/asan
 FUZZ_DIR    := $(BUILD_DIR)/fuzz
 
 # `make fuzz`: executions per fuzz target, CI-sized (each well under a minute here; a controller
-# step solves an OCP, so that target runs ~100x slower per input), and libFuzzer's other flags.
+# step solves an OCP, so that target runs ~30x fewer inputs a second), and libFuzzer's other flags.
 FUZZ_RUNS_config          ?= 20000
 FUZZ_RUNS_controller_step ?= 2000
 FUZZ_ARGS ?= -max_len=4096 -timeout=10 -rss_limit_mb=4096 -print_final_stats=1

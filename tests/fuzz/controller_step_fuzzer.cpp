@@ -46,10 +46,10 @@ struct Harness {
     auto reference = std::make_shared<swerve::PathReference>(swerve::make_line_curve({0.0, 0.0}, 0.0, 20.0),
                                                              profile, 0.0);
     swerve::SaOptions sa;
-    sa.max_iterations = 30;
+    sa.max_iterations = 10;  // the rollouts (the tire model) are ~all the time of a step
     sa.seed = 7;
     swerve::ControllerOptions options;
-    options.horizon = 6;  // short, so a sanitized run makes ~50 inputs a second
+    options.horizon = 6;  // short: with 10 SA proposals, ~50 sanitized inputs a second
     controller = std::make_unique<swerve::Controller>(
         vehicle, reference, options,
         [sa](const swerve::OcpProblem& shape) { return std::make_unique<swerve::SimulatedAnnealingSolver>(shape, sa); });
