@@ -1,5 +1,6 @@
 # The two commands of the README (`make demo`, `make test`) and their companions.
-# Each installs what is missing, configures with CMake and builds with as many jobs as cores.
+# Each installs what is missing, configures with CMake and builds with as many jobs as cores;
+# `make fuzz` (clang's libFuzzer) runs the fuzz targets of tests/fuzz.
 
 JOBS      ?= $(shell nproc 2>/dev/null || echo 2)
 PREFIX    ?= /usr/local
@@ -10,13 +11,25 @@ OUT       ?= out
 RELEASE_DIR := $(BUILD_DIR)/release
 TEST_DIR    := $(BUILD_DIR)/test
 ASAN_DIR    := $(BUILD_DIR)/asan
+FUZZ_DIR    := $(BUILD_DIR)/fuzz
 
-.PHONY: all deps demo test bench asan install clean format
+# `make fuzz`: executions per fuzz target, CI-sized (each well under a minute here; a controller
+# step solves an OCP, so that target runs ~30x fewer inputs a second), and libFuzzer's other flags.
+FUZZ_RUNS_config          ?= 20000
+FUZZ_RUNS_controller_step ?= 2000
+FUZZ_ARGS ?= -max_len=4096 -timeout=10 -rss_limit_mb=4096 -print_final_stats=1
+FUZZERS   := config controller_step
+
+.PHONY: all deps fuzz-deps demo test bench asan fuzz install clean format
 
 all: test
 
 deps:
 	@scripts/install-deps.sh
+
+# clang and its libFuzzer runtime, needed by `make fuzz` only.
+fuzz-deps:
+	@scripts/install-deps.sh fuzz
 
 # Release build for the demo, the benchmarks and install.
 $(RELEASE_DIR)/CMakeCache.txt: | deps
@@ -29,6 +42,11 @@ $(TEST_DIR)/CMakeCache.txt: | deps
 
 $(ASAN_DIR)/CMakeCache.txt: | deps
 	$(CMAKE) -S . -B $(ASAN_DIR) -DCMAKE_BUILD_TYPE=Debug -DSWERVE_SANITIZE=ON -DSWERVE_BUILD_BENCHMARKS=OFF
+
+# clang with libFuzzer, ASan and UBSan; only the fuzz targets and what they link (tests/fuzz).
+$(FUZZ_DIR)/CMakeCache.txt: | fuzz-deps
+	CC=clang CXX=clang++ $(CMAKE) -S . -B $(FUZZ_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSWERVE_BUILD_FUZZERS=ON \
+	  -DSWERVE_ENABLE_DCHECKS=ON -DSWERVE_BUILD_TESTS=OFF -DSWERVE_BUILD_BENCHMARKS=OFF -DSWERVE_BUILD_CLI=OFF
 
 demo: deps $(RELEASE_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(RELEASE_DIR) -j $(JOBS)
@@ -46,6 +64,20 @@ asan: deps $(ASAN_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(ASAN_DIR) -j $(JOBS)
 	cd $(ASAN_DIR) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j $(JOBS)
 
+# Builds the fuzz targets and runs each for FUZZ_RUNS_<name> executions on a fresh copy of its
+# committed corpus (tests/fuzz/corpus/<name>/ -> $(FUZZ_DIR)/corpus/<name>/); any finding fails,
+# and its input lands in $(FUZZ_DIR)/findings/<name>/ (crash-*, leak-*, timeout-*, oom-*).
+define run_fuzzer
+	rm -rf $(FUZZ_DIR)/corpus/$(1) && mkdir -p $(FUZZ_DIR)/corpus/$(1) $(FUZZ_DIR)/findings/$(1)
+	cp tests/fuzz/corpus/$(1)/* $(FUZZ_DIR)/corpus/$(1)/
+	$(FUZZ_DIR)/tests/fuzz/$(1)_fuzzer -runs=$(FUZZ_RUNS_$(1)) $(FUZZ_ARGS) \
+	  -artifact_prefix=$(FUZZ_DIR)/findings/$(1)/ $(FUZZ_DIR)/corpus/$(1)
+
+endef
+
+fuzz: fuzz-deps $(FUZZ_DIR)/CMakeCache.txt
+	$(CMAKE) --build $(FUZZ_DIR) -j $(JOBS) --target $(addsuffix _fuzzer,$(FUZZERS))
+	$(foreach name,$(FUZZERS),$(call run_fuzzer,$(name)))
 install: deps $(RELEASE_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(RELEASE_DIR) -j $(JOBS)
 	$(CMAKE) --install $(RELEASE_DIR) --prefix $(PREFIX)

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages SwerveMPC needs, and only those that are missing. Quiet and
 # idempotent when everything is present; runs `apt-get update` only when it has to install.
+# Usage: install-deps.sh [fuzz]   (fuzz: also clang and its libFuzzer runtime, for `make fuzz` only)
 set -euo pipefail
 
 packages=(
@@ -16,6 +17,15 @@ packages=(
   nlohmann-json3-dev
   python3-matplotlib
 )
+
+# Optional lists, named on the command line.
+fuzz_packages=(clang libclang-rt-dev)
+for list in "$@"; do
+  case "$list" in
+    fuzz) packages+=("${fuzz_packages[@]}") ;;
+    *) echo "install-deps: unknown package list '$list' (known: fuzz)" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for package in "${packages[@]}"; do

@@ -1,6 +1,7 @@
 // Checked YAML access: every failure names the file, the key path, the value and the rule.
 #include "swerve/config/config_node.hpp"
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -80,15 +81,61 @@ const char* describe_file_type(std::filesystem::file_type type) {
   }
 }
 
-std::string file_too_large(const std::string& file_path, const std::string& size) {
-  return printable_value(file_path, std::string::npos) + ": " + size +
-         " bytes: config files are limited to 1 MiB (" + std::to_string(kMaxConfigFileBytes) + " bytes)";
+std::string file_too_large(const std::string& file_path, const std::string& size, const TextFileRules& rules) {
+  constexpr std::size_t kMiB = std::size_t{1} << 20;
+  const std::string limit = rules.max_bytes % kMiB == 0 ? std::to_string(rules.max_bytes / kMiB) + " MiB (" +
+                                                              std::to_string(rules.max_bytes) + " bytes)"
+                                                        : std::to_string(rules.max_bytes) + " bytes";
+  return printable_value(file_path, std::string::npos) + ": " + size + " bytes: " + rules.kind_plural +
+         " are limited to " + limit;
 }
+
+std::string syntax_error(const std::string& shown, const YAML::Mark& mark, const std::string& what) {
+  const std::string where =
+      mark.is_null() ? shown : shown + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+  return where + ": YAML syntax error: " + what;
+}
+
+// Parser events of a YAML stream, kept only as where each document starts and where its root is.
+class DocumentStarts final : public YAML::EventHandler {
+ public:
+  int documents() const { return static_cast<int>(starts_.size()); }
+  const YAML::Mark& start(int document) const { return starts_[static_cast<std::size_t>(document)]; }
+  const YAML::Mark& root(int document) const { return roots_[static_cast<std::size_t>(document)]; }
+
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    starts_.push_back(mark);
+    roots_.push_back(YAML::Mark::null_mark());
+    depth_ = 0;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t) override { node(mark); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { node(mark); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t, const std::string&) override { node(mark); }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(mark);
+    ++depth_;
+  }
+  void OnSequenceEnd() override { --depth_; }
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(mark);
+    ++depth_;
+  }
+  void OnMapEnd() override { --depth_; }
+
+ private:
+  void node(const YAML::Mark& mark) {
+    if (depth_ == 0 && !roots_.empty()) roots_.back() = mark;
+  }
+  std::vector<YAML::Mark> starts_, roots_;
+  int depth_ = 0;
+};
 
 // Walks the whole document once, before any loader reads it, so that every later read can trust
 // its text: each key is a plain scalar, every key and scalar is UTF-8 (the JSON report and the
 // terminal need it; finding out after a simulation loses the run), and the expanded document stays
-// within kMaxConfigValues (a later walk, such as expect_all_read, stays bounded too).
+// within kMaxConfigValues and kMaxConfigDepth, without cycles (so later walks, such as
+// expect_all_read, stay bounded too).
 class TextChecker {
  public:
   explicit TextChecker(const std::string& source) : source_(source) {}
@@ -104,9 +151,12 @@ class TextChecker {
         check_utf8(node.Scalar(), path, "value");
         return;
       case YAML::NodeType::Sequence:
+        enter(node, path);
         for (std::size_t i = 0; i < node.size(); ++i) check(node[i], path + "[" + std::to_string(i) + "]");
+        ancestors_.pop_back();
         return;
       case YAML::NodeType::Map:
+        enter(node, path);
         for (const auto& entry : node) {
           if (!entry.first.IsScalar()) fail(path, "= " + describe_node(entry.first) + ": a key must be a plain string");
           const std::string& key = entry.first.Scalar();
@@ -114,6 +164,7 @@ class TextChecker {
           check_utf8(key, key_path, "key");
           check(entry.second, key_path);
         }
+        ancestors_.pop_back();
         return;
       default:
         return;
@@ -121,6 +172,18 @@ class TextChecker {
   }
 
  private:
+  // A list or map inside itself (`c: &c [*c]`) would make every later walk endless, and deep
+  // nesting would overflow the stack of every recursive walk: both are refused here, first.
+  void enter(const YAML::Node& node, const std::string& path) {
+    for (const YAML::Node& ancestor : ancestors_) {
+      if (ancestor.is(node)) fail(path, "an alias of a list or map that contains it: config values cannot nest in themselves");
+    }
+    if (ancestors_.size() >= kMaxConfigDepth) {
+      fail(path, "nested deeper than " + std::to_string(kMaxConfigDepth) + " lists and maps: config files are limited to that");
+    }
+    ancestors_.push_back(node);
+  }
+
   void check_utf8(const std::string& text, const std::string& path, const char* what) {
     const std::size_t bad = find_invalid_utf8(text);
     if (bad == std::string::npos) return;
@@ -138,6 +201,7 @@ class TextChecker {
 
   const std::string& source_;
   std::size_t values_ = 0;
+  std::vector<YAML::Node> ancestors_;  // the lists and maps from the root down to the node checked
 };
 
 }  // namespace
@@ -181,7 +245,7 @@ ConfigNode& ConfigNode::operator=(const ConfigNode& other) {
 
 ConfigNode::~ConfigNode() = default;
 
-ConfigNode ConfigNode::load_file(const std::string& file_path) {
+std::string read_text_file(const std::string& file_path, const TextFileRules& rules) {
   namespace fs = std::filesystem;
   const std::string shown = printable_value(file_path, std::string::npos);
   // Checked before reading: a directory reads as an empty document and /dev/zero never ends.
@@ -192,41 +256,63 @@ ConfigNode ConfigNode::load_file(const std::string& file_path) {
   }
   if (error) throw ConfigError(shown + ": cannot open the file for reading (" + error.message() + ")");
   if (!fs::is_regular_file(status)) {
-    throw ConfigError(shown + ": " + describe_file_type(status.type()) + ", not a regular file: give a YAML file");
+    throw ConfigError(shown + ": " + describe_file_type(status.type()) + ", not a regular file: give a " +
+                      rules.format + " file");
   }
   const std::uintmax_t size = fs::file_size(file_path, error);
-  if (!error && size > kMaxConfigFileBytes) throw ConfigError(file_too_large(file_path, std::to_string(size)));
+  if (!error && size > rules.max_bytes) throw ConfigError(file_too_large(file_path, std::to_string(size), rules));
   std::ifstream in(file_path, std::ios::binary);
   if (!in) throw ConfigError(shown + ": cannot open the file for reading (" + std::strerror(errno) + ")");
   // Read at most one byte past the limit, so a file that grew since the size check stays bounded.
-  std::string text(kMaxConfigFileBytes + 1, '\0');
+  std::string text(rules.max_bytes + 1, '\0');
   in.read(&text[0], static_cast<std::streamsize>(text.size()));
   text.resize(static_cast<std::size_t>(in.gcount()));
   if (in.bad()) throw ConfigError(shown + ": read error");
-  if (text.size() > kMaxConfigFileBytes) throw ConfigError(file_too_large(file_path, "more than " + std::to_string(kMaxConfigFileBytes)));
-  return parse(text, file_path);
+  if (text.size() > rules.max_bytes) {
+    throw ConfigError(file_too_large(file_path, "more than " + std::to_string(rules.max_bytes), rules));
+  }
+  return text;
+}
+
+ConfigNode ConfigNode::load_file(const std::string& file_path) {
+  return parse(read_text_file(file_path, TextFileRules{}), file_path);
 }
 
 ConfigNode ConfigNode::parse(const std::string& yaml_text, const std::string& source_name) {
   auto document = std::make_shared<Document>();
   document->source = source_name;
   const std::string shown = printable_value(source_name, std::string::npos);
-  std::vector<YAML::Node> documents;
+  // The documents are counted (at most two) before the first is built: yaml-cpp 0.7's LoadAll never
+  // returns on some malformed text (a lone ',': jbeder/yaml-cpp#1040, fixed after 0.8.0), handing
+  // back a null document at the same place again and again until memory runs out.
+  DocumentStarts starts;
   try {
-    documents = YAML::LoadAll(yaml_text);
+    std::istringstream stream(yaml_text);
+    YAML::Parser parser(stream);
+    while (starts.documents() < 2 && parser.HandleNextDocument(starts)) {
+    }
   } catch (const YAML::Exception& e) {
-    const std::string where =
-        e.mark.is_null() ? shown : shown + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1);
-    throw ConfigError(where + ": YAML syntax error: " + printable_value(e.msg, 2 * kMaxEchoedValueChars));
+    throw ConfigError(syntax_error(shown, e.mark, printable_value(e.msg, 2 * kMaxEchoedValueChars)));
+  }
+  if (starts.documents() == 2 && starts.start(1).pos == starts.start(0).pos) {
+    const auto at = static_cast<std::size_t>(std::max(0, starts.start(1).pos));
+    throw ConfigError(syntax_error(shown, starts.start(1),
+                                   "unexpected '" + printable_value(yaml_text.substr(at, 1)) + "'"));
   }
   // Loaders read one document; a second one after `---` would otherwise be silently ignored.
-  if (documents.size() > 1) {
-    const YAML::Mark mark = documents[1].Mark();
+  if (starts.documents() > 1) {
+    const YAML::Mark mark = starts.root(1);
     throw ConfigError((mark.is_null() ? shown : shown + ":" + std::to_string(mark.line + 1)) +
                       ": a second YAML document (after '---'): a config file holds exactly one document");
   }
-  if (documents.empty()) throw ConfigError(shown + ": the file is empty: expected a map of keys at the top level");
-  document->root = documents.front();
+  if (starts.documents() == 0) {
+    throw ConfigError(shown + ": the file is empty: expected a map of keys at the top level");
+  }
+  try {
+    document->root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {  // not expected: the same text just parsed
+    throw ConfigError(syntax_error(shown, e.mark, printable_value(e.msg, 2 * kMaxEchoedValueChars)));
+  }
   if (!document->root.IsMap()) {
     throw ConfigError(shown + ": expected a map of keys at the top level, got " + describe_node(document->root));
   }

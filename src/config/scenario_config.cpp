@@ -36,7 +36,11 @@ std::shared_ptr<const Reference> load_reference(const ConfigNode& node, const st
   if (type == "csv") {
     const std::string file = resolve_beside(scenario_file, node.get_string("file"));
     *description = "csv " + file;
-    return load_reference_csv(file);
+    try {
+      return load_reference_csv(file);
+    } catch (const ConfigError& error) {
+      node.fail_at("file", std::string("cannot load: ") + error.what());
+    }
   }
   SpeedProfile profile;
   profile.speed = node.get_double_or("speed", profile.speed, Bound::positive());

@@ -213,10 +213,14 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
     return;
   }
   if (baseline_usable && measured_usable) {
-    // Within the drives' limits from the last command, as the optimiser's plans are.
-    fallback_input_ = baseline_inputs_.col(0).cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
-    fallback_input_ = fallback_input_.cwiseMax(applied_input_ - module_bounds_.max_step)
+    // Within one step's change of the last command, then within the drives' limits, as the
+    // optimiser's plans are. The limits come last and win: the last command can lie outside them
+    // (assumed from a measured twist faster than the drives allow), and a step window around it
+    // then lies outside too (the fuzzer found -78 rad/s commanded on a 20 rad/s drive that way).
+    fallback_input_ = baseline_inputs_.col(0)
+                          .cwiseMax(applied_input_ - module_bounds_.max_step)
                           .cwiseMin(applied_input_ + module_bounds_.max_step);
+    fallback_input_ = fallback_input_.cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
     apply_module_inputs(fallback_input_, measured.segment(StateIndex::kFirstSteering, modules_));
     applied_decision_ = baseline_guess_.col(0);
     output_.source = CommandSource::kBaseline;

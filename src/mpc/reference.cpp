@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <sstream>
 
 #include "swerve/config/config_error.hpp"
+#include "swerve/config/config_node.hpp"
 
 namespace swerve {
 namespace {
@@ -368,10 +368,16 @@ ReferenceSample SampledReference::sample(double t_relative) const noexcept {
 }
 
 std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path) {
-  std::ifstream in(file_path);
-  if (!in) reject(file_path + ": cannot open the file for reading");
+  // Read whole and bounded: a directory, /dev/zero or a pipe named as the CSV is refused before
+  // reading (a getline on /dev/zero grew one line until the process ran out of memory).
+  config::TextFileRules rules;
+  rules.max_bytes = kMaxReferenceCsvBytes;
+  rules.kind_plural = "reference CSV files";
+  rules.format = "CSV";
+  std::istringstream in(config::read_text_file(file_path, rules));
+  const std::string shown = printable_value(file_path, std::string::npos);
   std::string line;
-  if (!std::getline(in, line)) reject(file_path + ": empty file (expected a header t,x,y,psi[,vx,vy,r])");
+  if (!std::getline(in, line)) reject(shown + ": empty file (expected a header t,x,y,psi[,vx,vy,r])");
   const std::string header = line.substr(0, line.find_last_not_of(" \r") + 1);
   std::size_t width = 0;
   if (header == "t,x,y,psi") {
@@ -379,7 +385,7 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
   } else if (header == "t,x,y,psi,vx,vy,r") {
     width = 7;
   } else {
-    reject(file_path + ":1: header '" + header + "': expected 't,x,y,psi' or 't,x,y,psi,vx,vy,r'");
+    reject(shown + ":1: header '" + printable_value(header) + "': expected 't,x,y,psi' or 't,x,y,psi,vx,vy,r'");
   }
   std::vector<std::vector<double>> rows;
   int line_number = 1;
@@ -393,12 +399,12 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
       char* end = nullptr;
       const double value = std::strtod(field.c_str(), &end);
       if (end == field.c_str() || std::string(end).find_first_not_of(" \r\t") != std::string::npos) {
-        reject(file_path + ":" + std::to_string(line_number) + ": '" + field + "' is not a number");
+        reject(shown + ":" + std::to_string(line_number) + ": '" + printable_value(field) + "' is not a number");
       }
       row.push_back(value);
     }
     if (row.size() != width) {
-      reject(file_path + ":" + std::to_string(line_number) + ": expected " + std::to_string(width) +
+      reject(shown + ":" + std::to_string(line_number) + ": expected " + std::to_string(width) +
              " values, got " + std::to_string(row.size()));
     }
     rows.push_back(std::move(row));
@@ -406,7 +412,7 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
   try {
     return std::make_unique<SampledReference>(rows);
   } catch (const ConfigError& error) {
-    reject(file_path + ": " + error.what());
+    reject(shown + ": " + error.what());
   }
 }
 

@@ -154,6 +154,43 @@ TEST(ConfigNode, RejectsASecondYamlDocument) {
   EXPECT_NE(message.find("two.yaml:3: a second YAML document"), std::string::npos) << message;
 }
 
+// Found by tests/fuzz/config_fuzzer: yaml-cpp 0.7's LoadAll never returns on a lone ',' (it hands
+// back null documents at the same place until memory runs out, jbeder/yaml-cpp#1040).
+TEST(ConfigNode, AStrayCommaIsASyntaxErrorNotAnEndlessParse) {
+  EXPECT_EQ(error_of([] { ConfigNode::parse(",", "comma.yaml"); }),
+            "comma.yaml:1:1: YAML syntax error: unexpected ','");
+  EXPECT_EQ(error_of([] { ConfigNode::parse("  ,a: 1\n", "comma.yaml"); }),
+            "comma.yaml:1:3: YAML syntax error: unexpected ','");
+  const std::string message = error_of([] { ConfigNode::parse("a: 1\n---\n,\n", "comma.yaml"); });
+  EXPECT_NE(message.find("comma.yaml:"), std::string::npos) << message;
+}
+
+// Found by tests/fuzz/config_fuzzer: a list that contains itself through an alias sent the text
+// check into endless recursion (a stack overflow).
+TEST(ConfigNode, RejectsAnAliasOfAListInsideItself) {
+  EXPECT_EQ(error_of([] { ConfigNode::parse("a: 1\nc: &c [1, *c]\n", "cycle.yaml"); }),
+            "cycle.yaml: c[1]: an alias of a list or map that contains it: config values cannot nest in themselves");
+  EXPECT_EQ(error_of([] { ConfigNode::parse("m: &m {k: *m}\n", "cycle.yaml"); }),
+            "cycle.yaml: m.k: an alias of a list or map that contains it: config values cannot nest in themselves");
+  // Aliases that repeat a node without nesting it in itself stay fine.
+  EXPECT_NO_THROW(ConfigNode::parse("a: &a [1, 2]\nb: [*a, *a]\n", "shared.yaml"));
+}
+
+TEST(ConfigNode, RejectsNestingDeeperThanTheLimit) {
+  const auto nested = [](std::size_t depth) {
+    return "a: " + std::string(depth, '[') + std::string(depth, ']') + "\n";
+  };
+  EXPECT_NO_THROW(ConfigNode::parse(nested(kMaxConfigDepth - 1), "deep.yaml"));  // + the root map
+  const std::string message = error_of([&] { ConfigNode::parse(nested(kMaxConfigDepth), "deep.yaml"); });
+  EXPECT_NE(message.find("deep.yaml: a"), std::string::npos) << message;
+  EXPECT_NE(message.find(": nested deeper than 64 lists and maps"), std::string::npos) << message;
+}
+
+TEST(ConfigNode, RejectsAnEmptySecondYamlDocumentToo) {
+  const std::string message = error_of([] { ConfigNode::parse("a: 1\n---\n", "two.yaml"); });
+  EXPECT_NE(message.find("two.yaml:3: a second YAML document"), std::string::npos) << message;
+}
+
 TEST(ConfigNode, AcceptsExplicitDocumentMarkersAroundOneDocument) {
   EXPECT_NO_THROW(ConfigNode::parse("---\na: 1\n...\n", "one.yaml"));
 }

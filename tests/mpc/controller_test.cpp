@@ -217,6 +217,31 @@ TEST(Controller, UsesTheBaselineWhenTheFirstSolveFails) {
   }
 }
 
+// Found by tests/fuzz/controller_step_fuzzer: measured faster than the drives allow (plausible, up
+// to 10x), the first baseline fallback kept one step's change from the wheel speeds that twist
+// implies, and so commanded beyond the wheel-speed limit (-78 rad/s on a 20 rad/s drive).
+TEST(Controller, TheBaselineFallbackStaysWithinTheLimitsWhenMeasuredBeyondThem) {
+  const VehicleParams params = small_robot();
+  const ModuleLimits& limits = params.layout.limits();
+  const double max_wheel_speed = limits.max_drive_speed / params.layout.wheel_radius();
+  Eigen::VectorXd fast = at_rest();
+  fast[3] = 4.0 * limits.max_drive_speed;  // vx, m/s
+  fast[4] = -3.0 * limits.max_drive_speed;
+  fast[5] = 5.0;                           // yaw rate, rad/s
+  for (const InputParameterization parameterization : kParameterizations) {
+    SCOPED_TRACE(to_string(parameterization));
+    FakeScript script;
+    script.mode = FakeMode::kFail;
+    Controller controller = make_fake_controller(&script, fast_options(parameterization));
+    const ControlOutput& out = controller.step(fast, 0.0);
+    ASSERT_EQ(out.source, CommandSource::kBaseline) << reason_of(out);
+    for (int i = 0; i < out.modules.size(); ++i) {
+      EXPECT_LE(std::abs(out.modules[i].wheel_speed), max_wheel_speed + 1e-9) << "module " << i;
+      EXPECT_LE(std::abs(out.modules[i].steering_rate), limits.max_steering_rate + 1e-9) << "module " << i;
+    }
+  }
+}
+
 TEST(Controller, ResetForgetsThePreviousPlan) {
   for (const InputParameterization parameterization : kParameterizations) {
     SCOPED_TRACE(to_string(parameterization));

@@ -5,7 +5,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <string>
 
 #include "swerve/config/config_error.hpp"
 
@@ -184,6 +186,53 @@ TEST(SampledReference, CsvLoaderNamesFileAndLine) {
   }
   EXPECT_NEAR(load_reference_csv(path)->sample(1.5).pose_world.x(), 1.5, 1e-9);
   std::remove(path.c_str());
+}
+
+std::string csv_error_of(const std::string& path) {
+  try {
+    load_reference_csv(path);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+// Found by tests/fuzz/config_fuzzer: `reference: {type: csv, file: /dev/zero}` in a scenario made
+// the loader's first getline grow without end until the process ran out of memory.
+TEST(SampledReference, CsvLoaderRejectsADeviceWithoutReadingIt) {
+  EXPECT_EQ(csv_error_of("/dev/zero"), "/dev/zero: a character device, not a regular file: give a CSV file");
+}
+
+TEST(SampledReference, CsvLoaderRejectsADirectoryAndAMissingFile) {
+  const std::string directory = SWERVE_SOURCE_DIR "/tests/mpc";
+  EXPECT_EQ(csv_error_of(directory), directory + ": a directory, not a regular file: give a CSV file");
+  EXPECT_EQ(csv_error_of("/nonexistent/reference.csv"), "/nonexistent/reference.csv: cannot open the file for reading");
+}
+
+TEST(SampledReference, CsvLoaderRejectsAFileOverTheSizeLimitBeforeReadingIt) {
+  const std::string path = ::testing::TempDir() + "reference_test_oversized.csv";
+  {
+    std::ofstream out(path);
+    out << "t,x,y,psi\n";
+  }
+  std::filesystem::resize_file(path, kMaxReferenceCsvBytes + 1);  // sparse: nothing is written
+  const std::string message = csv_error_of(path);
+  std::filesystem::remove(path);
+  EXPECT_EQ(message, path + ": " + std::to_string(kMaxReferenceCsvBytes + 1) +
+                         " bytes: reference CSV files are limited to 16 MiB (16777216 bytes)");
+}
+
+TEST(SampledReference, CsvLoaderShortensALongFieldInItsError) {
+  const std::string path = ::testing::TempDir() + "reference_test_long_field.csv";
+  {
+    std::ofstream out(path);
+    out << "t,x,y,psi\n0,0,0,0\n1," << std::string(5000, 'z') << ",0,0\n";
+  }
+  const std::string message = csv_error_of(path);
+  std::remove(path.c_str());
+  EXPECT_LT(message.size(), 300U) << message;
+  EXPECT_NE(message.find(path + ":3: 'zzz"), std::string::npos) << message;
+  EXPECT_NE(message.find("... (5000 bytes)' is not a number"), std::string::npos) << message;
 }
 
 }  // namespace

@@ -152,6 +152,9 @@ TEST(ScenarioConfig, BadFilesNameTheFileTheKeyPathAndTheValue) {
   expect_config_error("negative_duration.yaml", "scenario.duration = -3");
   // A controller's name becomes its log's file name: no path may escape the output directory.
   expect_config_error("bad_controller_name.yaml", "scenario.controllers[0].name: '../escape'");
+  // Found by tests/fuzz/config_fuzzer (it ran out of memory reading /dev/zero as the CSV).
+  expect_config_error("device_csv_reference.yaml",
+                      "scenario.reference.file: cannot load: /dev/zero: a character device, not a regular file");
 }
 
 TEST(RunReport, AnUnwritableOutputDirectoryIsAClearError) {

@@ -26,6 +26,24 @@ inline constexpr std::size_t kMaxConfigFileBytes = std::size_t{1} << 20;  // 1 M
 // aliases are expanded: 1 MiB of text holds fewer, so only an alias bomb ("billion laughs") hits it.
 inline constexpr std::size_t kMaxConfigValues = 1000000;
 
+// Lists and maps may nest this deep (the shipped configs reach 4), and an alias may not name a list
+// or map that contains it (`c: &c [*c]`): a cycle or a 4000-deep `[[[[...` overflowed the stack.
+inline constexpr std::size_t kMaxConfigDepth = 64;
+
+// What read_text_file accepts, and the words its messages use ("config files are limited to 1 MiB",
+// "give a YAML file").
+struct TextFileRules {
+  std::size_t max_bytes = kMaxConfigFileBytes;
+  const char* kind_plural = "config files";
+  const char* format = "YAML";
+};
+
+// Reads a whole text file: a config, or a file a config names (a reference CSV). Throws ConfigError
+// naming the file when it is missing or unreadable, not a regular file (a directory, /dev/zero, a
+// pipe: checked before reading, since those read as empty, never end or block), or larger than
+// rules.max_bytes (the read stops one byte past it, so a file that grows meanwhile stays bounded).
+std::string read_text_file(const std::string& file_path, const TextFileRules& rules = TextFileRules{});
+
 // An allowed interval for a number, described in words for error messages ("must be > 0").
 struct Bound {
   double lower = -1e308;

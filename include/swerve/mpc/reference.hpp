@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -103,7 +104,13 @@ class SampledReference final : public Reference {
   std::vector<double> twist_[3];
 };
 
+// Largest reference CSV accepted: about 250 000 rows of 7 full-precision columns (over 40 min at
+// 100 Hz), while the rows read stay a few hundred MB at most.
+inline constexpr std::size_t kMaxReferenceCsvBytes = std::size_t{16} << 20;  // 16 MiB
+
 // Loads a CSV with a header line naming the columns t,x,y,psi[,vx,vy,r]; errors name file and line.
+// A missing file, one that is not a regular file (a directory, /dev/zero, a pipe) or one larger
+// than kMaxReferenceCsvBytes is a ConfigError, refused before reading.
 std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path);
 
 }  // namespace swerve
