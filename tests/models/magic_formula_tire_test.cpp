@@ -87,6 +87,26 @@ TEST(MagicFormulaTire, SlopeAtTheOriginIsBCD) {
   }
 }
 
+TEST(MagicFormulaTire, SlopeAtExactlyZeroSlipIsBCDForEveryCombinedSlipMethod) {
+  // At kappa = alpha = 0 exactly the normalized-slip method takes its s -> 0 limit branch; the Jet
+  // derivative there must still be the cornering / driving stiffness B C D of the pure curve.
+  for (auto method : {CombinedSlipMethod::kNone, CombinedSlipMethod::kEllipseCap, CombinedSlipMethod::kNormalizedSlip}) {
+    MagicFormulaParams p = table_params();
+    p.combined_slip = method;
+    const MagicFormulaTire<ModelJet> tire(p);
+    const auto f = tire.forces(ModelJet(0.0, 0), ModelJet(0.0, 1), ModelJet(kFz));
+    const double d = kMu * kFz;
+    EXPECT_EQ(f.fx_wheel.a, 0.0) << to_string(method);
+    EXPECT_EQ(f.fy_wheel.a, 0.0) << to_string(method);
+    // Tolerance: one product of three doubles and a division by the peak slip; 1e-12 relative is
+    // rounding.
+    EXPECT_NEAR(f.fx_wheel.v[0], 10.0 * 1.65 * d, 1e-12 * 10.0 * 1.65 * d) << to_string(method);
+    EXPECT_NEAR(f.fy_wheel.v[1], 15.0 * 1.3 * d, 1e-12 * 15.0 * 1.3 * d) << to_string(method);
+    EXPECT_EQ(f.fx_wheel.v[1], 0.0) << to_string(method);
+    EXPECT_EQ(f.fy_wheel.v[0], 0.0) << to_string(method);
+  }
+}
+
 TEST(MagicFormulaTire, PeakEqualsDAtTheClosedFormPeakSlip) {
   MagicFormulaParams p;  // E = 0: peak at x = tan(pi / (2C)) / B
   p.combined_slip = CombinedSlipMethod::kNone;
