@@ -131,7 +131,7 @@ while IFS= read -r line || [[ -n "$line" ]]; do
     result="invalid"; by="does not build (see $log_dir/$name.build)"; invalid=$((invalid + 1))
   elif [[ $status -eq 4 ]]; then
     result="killed"
-    by="$(sed -n 's/^ *[0-9]* - \(.*\) (\(Failed\|Timeout\|SEGFAULT\|Subprocess aborted\|Exception\|Child aborted\|Not Run\)).*/\1 (\2)/p' \
+    by="$(sed -n 's/^[[:space:]]*[0-9]* - \(.*\) (\(Failed\|Timeout\|SEGFAULT\|Subprocess aborted\|Exception\|Child aborted\|Not Run\)).*/\1 (\2)/p' \
             "$log_dir/$name.test" | head -3 | paste -sd ';' - | sed 's/;/; /g' || true)"
     [[ -n "$by" ]] || by="ctest failed (see $log_dir/$name.test)"
     killed=$((killed + 1))
