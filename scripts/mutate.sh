@@ -125,7 +125,7 @@ while IFS= read -r line || [[ -n "$line" ]]; do
   status=$?
   set -e
   if [[ $status -eq 0 ]]; then
-    result="**survived**"; by="$(grep -o '[0-9]* tests passed.*' "$log_dir/$name.test" | head -1 || true)"
+    result="**survived**"; by="$(grep -o '[0-9]*% tests passed.*' "$log_dir/$name.test" | head -1 || true)"
     survived=$((survived + 1))
   elif [[ $status -eq 3 ]]; then
     result="invalid"; by="does not build (see $log_dir/$name.build)"; invalid=$((invalid + 1))

@@ -341,6 +341,20 @@ TEST(KinematicsOptions, LoadFromYamlWithDefaultsAndCheckedValues) {
   EXPECT_THROW(typo.expect_all_read(), ConfigError);
 }
 
+TEST(KinematicsOptions, ValidateAcceptsAHysteresisBandUpToButExcludingNinetyDegrees) {
+  // The band is the steering error beyond 90 deg a kept decision may reach: at 90 deg it would keep
+  // a reversed module forever, so [0, pi/2) is the rule, checked at its edges.
+  KinematicsOptions options;
+  for (const double band : {0.0, kPi / 2.0 - 1e-9}) {
+    options.flip_hysteresis = band;
+    EXPECT_NO_THROW(options.validate()) << band;
+  }
+  for (const double band : {-1e-9, kPi / 2.0, 1.6, 2.0}) {
+    options.flip_hysteresis = band;
+    EXPECT_THROW(options.validate(), ConfigError) << band;
+  }
+}
+
 // ---- desaturation ----------------------------------------------------------------------------------
 
 TEST(Desaturate, NeverExceedsTheLimitAndPreservesRatiosAndSigns) {
@@ -634,6 +648,23 @@ TEST(ModuleOptimization, CosineScalingSlowsModulesThatAreStillSteering) {
   for (const ModuleState& s : states) {
     EXPECT_NEAR(s.speed, 0.5, 1e-12);
     EXPECT_NEAR(s.angle, 0.0, 1e-12);
+  }
+}
+
+TEST(ModuleOptimization, CosineScalingOfAReversedModuleUsesTheReversedSteeringError) {
+  // Wheels measured at 0, command at 150 deg: the module reverses (drives at -30 deg), whose
+  // steering error is 30 deg, so the speed is scaled by cos 30 deg, not by cos 150 deg < 0 (-> 0).
+  const Kinematics kinematics(ModuleLayout::rectangle(0.6, 0.4, 0.05));
+  ModuleHeadingMemory memory(4);
+  ModuleStates measured(4);
+  ModuleStates states;
+  const double direction = 150.0 * kPi / 180.0;
+  ASSERT_EQ(kinematics.command({std::cos(direction), std::sin(direction), 0.0}, &memory, &states, {0.0, 0.0}, &measured),
+            KinematicsStatus::kOk);
+  for (const ModuleState& s : states) {
+    // Tolerance: a few products of unit-size doubles; 1e-12 is rounding.
+    EXPECT_NEAR(s.speed, -std::cos(kPi / 6.0), 1e-12);
+    EXPECT_NEAR(s.angle, -kPi / 6.0, 1e-12);
   }
 }
 

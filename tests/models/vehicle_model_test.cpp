@@ -432,5 +432,36 @@ TEST(VehicleModel, LoadTransferMovesLoadToTheRearWhenAccelerating) {
   EXPECT_NEAR(diag[3].normal_load, quarter + transfer, kLoadTolerance);  // rear right
 }
 
+
+TEST(VehicleModel, TransientSlipRelaxesTowardsTheSteadySlipAtRateSpeedOverRelaxationLength) {
+  // Pacejka 2012, sec. 7.2.2: sigma kappa'_dot = V (kappa - kappa'), V = sqrt(u^2 + V_r^2 + eps^2).
+  // Rolling straight at 1 m/s with the wheels commanded 2 % faster (no actuator lag, so V_r is the
+  // command) and the transient slips still 0: each transient slip ratio rises at V kappa / sigma,
+  // the slip angle stays, and no force acts yet (the forces follow the transient slips).
+  VehicleParams params = testing::make_params(4);
+  params.plant.relaxation_length = 0.1;
+  params.plant.actuator_lag = false;
+  params.plant.actuator_saturation = false;
+  const VehicleModel<double> plant(params, Fidelity::kPlant);
+  Vector x = Vector::Zero(plant.state_size());
+  Vector u = Vector::Zero(plant.input_size());
+  x(StateIndex::kVx) = 1.0;
+  const double tread = 1.02;
+  for (int i = 0; i < 4; ++i) u(InputIndex::wheel_speed(i)) = tread / params.layout.wheel_radius();
+  Vector x_dot(plant.state_size());
+  ASSERT_EQ(plant.derivative(x, u, x_dot), ModelStatus::kOk);
+  const auto slip = compute_wheel_slip(params.tire, 1.0, 0.0, tread);
+  const double eps = params.tire.slip_speed_epsilon;
+  const double rate = std::sqrt(1.0 + tread * tread + eps * eps) / params.plant.relaxation_length;
+  for (int i = 0; i < 4; ++i) {
+    SCOPED_TRACE(i);
+    // Tolerance: the same few operations in a different order; 1e-12 relative is rounding.
+    EXPECT_NEAR(x_dot(plant.transient_slip_ratio_index(i)), rate * slip.slip_ratio, 1e-12 * rate * slip.slip_ratio);
+    EXPECT_GT(x_dot(plant.transient_slip_ratio_index(i)), 0.0);
+    EXPECT_EQ(x_dot(plant.transient_slip_angle_index(i)), 0.0);
+  }
+  EXPECT_EQ(x_dot(StateIndex::kVx), 0.0);
+}
+
 }  // namespace
 }  // namespace swerve

@@ -614,5 +614,61 @@ TEST(Controller, RejectsAFinitePlanThatBreaksTheInputBoundsAndFallsBack) {
   }
 }
 
+
+// ---------------------------------------------------------------------------------------------
+// The problem's input bounds are the drives' limits, and a command's angle target follows its rate.
+
+TEST(Controller, BoundsTheOptimizerByTheDriveLimitsInEitherParameterization) {
+  const VehicleParams params = small_robot();
+  const ModuleLimits& limits = params.layout.limits();
+  const double radius = params.layout.wheel_radius();
+  FakeScript script;
+  {  // module rates: per module (steering rate, wheel speed); the wheel's step is a dt of acceleration
+    const ControllerOptions options = fast_options(InputParameterization::kModuleRates);
+    const Controller controller = make_fake_controller(&script, options);
+    const InputBounds& b = controller.problem().bounds();
+    ASSERT_EQ(b.upper.size(), 8);
+    for (int i = 0; i < 4; ++i) {
+      SCOPED_TRACE(i);
+      EXPECT_EQ(b.upper[2 * i], limits.max_steering_rate);
+      EXPECT_EQ(b.lower[2 * i], -limits.max_steering_rate);
+      EXPECT_DOUBLE_EQ(b.upper[2 * i + 1], limits.max_drive_speed / radius);
+      EXPECT_DOUBLE_EQ(b.lower[2 * i + 1], -limits.max_drive_speed / radius);
+      EXPECT_EQ(b.max_step[2 * i], std::numeric_limits<double>::infinity());
+      EXPECT_DOUBLE_EQ(b.max_step[2 * i + 1], limits.max_drive_acceleration * options.dt / radius);
+    }
+  }
+  {  // body twist: translation at the drive speed, rotation at what the outermost module can drive
+    const ControllerOptions options = fast_options(InputParameterization::kBodyTwist);
+    const Controller controller = make_fake_controller(&script, options);
+    const InputBounds& b = controller.problem().bounds();
+    double max_radius = 0.0;
+    for (const Eigen::Vector2d& p : params.layout.positions_body()) max_radius = std::max(max_radius, p.norm());
+    const double step = limits.max_drive_acceleration * options.dt;
+    EXPECT_EQ(b.upper, Eigen::Vector3d(limits.max_drive_speed, limits.max_drive_speed, limits.max_drive_speed / max_radius));
+    EXPECT_EQ(b.lower, -b.upper);
+    EXPECT_EQ(b.max_step, Eigen::Vector3d(step, step, step / max_radius));
+  }
+}
+
+TEST(Controller, CommandsTheSteeringAngleOneCycleAlongTheCommandedRate) {
+  // Module rates: the fake plan steers every module at 0.01 rad/s in its first column; from a
+  // measured 0.3 rad the angle target is 0.3 + dt * 0.01 (and wrapped across pi).
+  for (const double measured_angle : {0.3, -0.2, kPi - 1e-4}) {
+    SCOPED_TRACE(measured_angle);
+    FakeScript script;
+    const ControllerOptions options = fast_options(InputParameterization::kModuleRates);
+    Controller controller = make_fake_controller(&script, options);
+    Eigen::VectorXd state = at_rest();
+    for (int i = 0; i < 4; ++i) state[6 + i] = measured_angle;
+    const ControlOutput& out = controller.step(state, 0.0);
+    ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+    for (int i = 0; i < 4; ++i) {
+      // Tolerance: one product and one sum (plus a 2 pi wrap) in double; 1e-12 rad is rounding.
+      EXPECT_NEAR(out.modules[i].steering_angle, wrap_angle(measured_angle + options.dt * planned_value(0)), 1e-12);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace swerve
