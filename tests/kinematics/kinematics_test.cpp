@@ -4,9 +4,9 @@
 // differences, and bad input.
 #include "swerve/kinematics/kinematics.hpp"
 
-#include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -659,7 +659,8 @@ TEST(ModuleOptimization, CosineScalingOfAReversedModuleUsesTheReversedSteeringEr
   ModuleStates measured(4);
   ModuleStates states;
   const double direction = 150.0 * kPi / 180.0;
-  ASSERT_EQ(kinematics.command({std::cos(direction), std::sin(direction), 0.0}, &memory, &states, {0.0, 0.0}, &measured),
+  ASSERT_EQ(kinematics.command({std::cos(direction), std::sin(direction), 0.0}, &memory, &states, {0.0, 0.0},
+                               &measured),
             KinematicsStatus::kOk);
   for (const ModuleState& s : states) {
     // Tolerance: a few products of unit-size doubles; 1e-12 is rounding.

@@ -114,8 +114,9 @@ TEST(SetpointGenerator, ReversingEveryModuleStopsFirstThenResteers) {
   // The target is within the 3 m/s drive limit (fastest module ~1.17 m/s), so desaturation leaves
   // it unchanged and the generator must end exactly on it.
   Eigen::Vector3d feasible;
-  ASSERT_EQ(generator.kinematics().desaturate_twist(target, 3.0, DesaturationPriority::kProportional, &feasible),
-            KinematicsStatus::kOk);
+  ASSERT_EQ(
+      generator.kinematics().desaturate_twist(target, 3.0, DesaturationPriority::kProportional, &feasible),
+      KinematicsStatus::kOk);
   EXPECT_EQ(feasible, target);
   EXPECT_NEAR((setpoint.twist_body - feasible).norm(), 0.0, 1e-12);
 }

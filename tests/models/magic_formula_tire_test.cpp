@@ -90,7 +90,8 @@ TEST(MagicFormulaTire, SlopeAtTheOriginIsBCD) {
 TEST(MagicFormulaTire, SlopeAtExactlyZeroSlipIsBCDForEveryCombinedSlipMethod) {
   // At kappa = alpha = 0 exactly the normalized-slip method takes its s -> 0 limit branch; the Jet
   // derivative there must still be the cornering / driving stiffness B C D of the pure curve.
-  for (auto method : {CombinedSlipMethod::kNone, CombinedSlipMethod::kEllipseCap, CombinedSlipMethod::kNormalizedSlip}) {
+  for (auto method :
+       {CombinedSlipMethod::kNone, CombinedSlipMethod::kEllipseCap, CombinedSlipMethod::kNormalizedSlip}) {
     MagicFormulaParams p = table_params();
     p.combined_slip = method;
     const MagicFormulaTire<ModelJet> tire(p);

@@ -343,8 +343,8 @@ TEST(VehicleModel, VehicleAtRestWithSpinningWheelsPushesExactlyWithTheTireForceA
         continue;
       }
       const auto slip = compute_wheel_slip(params.tire, 0.0, 0.0, w * params.layout.wheel_radius());
-      const double expected = tire.forces(slip.slip_ratio, slip.slip_angle, params.mass * params.gravity).fx_wheel /
-                              params.mass;
+      const double expected =
+          tire.forces(slip.slip_ratio, slip.slip_angle, params.mass * params.gravity).fx_wheel / params.mass;
       // Tolerance: n products summed in a different order than F(kappa, m g); relative 1e-12 is
       // rounding (plus 1e-15 absolute for the 1e-9 rad/s case, whose force is ~1e-7 N).
       EXPECT_NEAR(x_dot(StateIndex::kVx), expected, 1e-12 * std::abs(expected) + 1e-15);
@@ -420,7 +420,8 @@ TEST(VehicleModel, LoadTransferMovesLoadToTheRearWhenAccelerating) {
   const double wheelbase = 1.0;
   const MagicFormulaTire<double> tire(params.tire);
   const auto slip = compute_wheel_slip(params.tire, 1.0, 0.0, 1.02);
-  const double a_x = tire.forces(slip.slip_ratio, slip.slip_angle, params.mass * params.gravity).fx_wheel / params.mass;
+  const double a_x =
+      tire.forces(slip.slip_ratio, slip.slip_angle, params.mass * params.gravity).fx_wheel / params.mass;
   ASSERT_GT(a_x, 0.5);  // a clear acceleration, so a halved transfer is far outside the tolerance
   const double transfer = params.cog_height.value() * params.mass * a_x / (2.0 * wheelbase);
   const double quarter = params.mass * params.gravity / 4.0;
@@ -431,7 +432,6 @@ TEST(VehicleModel, LoadTransferMovesLoadToTheRearWhenAccelerating) {
   EXPECT_NEAR(diag[2].normal_load, quarter + transfer, kLoadTolerance);  // rear left
   EXPECT_NEAR(diag[3].normal_load, quarter + transfer, kLoadTolerance);  // rear right
 }
-
 
 TEST(VehicleModel, TransientSlipRelaxesTowardsTheSteadySlipAtRateSpeedOverRelaxationLength) {
   // Pacejka 2012, sec. 7.2.2: sigma kappa'_dot = V (kappa - kappa'), V = sqrt(u^2 + V_r^2 + eps^2).
@@ -456,7 +456,8 @@ TEST(VehicleModel, TransientSlipRelaxesTowardsTheSteadySlipAtRateSpeedOverRelaxa
   for (int i = 0; i < 4; ++i) {
     SCOPED_TRACE(i);
     // Tolerance: the same few operations in a different order; 1e-12 relative is rounding.
-    EXPECT_NEAR(x_dot(plant.transient_slip_ratio_index(i)), rate * slip.slip_ratio, 1e-12 * rate * slip.slip_ratio);
+    EXPECT_NEAR(x_dot(plant.transient_slip_ratio_index(i)), rate * slip.slip_ratio,
+                1e-12 * rate * slip.slip_ratio);
     EXPECT_GT(x_dot(plant.transient_slip_ratio_index(i)), 0.0);
     EXPECT_EQ(x_dot(plant.transient_slip_angle_index(i)), 0.0);
   }

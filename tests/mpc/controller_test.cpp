@@ -555,7 +555,10 @@ TEST(Controller, StepAllocatesNothingAfterTheFirstCycles) {
 class OutOfBoundsSolver final : public Solver {
  public:
   OutOfBoundsSolver(const OcpProblem& shape, bool box, int good_cycles)
-      : Solver(shape), box_(box), good_cycles_(good_cycles), stage_costs_(Eigen::VectorXd::Zero(shape.horizon())) {}
+      : Solver(shape),
+        box_(box),
+        good_cycles_(good_cycles),
+        stage_costs_(Eigen::VectorXd::Zero(shape.horizon())) {}
   const char* name() const noexcept override { return "out_of_bounds"; }
 
  private:
@@ -566,7 +569,8 @@ class OutOfBoundsSolver final : public Solver {
     if (good_cycles_-- <= 0) {
       for (int i = 0; i < problem.input_size(); ++i) {
         const double step = std::isfinite(b.max_step[i]) ? 1.5 * b.max_step[i] : 0.0;
-        const double value = box_ ? 2.0 * b.upper[i] : std::min(b.upper[i], problem.previous_input()[i] + step);
+        const double value =
+            box_ ? 2.0 * b.upper[i] : std::min(b.upper[i], problem.previous_input()[i] + step);
         out->inputs.row(i).setConstant(value);
       }
     }
@@ -583,13 +587,14 @@ class OutOfBoundsSolver final : public Solver {
 TEST(Controller, RejectsAFinitePlanThatBreaksTheInputBoundsAndFallsBack) {
   for (const InputParameterization parameterization : kParameterizations) {
     for (const bool box : {true, false}) {
-      SCOPED_TRACE(std::string(to_string(parameterization)) + (box ? ", over the box" : ", over the step bound"));
+      SCOPED_TRACE(std::string(to_string(parameterization)) +
+                   (box ? ", over the box" : ", over the step bound"));
       const ControllerOptions options = fast_options(parameterization);
       // No plan yet: the baseline, with the reason naming the rejected plan.
       {
-        Controller controller(small_robot(), testing::line_reference(0.5), options, [box](const OcpProblem& p) {
-          return std::make_unique<OutOfBoundsSolver>(p, box, 0);
-        });
+        Controller controller(
+            small_robot(), testing::line_reference(0.5), options,
+            [box](const OcpProblem& p) { return std::make_unique<OutOfBoundsSolver>(p, box, 0); });
         const ControlOutput& out = controller.step(at_rest(), 0.0);
         EXPECT_EQ(out.solve.status, SolveStatus::kConverged) << to_string(out.solve.status);
         EXPECT_EQ(out.source, CommandSource::kBaseline) << to_string(out.source);
@@ -599,21 +604,20 @@ TEST(Controller, RejectsAFinitePlanThatBreaksTheInputBoundsAndFallsBack) {
       }
       // A good plan first: the rejected one leaves it in force (shifted), not replaced.
       {
-        Controller controller(small_robot(), testing::line_reference(0.5), options, [box](const OcpProblem& p) {
-          return std::make_unique<OutOfBoundsSolver>(p, box, 1);
-        });
+        Controller controller(
+            small_robot(), testing::line_reference(0.5), options,
+            [box](const OcpProblem& p) { return std::make_unique<OutOfBoundsSolver>(p, box, 1); });
         ASSERT_EQ(controller.step(at_rest(), 0.0).source, CommandSource::kOptimizer);
         const ControlOutput& out = controller.step(at_rest(), options.dt);
         EXPECT_EQ(out.source, CommandSource::kPreviousPlan) << to_string(out.source);
         EXPECT_EQ(reason_of(out), "the solver returned an infeasible or invalid plan");
         EXPECT_TRUE(controller.plan().valid);
-        EXPECT_EQ(controller.plan().inputs, Eigen::MatrixXd::Zero(controller.plan().inputs.rows(),
-                                                                  controller.plan().inputs.cols()));
+        EXPECT_EQ(controller.plan().inputs,
+                  Eigen::MatrixXd::Zero(controller.plan().inputs.rows(), controller.plan().inputs.cols()));
       }
     }
   }
 }
-
 
 // ---------------------------------------------------------------------------------------------
 // The problem's input bounds are the drives' limits, and a command's angle target follows its rate.
@@ -643,9 +647,11 @@ TEST(Controller, BoundsTheOptimizerByTheDriveLimitsInEitherParameterization) {
     const Controller controller = make_fake_controller(&script, options);
     const InputBounds& b = controller.problem().bounds();
     double max_radius = 0.0;
-    for (const Eigen::Vector2d& p : params.layout.positions_body()) max_radius = std::max(max_radius, p.norm());
+    for (const Eigen::Vector2d& p : params.layout.positions_body())
+      max_radius = std::max(max_radius, p.norm());
     const double step = limits.max_drive_acceleration * options.dt;
-    EXPECT_EQ(b.upper, Eigen::Vector3d(limits.max_drive_speed, limits.max_drive_speed, limits.max_drive_speed / max_radius));
+    EXPECT_EQ(b.upper, Eigen::Vector3d(limits.max_drive_speed, limits.max_drive_speed,
+                                       limits.max_drive_speed / max_radius));
     EXPECT_EQ(b.lower, -b.upper);
     EXPECT_EQ(b.max_step, Eigen::Vector3d(step, step, step / max_radius));
   }
@@ -665,7 +671,8 @@ TEST(Controller, CommandsTheSteeringAngleOneCycleAlongTheCommandedRate) {
     ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
     for (int i = 0; i < 4; ++i) {
       // Tolerance: one product and one sum (plus a 2 pi wrap) in double; 1e-12 rad is rounding.
-      EXPECT_NEAR(out.modules[i].steering_angle, wrap_angle(measured_angle + options.dt * planned_value(0)), 1e-12);
+      EXPECT_NEAR(out.modules[i].steering_angle, wrap_angle(measured_angle + options.dt * planned_value(0)),
+                  1e-12);
     }
   }
 }

@@ -149,7 +149,6 @@ TEST(OcpProblem, IsFeasibleRejectsTheBoxAndTheStepBoundEachOnItsOwn) {
   EXPECT_FALSE(step_problem.is_feasible(inputs, 0.0));
 }
 
-
 TEST(OcpProblem, PerCycleSettersRejectBadValuesAndKeepTheOldOnes) {
   const DoubleIntegratorModel model;
   OcpProblem problem(model, 3, 0.1, {}, {});

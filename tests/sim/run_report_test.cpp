@@ -4,16 +4,18 @@
 #include "swerve/sim/run_report.hpp"
 
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 namespace swerve {
 namespace {
 
-std::string data_file(const std::string& name) { return std::string(SWERVE_SOURCE_DIR) + "/tests/sim/data/" + name; }
+std::string data_file(const std::string& name) {
+  return std::string(SWERVE_SOURCE_DIR) + "/tests/sim/data/" + name;
+}
 
 ControllerRun hand_built_run(const std::string& name, ControllerKind kind, double wear_total, double rmse_m) {
   ControllerRun run;
@@ -64,14 +66,17 @@ TEST(RunReport, SummaryComparisonHasTheHandComputedValues) {
 TEST(RunReport, SummaryComparisonIsNullWhereItCannotBeComputed) {
   const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
   std::vector<ControllerRun> runs = hand_built_runs();
-  runs[2].metrics.wear_total = 0.0;      // a baseline without wear: no reduction to speak of
+  runs[2].metrics.wear_total = 0.0;       // a baseline without wear: no reduction to speak of
   runs[2].metrics.tracking_rmse_m = 0.0;  // nor a ratio
   const nlohmann::json comparison = nlohmann::json::parse(summary_json(scenario, runs)).at("comparison");
   EXPECT_TRUE(comparison.at("wear_reduction_pct").is_null());
   EXPECT_TRUE(comparison.at("tracking_rmse_ratio").is_null());
   EXPECT_NEAR(comparison.at("wear_reduction_vs_no_wear_pct").get<double>(), 25.0, kArithmeticTolerance);
   runs.pop_back();  // no baseline at all
-  EXPECT_TRUE(nlohmann::json::parse(summary_json(scenario, runs)).at("comparison").at("wear_reduction_pct").is_null());
+  EXPECT_TRUE(nlohmann::json::parse(summary_json(scenario, runs))
+                  .at("comparison")
+                  .at("wear_reduction_pct")
+                  .is_null());
 }
 
 TEST(RunReport, ComparisonTablePrintsTheWearChangeAsANegativePercentageWhenWearFalls) {
@@ -83,9 +88,10 @@ TEST(RunReport, ComparisonTablePrintsTheWearChangeAsANegativePercentageWhenWearF
   EXPECT_NE(table.find("-33.33"), std::string::npos) << table;
   EXPECT_EQ(table.find(" 50.00"), std::string::npos) << table;
   // Summary lines: the same signs, the RMSE ratio wear_mpc / baseline and the paper's figure.
-  EXPECT_NE(table.find("wear_mpc vs kinematic_baseline: wear -50.00 %, tracking RMSE ratio 1.500  (paper: wear "
-                       "-65.20 %)"),
-            std::string::npos)
+  EXPECT_NE(
+      table.find("wear_mpc vs kinematic_baseline: wear -50.00 %, tracking RMSE ratio 1.500  (paper: wear "
+                 "-65.20 %)"),
+      std::string::npos)
       << table;
   EXPECT_NE(table.find("wear_mpc vs dynamic_no_wear:    wear -25.00 %"), std::string::npos) << table;
 }

@@ -3,12 +3,12 @@
 #include "swerve/sim/scenario_runner.hpp"
 
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "support/time_scale.hpp"
@@ -87,10 +87,12 @@ TEST(ScenarioRunner, WearMpcWearsFarLessThanTheKinematicBaselineFromA60DegreeOff
     ASSERT_EQ(runs[1].name, "kinematic_baseline");
     ASSERT_TRUE(runs[0].completed && runs[1].completed);
     const double reduction = wear_reduction_pct(runs[0].metrics, runs[1].metrics);
-    std::printf("[          ] seed %llu: wear %.3f vs %.3f, reduction %.1f %%, rmse %.4f vs %.4f m, p99 solve %.1f ms\n",
-                static_cast<unsigned long long>(seed), runs[0].metrics.wear_total, runs[1].metrics.wear_total,
-                reduction, runs[0].metrics.tracking_rmse_m, runs[1].metrics.tracking_rmse_m,
-                runs[0].metrics.solve_time_p99_ms);
+    std::printf(
+        "[          ] seed %llu: wear %.3f vs %.3f, reduction %.1f %%, rmse %.4f vs %.4f m, p99 solve %.1f "
+        "ms\n",
+        static_cast<unsigned long long>(seed), runs[0].metrics.wear_total, runs[1].metrics.wear_total,
+        reduction, runs[0].metrics.tracking_rmse_m, runs[1].metrics.tracking_rmse_m,
+        runs[0].metrics.solve_time_p99_ms);
     EXPECT_GT(reduction, kMinimumWearReductionPct);
   }
 }
