@@ -47,5 +47,26 @@ TEST(TargetConfig, ValidateRejectsNonFiniteFieldsSetInCode) {
   EXPECT_THROW(target.validate(), ConfigError);
 }
 
+TEST(TargetConfig, ValidateAppliesEveryRuleToFieldsSetInCode) {
+  // The YAML loader checks some rules itself; validate() must hold them for code-built targets too.
+  TargetConfig target;
+  target.solve_budget = target.control_period;  // equal is allowed: the solve fills the cycle
+  EXPECT_NO_THROW(target.validate());
+  auto expect_rejected = [](const TargetConfig& bad, const std::string& expected) {
+    try {
+      bad.validate();
+      ADD_FAILURE() << "accepted: " << expected;
+    } catch (const ConfigError& error) {
+      EXPECT_NE(std::string(error.what()).find(expected), std::string::npos) << error.what();
+    }
+  };
+  TargetConfig late = target;
+  late.solve_budget = 0.06;  // > control_period 0.05
+  expect_rejected(late, "TargetConfig.solve_budget = 0.06");
+  TargetConfig no_cores = target;
+  no_cores.cores = 0;
+  expect_rejected(no_cores, "TargetConfig.cores = 0");
+}
+
 }  // namespace
 }  // namespace swerve

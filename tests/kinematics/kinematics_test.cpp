@@ -4,11 +4,12 @@
 // differences, and bad input.
 #include "swerve/kinematics/kinematics.hpp"
 
-#include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "kinematics/test_layouts.hpp"
 #include "swerve/kinematics/se2.hpp"
@@ -340,6 +341,20 @@ TEST(KinematicsOptions, LoadFromYamlWithDefaultsAndCheckedValues) {
   EXPECT_THROW(typo.expect_all_read(), ConfigError);
 }
 
+TEST(KinematicsOptions, ValidateAcceptsAHysteresisBandUpToButExcludingNinetyDegrees) {
+  // The band is the steering error beyond 90 deg a kept decision may reach: at 90 deg it would keep
+  // a reversed module forever, so [0, pi/2) is the rule, checked at its edges.
+  KinematicsOptions options;
+  for (const double band : {0.0, kPi / 2.0 - 1e-9}) {
+    options.flip_hysteresis = band;
+    EXPECT_NO_THROW(options.validate()) << band;
+  }
+  for (const double band : {-1e-9, kPi / 2.0, 1.6, 2.0}) {
+    options.flip_hysteresis = band;
+    EXPECT_THROW(options.validate(), ConfigError) << band;
+  }
+}
+
 // ---- desaturation ----------------------------------------------------------------------------------
 
 TEST(Desaturate, NeverExceedsTheLimitAndPreservesRatiosAndSigns) {
@@ -523,6 +538,79 @@ TEST(ModuleOptimization, HysteresisStillFlipsForADecisiveReversal) {
   EXPECT_NE(states[0].speed > 0.0 ? 1 : -1, first);
 }
 
+// Drive sign of every module after commanding a pure translation at `direction_rad` with the
+// wheels measured at angle 0; `previous_direction_rad`, when given, is commanded first so that the
+// module already holds a decision (forward at 0). Cosine scaling is off so the sign is the speed's.
+std::vector<int> drive_signs(double hysteresis, double direction_rad, bool whole_robot = false,
+                             const double* previous_direction_rad = nullptr) {
+  KinematicsOptions options;
+  options.flip_hysteresis = hysteresis;
+  options.cosine_scaling = false;
+  options.whole_robot_flip = whole_robot;
+  const Kinematics kinematics(ModuleLayout::rectangle(0.6, 0.4, 0.05), options);
+  ModuleHeadingMemory memory(4);
+  ModuleStates measured(4);  // all at angle 0
+  ModuleStates states;
+  if (previous_direction_rad != nullptr) {
+    const double d = *previous_direction_rad;
+    kinematics.command({std::cos(d), std::sin(d), 0.0}, &memory, &states, {0.0, 0.0}, &measured);
+  }
+  kinematics.command({std::cos(direction_rad), std::sin(direction_rad), 0.0}, &memory, &states, {0.0, 0.0},
+                     &measured);
+  std::vector<int> signs;
+  for (const ModuleState& s : states) signs.push_back(s.speed > 0.0 ? 1 : -1);
+  return signs;
+}
+
+constexpr double kDegree = kPi / 180.0;
+const std::vector<int> kAllForward = {1, 1, 1, 1};
+const std::vector<int> kAllReversed = {-1, -1, -1, -1};
+
+TEST(ModuleOptimization, FirstDecisionFlipsExactlyBeyondNinetyDegrees) {
+  // No previous decision: the module drives forward while the steering error is below 90 deg and
+  // reversed above it, whatever the band (the band applies only to keeping a decision). 1 deg on
+  // either side pins the threshold to within 1 deg.
+  for (const double hysteresis : {0.0, 0.1}) {
+    SCOPED_TRACE(hysteresis);
+    EXPECT_EQ(drive_signs(hysteresis, 89.0 * kDegree), kAllForward);
+    EXPECT_EQ(drive_signs(hysteresis, 91.0 * kDegree), kAllReversed);
+    EXPECT_EQ(drive_signs(hysteresis, -89.0 * kDegree), kAllForward);
+    EXPECT_EQ(drive_signs(hysteresis, -91.0 * kDegree), kAllReversed);
+  }
+}
+
+TEST(ModuleOptimization, WholeRobotFirstDecisionFlipsExactlyBeyondNinetyDegrees) {
+  EXPECT_EQ(drive_signs(0.1, 89.0 * kDegree, true), kAllForward);
+  EXPECT_EQ(drive_signs(0.1, 91.0 * kDegree, true), kAllReversed);
+}
+
+TEST(ModuleOptimization, AKeptDecisionFlipsExactlyAtTheHysteresisEdge) {
+  // Forward at 0 first; keeping forward then costs a steering error equal to the new direction, and
+  // is allowed up to 90 deg + band. 0.5 deg on either side of the edge pins it to within 0.5 deg.
+  const double ahead = 0.0;
+  for (const bool whole_robot : {false, true}) {
+    SCOPED_TRACE(whole_robot ? "whole robot" : "per module");
+    for (const double hysteresis : {0.0, 0.1, 0.3}) {
+      SCOPED_TRACE(hysteresis);
+      const double edge = kPi / 2.0 + hysteresis;
+      EXPECT_EQ(drive_signs(hysteresis, edge - 0.5 * kDegree, whole_robot, &ahead), kAllForward);
+      EXPECT_EQ(drive_signs(hysteresis, edge + 0.5 * kDegree, whole_robot, &ahead), kAllReversed);
+      EXPECT_EQ(drive_signs(hysteresis, -(edge - 0.5 * kDegree), whole_robot, &ahead), kAllForward);
+      EXPECT_EQ(drive_signs(hysteresis, -(edge + 0.5 * kDegree), whole_robot, &ahead), kAllReversed);
+    }
+  }
+}
+
+TEST(ModuleOptimization, AReversedDecisionIsKeptUpToTheHysteresisEdgeToo) {
+  // Reversed first (command at 180 deg from wheels at 0); keeping it reversed costs a steering
+  // error of 180 deg minus the new direction, allowed up to 90 deg + band.
+  const double behind = kPi;
+  const double hysteresis = 0.2;
+  const double edge = kPi / 2.0 - hysteresis;  // direction at which the reversed error is 90 + band
+  EXPECT_EQ(drive_signs(hysteresis, edge + 0.5 * kDegree, false, &behind), kAllReversed);
+  EXPECT_EQ(drive_signs(hysteresis, edge - 0.5 * kDegree, false, &behind), kAllForward);
+}
+
 TEST(ModuleOptimization, WholeRobotModeFlipsAllModulesTogether) {
   // Twist (0.2, 0, 2) from wheels at 0: FL/RL want 108 deg (flip alone), FR/RR 45 deg.
   KinematicsOptions per_module;
@@ -560,6 +648,24 @@ TEST(ModuleOptimization, CosineScalingSlowsModulesThatAreStillSteering) {
   for (const ModuleState& s : states) {
     EXPECT_NEAR(s.speed, 0.5, 1e-12);
     EXPECT_NEAR(s.angle, 0.0, 1e-12);
+  }
+}
+
+TEST(ModuleOptimization, CosineScalingOfAReversedModuleUsesTheReversedSteeringError) {
+  // Wheels measured at 0, command at 150 deg: the module reverses (drives at -30 deg), whose
+  // steering error is 30 deg, so the speed is scaled by cos 30 deg, not by cos 150 deg < 0 (-> 0).
+  const Kinematics kinematics(ModuleLayout::rectangle(0.6, 0.4, 0.05));
+  ModuleHeadingMemory memory(4);
+  ModuleStates measured(4);
+  ModuleStates states;
+  const double direction = 150.0 * kPi / 180.0;
+  ASSERT_EQ(kinematics.command({std::cos(direction), std::sin(direction), 0.0}, &memory, &states, {0.0, 0.0},
+                               &measured),
+            KinematicsStatus::kOk);
+  for (const ModuleState& s : states) {
+    // Tolerance: a few products of unit-size doubles; 1e-12 is rounding.
+    EXPECT_NEAR(s.speed, -std::cos(kPi / 6.0), 1e-12);
+    EXPECT_NEAR(s.angle, -kPi / 6.0, 1e-12);
   }
 }
 

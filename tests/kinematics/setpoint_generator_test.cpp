@@ -111,9 +111,14 @@ TEST(SetpointGenerator, ReversingEveryModuleStopsFirstThenResteers) {
     setpoint = next;
   }
   EXPECT_TRUE(stopped);
+  // The target is within the 3 m/s drive limit (fastest module ~1.17 m/s), so desaturation leaves
+  // it unchanged and the generator must end exactly on it.
   Eigen::Vector3d feasible;
-  generator.kinematics().desaturate_twist(target, 3.0, DesaturationPriority::kProportional, &feasible);
-  EXPECT_NEAR((setpoint.twist_body - target).norm(), 0.0, 1e-12);
+  ASSERT_EQ(
+      generator.kinematics().desaturate_twist(target, 3.0, DesaturationPriority::kProportional, &feasible),
+      KinematicsStatus::kOk);
+  EXPECT_EQ(feasible, target);
+  EXPECT_NEAR((setpoint.twist_body - feasible).norm(), 0.0, 1e-12);
 }
 
 // Largest per-step change of any module's drive acceleration over a speed-up from rest.

@@ -1,6 +1,6 @@
 // Magic Formula tire and slip definitions against independent truth: symmetry, the slope B C D at
 // the origin, the peak D at the closed-form peak slip, saturation to D sin(C pi/2), a hand table,
-// the friction ellipse under combined slip, and finiteness down to a wheel at rest.
+// the friction ellipse under combined slip, and exact signs and zeros down to a wheel at rest.
 #include "swerve/models/magic_formula_tire.hpp"
 
 #include <gtest/gtest.h>
@@ -87,6 +87,27 @@ TEST(MagicFormulaTire, SlopeAtTheOriginIsBCD) {
   }
 }
 
+TEST(MagicFormulaTire, SlopeAtExactlyZeroSlipIsBCDForEveryCombinedSlipMethod) {
+  // At kappa = alpha = 0 exactly the normalized-slip method takes its s -> 0 limit branch; the Jet
+  // derivative there must still be the cornering / driving stiffness B C D of the pure curve.
+  for (auto method :
+       {CombinedSlipMethod::kNone, CombinedSlipMethod::kEllipseCap, CombinedSlipMethod::kNormalizedSlip}) {
+    MagicFormulaParams p = table_params();
+    p.combined_slip = method;
+    const MagicFormulaTire<ModelJet> tire(p);
+    const auto f = tire.forces(ModelJet(0.0, 0), ModelJet(0.0, 1), ModelJet(kFz));
+    const double d = kMu * kFz;
+    EXPECT_EQ(f.fx_wheel.a, 0.0) << to_string(method);
+    EXPECT_EQ(f.fy_wheel.a, 0.0) << to_string(method);
+    // Tolerance: one product of three doubles and a division by the peak slip; 1e-12 relative is
+    // rounding.
+    EXPECT_NEAR(f.fx_wheel.v[0], 10.0 * 1.65 * d, 1e-12 * 10.0 * 1.65 * d) << to_string(method);
+    EXPECT_NEAR(f.fy_wheel.v[1], 15.0 * 1.3 * d, 1e-12 * 15.0 * 1.3 * d) << to_string(method);
+    EXPECT_EQ(f.fx_wheel.v[1], 0.0) << to_string(method);
+    EXPECT_EQ(f.fy_wheel.v[0], 0.0) << to_string(method);
+  }
+}
+
 TEST(MagicFormulaTire, PeakEqualsDAtTheClosedFormPeakSlip) {
   MagicFormulaParams p;  // E = 0: peak at x = tan(pi / (2C)) / B
   p.combined_slip = CombinedSlipMethod::kNone;
@@ -95,7 +116,9 @@ TEST(MagicFormulaTire, PeakEqualsDAtTheClosedFormPeakSlip) {
   const double alpha_peak = std::tan(kPiTest / (2 * 1.3)) / 15.0;
   EXPECT_NEAR(tire.peak_slip_ratio(), kappa_peak, 1e-12);
   EXPECT_NEAR(tire.peak_slip_angle(), alpha_peak, 1e-12);
-  EXPECT_NEAR(kappa_peak, 0.1404, 1e-3);  // paper-notes assumption 4: "peak near 0.14"
+  // paper-notes assumption 4's default tire peaks at kappa = tan(pi / 3.3) / 10 = 0.14038..., printed
+  // there as 0.1404: tolerance half a unit in that last digit.
+  EXPECT_NEAR(tire.peak_slip_ratio(), 0.1404, 5e-5);
   const double d = p.mu * kFz;
   EXPECT_NEAR(tire.pure_longitudinal(kappa_peak, kFz), d, 1e-9);
   EXPECT_NEAR(tire.pure_lateral(alpha_peak, kFz), d, 1e-9);
@@ -198,6 +221,22 @@ TEST(WheelSlip, FiniteAndBoundedOnALowSpeedGridDownToRest) {
             const auto f = tire.forces(slip.slip_ratio, slip.slip_angle, kFz);
             ASSERT_TRUE(std::isfinite(f.fx_wheel) && std::isfinite(f.fy_wheel)) << u << " " << v << " " << vr;
             ASSERT_LE(std::abs(f.fx_wheel), p.mu * kFz * (1 + 1e-12));
+            // Exact everywhere on the grid: the sliding velocity is (V_r - u, -v); each force has
+            // the sign of its slip, which has the sign of its sliding velocity, so the contact never
+            // generates power; and pure rolling (V_r = u, v = 0, incl. standstill) is exactly force-free.
+            ASSERT_EQ(slip.slip_velocity_x_wheel, vr - u);
+            ASSERT_EQ(slip.slip_velocity_y_wheel, -v);
+            ASSERT_GE(slip.slip_ratio * (vr - u), 0.0);
+            ASSERT_EQ(slip.slip_ratio == 0.0, vr == u) << u << " " << vr;
+            ASSERT_LE(slip.slip_angle * v, 0.0);
+            ASSERT_EQ(slip.slip_angle == 0.0, v == 0.0) << v;
+            ASSERT_GE(f.fx_wheel * slip.slip_ratio, 0.0) << u << " " << v << " " << vr;
+            ASSERT_GE(f.fy_wheel * slip.slip_angle, 0.0) << u << " " << v << " " << vr;
+            ASSERT_GE(f.fx_wheel * slip.slip_velocity_x_wheel + f.fy_wheel * slip.slip_velocity_y_wheel, 0.0);
+            if (vr == u && v == 0.0) {
+              ASSERT_EQ(f.fx_wheel, 0.0) << u;
+              ASSERT_EQ(f.fy_wheel, 0.0) << u;
+            }
           }
         }
       }

@@ -7,10 +7,12 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "model_fixtures.hpp"
 #include "swerve/models/integrators.hpp"
+#include "swerve/models/magic_formula_tire.hpp"
 
 namespace swerve {
 namespace {
@@ -321,18 +323,37 @@ TEST(VehicleModel, NonFiniteStateOrInputIsReportedNotPropagated) {
   EXPECT_EQ(model.derivative(x, u, x_dot), ModelStatus::kOk);
 }
 
-TEST(VehicleModel, VehicleAtRestWithSpinningWheelsHasFiniteForces) {
+TEST(VehicleModel, VehicleAtRestWithSpinningWheelsPushesExactlyWithTheTireForceAtItsWeight) {
+  // At rest, wheels straight, every wheel spinning at w (and steering at rate w): each wheel slips
+  // by the same kappa, so the tire forces, linear in the load, sum to F(kappa, m g) along x, with
+  // no side force and (loads in moment balance about the CoM) no yaw moment. Standstill (w = 0)
+  // gives exactly zero everywhere.
   for (int n : {2, 3, 4, 16}) {
-    const VehicleModel<double> model(testing::make_params(n), Fidelity::kIdeal);
+    const VehicleParams params = testing::make_params(n);
+    const VehicleModel<double> model(params, Fidelity::kIdeal);
+    const MagicFormulaTire<double> tire(params.tire);
     Vector x = Vector::Zero(model.state_size());
     for (double w : {0.0, 1e-9, 1.0, -20.0}) {
+      SCOPED_TRACE(std::to_string(n) + " modules, w = " + std::to_string(w));
       const Vector u = Vector::Constant(model.input_size(), w);
       Vector x_dot(model.state_size());
-      ASSERT_EQ(model.derivative(x, u, x_dot), ModelStatus::kOk) << n << " " << w;
-      EXPECT_TRUE(x_dot.allFinite());
-      if (w != 0.0) {
-        EXPECT_GT(std::abs(x_dot(StateIndex::kVx)) + std::abs(x_dot(StateIndex::kVy)), 0.0);
+      ASSERT_EQ(model.derivative(x, u, x_dot), ModelStatus::kOk);
+      if (w == 0.0) {
+        EXPECT_EQ(x_dot, Vector::Zero(model.state_size()));
+        continue;
       }
+      const auto slip = compute_wheel_slip(params.tire, 0.0, 0.0, w * params.layout.wheel_radius());
+      const double expected =
+          tire.forces(slip.slip_ratio, slip.slip_angle, params.mass * params.gravity).fx_wheel / params.mass;
+      // Tolerance: n products summed in a different order than F(kappa, m g); relative 1e-12 is
+      // rounding (plus 1e-15 absolute for the 1e-9 rad/s case, whose force is ~1e-7 N).
+      EXPECT_NEAR(x_dot(StateIndex::kVx), expected, 1e-12 * std::abs(expected) + 1e-15);
+      EXPECT_NE(x_dot(StateIndex::kVx), 0.0);
+      EXPECT_EQ(x_dot(StateIndex::kVy), 0.0);
+      // Tolerance: sum of n moments (<= 8 kN x 1 m) cancelling to zero; 1e-12 rad/s^2 is rounding.
+      EXPECT_NEAR(x_dot(StateIndex::kYawRate), 0.0, 1e-12);
+      EXPECT_EQ(x_dot.head<3>(), Eigen::Vector3d::Zero());  // at rest the pose does not move yet
+      for (int i = 0; i < n; ++i) EXPECT_EQ(x_dot(StateIndex::steering(i)), w);
     }
   }
 }
@@ -392,8 +413,55 @@ TEST(VehicleModel, LoadTransferMovesLoadToTheRearWhenAccelerating) {
   for (const auto& d : diag) total += d.normal_load;
   EXPECT_NEAR(total, params.mass * params.gravity, 1e-6);
   EXPECT_GT(diag[2].normal_load, diag[0].normal_load);  // rear left > front left
-  // Quasi-static pitch balance: (front - rear) per side = -h m a_x / wheelbase / 2 at the first-pass a_x.
-  EXPECT_LT(diag[0].normal_load, params.mass * params.gravity / 4);
+  // Quasi-static pitch balance at the first-pass a_x (forces at the static loads): with the four
+  // modules at x = +-L/2 the least-norm transfer is dFz = -h m a_x x_i / sum x_j^2, i.e.
+  // -+ h m a_x / (2 L) per front / rear wheel. The tire force is linear in the load, so the
+  // first-pass a_x = F(kappa, m g) / m whatever the static split.
+  const double wheelbase = 1.0;
+  const MagicFormulaTire<double> tire(params.tire);
+  const auto slip = compute_wheel_slip(params.tire, 1.0, 0.0, 1.02);
+  const double a_x =
+      tire.forces(slip.slip_ratio, slip.slip_angle, params.mass * params.gravity).fx_wheel / params.mass;
+  ASSERT_GT(a_x, 0.5);  // a clear acceleration, so a halved transfer is far outside the tolerance
+  const double transfer = params.cog_height.value() * params.mass * a_x / (2.0 * wheelbase);
+  const double quarter = params.mass * params.gravity / 4.0;
+  // Tolerance: the loads are sums of a few products of O(1e3) N; 1e-9 N is rounding only.
+  constexpr double kLoadTolerance = 1e-9;
+  EXPECT_NEAR(diag[0].normal_load, quarter - transfer, kLoadTolerance);  // front left
+  EXPECT_NEAR(diag[1].normal_load, quarter - transfer, kLoadTolerance);  // front right
+  EXPECT_NEAR(diag[2].normal_load, quarter + transfer, kLoadTolerance);  // rear left
+  EXPECT_NEAR(diag[3].normal_load, quarter + transfer, kLoadTolerance);  // rear right
+}
+
+TEST(VehicleModel, TransientSlipRelaxesTowardsTheSteadySlipAtRateSpeedOverRelaxationLength) {
+  // Pacejka 2012, sec. 7.2.2: sigma kappa'_dot = V (kappa - kappa'), V = sqrt(u^2 + V_r^2 + eps^2).
+  // Rolling straight at 1 m/s with the wheels commanded 2 % faster (no actuator lag, so V_r is the
+  // command) and the transient slips still 0: each transient slip ratio rises at V kappa / sigma,
+  // the slip angle stays, and no force acts yet (the forces follow the transient slips).
+  VehicleParams params = testing::make_params(4);
+  params.plant.relaxation_length = 0.1;
+  params.plant.actuator_lag = false;
+  params.plant.actuator_saturation = false;
+  const VehicleModel<double> plant(params, Fidelity::kPlant);
+  Vector x = Vector::Zero(plant.state_size());
+  Vector u = Vector::Zero(plant.input_size());
+  x(StateIndex::kVx) = 1.0;
+  const double tread = 1.02;
+  for (int i = 0; i < 4; ++i) u(InputIndex::wheel_speed(i)) = tread / params.layout.wheel_radius();
+  Vector x_dot(plant.state_size());
+  ASSERT_EQ(plant.derivative(x, u, x_dot), ModelStatus::kOk);
+  const auto slip = compute_wheel_slip(params.tire, 1.0, 0.0, tread);
+  const double eps = params.tire.slip_speed_epsilon;
+  const double rate = std::sqrt(1.0 + tread * tread + eps * eps) / params.plant.relaxation_length;
+  for (int i = 0; i < 4; ++i) {
+    SCOPED_TRACE(i);
+    // Tolerance: the same few operations in a different order; 1e-12 relative is rounding.
+    EXPECT_NEAR(x_dot(plant.transient_slip_ratio_index(i)), rate * slip.slip_ratio,
+                1e-12 * rate * slip.slip_ratio);
+    EXPECT_GT(x_dot(plant.transient_slip_ratio_index(i)), 0.0);
+    EXPECT_EQ(x_dot(plant.transient_slip_angle_index(i)), 0.0);
+  }
+  EXPECT_EQ(x_dot(StateIndex::kVx), 0.0);
 }
 
 }  // namespace

@@ -91,6 +91,64 @@ TEST(OcpProblem, ProjectionKeepsBoxAndStepBoundsAndReportsTheFirstChange) {
   EXPECT_DOUBLE_EQ(inputs(1, 0), 0.0);  // a NaN input is replaced by the previous input
 }
 
+TEST(OcpProblem, CostOfAHandComputedCaseIncludesTheTwistTermWithoutTerminalScale) {
+  // The hand case above with a twist weight (1, 0, 0): the body velocity is 1 m/s after both
+  // steps (u0 = 1 for 1 s, then coasting), against a zero reference twist, so the twist term adds
+  // 1 * 1^2 per stage = 2, unscaled at the terminal step: tracking 227.5 + 2 = 229.5.
+  const DoubleIntegratorModel model(1.0);
+  CostWeights weights = hand_weights();
+  weights.twist = {1.0, 0.0, 0.0};
+  const OcpProblem problem(model, 2, 1.0, weights, {});
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 2);
+  inputs(0, 0) = 1.0;
+  Eigen::MatrixXd states(6, 3);
+  EXPECT_DOUBLE_EQ(problem.evaluate(inputs, states).tracking, 229.5);
+}
+
+TEST(OcpProblem, ProjectionKeepsTheStepBoundGoingDownToo) {
+  const DoubleIntegratorModel model;
+  InputBounds bounds;
+  bounds.lower = Eigen::Vector3d::Constant(-1.0);
+  bounds.upper = Eigen::Vector3d::Constant(1.0);
+  bounds.max_step = Eigen::Vector3d::Constant(0.25);
+  OcpProblem problem(model, 4, 0.1, {}, bounds);
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 4);
+  inputs(1, 1) = -5.0;  // below the box and far beyond one step down from 0
+  EXPECT_EQ(problem.project(inputs), 1);
+  EXPECT_DOUBLE_EQ(inputs(1, 1), -0.25);
+  EXPECT_TRUE(problem.is_feasible(inputs));
+  // One step of the bound beyond it is infeasible, on either side of the previous input.
+  inputs(1, 2) = -0.25 - 0.25 - 1e-3;
+  EXPECT_FALSE(problem.is_feasible(inputs));
+  inputs(1, 2) = -0.25 + 0.25 + 1e-3;
+  EXPECT_FALSE(problem.is_feasible(inputs));
+  inputs(1, 2) = -0.25 + 0.25;
+  inputs(1, 3) = 0.0;
+  EXPECT_TRUE(problem.is_feasible(inputs));
+}
+
+TEST(OcpProblem, IsFeasibleRejectsTheBoxAndTheStepBoundEachOnItsOwn) {
+  const DoubleIntegratorModel model;
+  InputBounds box_only;  // no step bound: only the box can be broken
+  box_only.lower = Eigen::Vector3d::Constant(-1.0);
+  box_only.upper = Eigen::Vector3d::Constant(1.0);
+  const OcpProblem box_problem(model, 4, 0.1, {}, box_only);
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Constant(3, 4, 1.0);
+  EXPECT_TRUE(box_problem.is_feasible(inputs, 0.0));
+  inputs(2, 3) = 1.001;
+  EXPECT_FALSE(box_problem.is_feasible(inputs, 0.0));
+  inputs(2, 3) = -1.001;
+  EXPECT_FALSE(box_problem.is_feasible(inputs, 0.0));
+  InputBounds step_only;  // no box: only the step bound can be broken (from the previous input 0)
+  step_only.max_step = Eigen::Vector3d::Constant(0.25);
+  const OcpProblem step_problem(model, 4, 0.1, {}, step_only);
+  inputs.setZero();
+  inputs(0, 0) = 0.25;
+  EXPECT_TRUE(step_problem.is_feasible(inputs, 0.0));
+  inputs(0, 0) = 0.251;
+  EXPECT_FALSE(step_problem.is_feasible(inputs, 0.0));
+}
+
 TEST(OcpProblem, PerCycleSettersRejectBadValuesAndKeepTheOldOnes) {
   const DoubleIntegratorModel model;
   OcpProblem problem(model, 3, 0.1, {}, {});

@@ -1,12 +1,14 @@
-// Scenarios end to end: short runs of the paper's experiments for every controller, determinism by
-// seed, the summary.json contract, overrides and bad scenario files.
+// Scenarios end to end: short runs of the paper's experiments for every controller, the wear
+// saving they exist for, determinism by seed, the summary.json contract, overrides and bad scenario files.
 #include "swerve/sim/scenario_runner.hpp"
 
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "support/fake_clocks.hpp"
@@ -51,6 +53,40 @@ TEST(ScenarioRunner, ShortPaperScenarioRunsEveryControllerWithFiniteMetrics) {
   EXPECT_GT(runs[0].wear_weight, 0.0);
   EXPECT_EQ(runs[1].wear_weight, 0.0);  // dynamic_no_wear: configuration only
   EXPECT_EQ(runs[2].kind, ControllerKind::kKinematicBaseline);
+}
+
+// What the project exists for: from rest with the reference heading 60 deg off the direction of
+// travel (the paper's hard start, 8 s of it), the wear-aware MPC wears the tires much less than the
+// kinematic baseline. The MPC is the default controller with an SA iteration cap in place of its
+// 20 ms clock (iteration_limited_default_mpc.yaml), run on a clock that advances 10 us per read, so
+// no solve ever meets its deadline and the result depends on the seeds alone, not on the machine or
+// its load. Measured reductions on the wall clock: 53-81 % over noise seeds 1-10 (idle; identical
+// with one core busy), 59-80 % on the seeds below with both cores busy (some solves then hit the
+// deadline). 30 % leaves a margin of 20+ points under the worst of those. (Over the first 1.5 s alone the
+// MPC wears more than the baseline: it is still turning all ten wheels; the saving comes after.)
+constexpr double kMinimumWearReductionPct = 30.0;
+
+TEST(ScenarioRunner, WearMpcWearsFarLessThanTheKinematicBaselineFromA60DegreeOffset) {
+  const ScenarioConfig base = load_scenario_config_file(data_file("offset60_from_rest.yaml"));
+  for (const std::uint64_t seed : {7u, 8u, 9u}) {
+    SCOPED_TRACE(seed);
+    RunOverrides overrides;
+    overrides.seed = seed;
+    const testing::WorkClock clock(10e-6);
+    const std::vector<ControllerRun> runs = run_scenario(apply_overrides(base, overrides), {}, &clock);
+    ASSERT_EQ(runs.size(), 2u);
+    ASSERT_EQ(runs[0].name, "wear_mpc");
+    ASSERT_EQ(runs[1].name, "kinematic_baseline");
+    ASSERT_TRUE(runs[0].completed && runs[1].completed);
+    const double reduction = wear_reduction_pct(runs[0].metrics, runs[1].metrics);
+    std::printf(
+        "[          ] seed %llu: wear %.3f vs %.3f, reduction %.1f %%, rmse %.4f vs %.4f m, p99 solve %.1f "
+        "ms\n",
+        static_cast<unsigned long long>(seed), runs[0].metrics.wear_total, runs[1].metrics.wear_total,
+        reduction, runs[0].metrics.tracking_rmse_m, runs[1].metrics.tracking_rmse_m,
+        runs[0].metrics.solve_time_p99_ms);
+    EXPECT_GT(reduction, kMinimumWearReductionPct);
+  }
 }
 
 TEST(ScenarioRunner, IdenticalSeedsWriteIdenticalLogs) {

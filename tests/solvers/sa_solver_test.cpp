@@ -1,5 +1,5 @@
-// Simulated annealing against closed-form optima, and its contract: bounds, deadline, budget
-// monotonicity, warm-start benefit, determinism by seed, failure statuses.
+// Simulated annealing against closed-form optima, and its contract: bounds, deadline, best plan
+// returned, use of a larger budget, warm-start benefit, determinism by seed, failure statuses.
 #include "swerve/solvers/sa_solver.hpp"
 
 #include <gtest/gtest.h>
@@ -99,23 +99,50 @@ TEST(SimulatedAnnealing, IdenticalSeedsGiveIdenticalSolutions) {
   EXPECT_NE(a.inputs, c.inputs);
 }
 
-TEST(SimulatedAnnealing, MoreTimeNeverGivesAWorseBestCost) {
-  // Same seed and schedule: the longer run replays the shorter one and goes on, so its best
-  // cost can only be lower or equal.
+// A longer run does not replay a shorter one: the schedule cools on the share of the budget used,
+// so the same seed at a larger budget takes different moves from the first iteration on, and no
+// ordering of the two best costs is guaranteed. What is guaranteed for any budget: the plan returned
+// is the best one seen, so its cost never exceeds the starting cost, and it is the plan's own cost.
+TEST(SimulatedAnnealing, ReturnsItsBestPlanWhichNeverCostsMoreThanTheStartAtAnyBudget) {
   const DoubleIntegratorModel model(0.2);
   const OcpProblem problem = make_lq_problem(model, 20);
-  SaOptions options;
-  options.max_iterations = 200000;
-  Solution short_run, long_run;
-  short_run.resize(6, 3, 20);
-  long_run.resize(6, 3, 20);
-  SolveSummary short_summary, long_summary;
-  SimulatedAnnealingSolver a(problem, options), b(problem, options);
-  a.solve(problem, {}, SolverClock::now() + 2ms, &short_run, &short_summary);
-  b.solve(problem, {}, SolverClock::now() + 20ms, &long_run, &long_summary);
-  ASSERT_EQ(short_summary.status, SolveStatus::kBudgetExhausted);
-  if (long_summary.iterations < short_summary.iterations) GTEST_SKIP() << "the machine stalled the longer run";
-  EXPECT_LE(long_run.cost, short_run.cost);
+  for (const int iterations : {1, 10, 200, 2000}) {
+    SCOPED_TRACE(iterations);
+    SaOptions options;
+    options.max_iterations = iterations;
+    SimulatedAnnealingSolver solver(problem, options);
+    Solution solution;
+    solution.resize(6, 3, 20);
+    SolveSummary summary;
+    ASSERT_EQ(solver.solve(problem, {}, far_deadline(), &solution, &summary), SolveStatus::kConverged);
+    EXPECT_LE(solution.cost, summary.initial_cost);
+    // Tolerance: the same rollout evaluated twice; relative 1e-12 allows only a different
+    // summation order.
+    EXPECT_NEAR(cost_of(problem, solution.inputs), solution.cost, 1e-12 * solution.cost);
+  }
+}
+
+// Not a theorem (see above) but what the budget is for: ten times the iterations ends lower for
+// each of these seeds. Iteration-capped with a far deadline, so the schedule ignores the clock and
+// the result is repeatable: this checks that a bigger budget is used, not machine speed.
+TEST(SimulatedAnnealing, TenTimesTheIterationsEndsLowerOnEachOfFiveSeeds) {
+  const DoubleIntegratorModel model(0.2);
+  const OcpProblem problem = make_lq_problem(model, 20);
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    SCOPED_TRACE(seed);
+    double cost[2] = {0.0, 0.0};
+    for (int run = 0; run < 2; ++run) {
+      SaOptions options;
+      options.seed = seed;
+      options.max_iterations = run == 0 ? 500 : 5000;
+      SimulatedAnnealingSolver solver(problem, options);
+      Solution solution;
+      solution.resize(6, 3, 20);
+      ASSERT_EQ(solver.solve(problem, {}, far_deadline(), &solution, nullptr), SolveStatus::kConverged);
+      cost[run] = solution.cost;
+    }
+    EXPECT_LT(cost[1], cost[0]);
+  }
 }
 
 TEST(SimulatedAnnealing, HonoursTheDeadline) {
