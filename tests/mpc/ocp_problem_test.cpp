@@ -14,6 +14,15 @@ namespace {
 
 using testing::DoubleIntegratorModel;
 
+// |u| <= 1 on every input, and at most `max_step` of change per step.
+InputBounds unit_box_with_step(double max_step) {
+  InputBounds bounds;
+  bounds.lower = Eigen::Vector3d::Constant(-1.0);
+  bounds.upper = Eigen::Vector3d::Constant(1.0);
+  bounds.max_step = Eigen::Vector3d::Constant(max_step);
+  return bounds;
+}
+
 CostWeights hand_weights() {
   CostWeights w;
   w.pose = {10.0, 10.0, 5.0};
@@ -74,11 +83,7 @@ TEST(OcpProblem, IncrementalRolloutEqualsFullRollout) {
 
 TEST(OcpProblem, ProjectionKeepsBoxAndStepBoundsAndReportsTheFirstChange) {
   const DoubleIntegratorModel model;
-  InputBounds bounds;
-  bounds.lower = Eigen::Vector3d::Constant(-1.0);
-  bounds.upper = Eigen::Vector3d::Constant(1.0);
-  bounds.max_step = Eigen::Vector3d::Constant(0.25);
-  OcpProblem problem(model, 4, 0.1, {}, bounds);
+  OcpProblem problem(model, 4, 0.1, {}, unit_box_with_step(0.25));
   Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 4);
   inputs(0, 2) = 5.0;  // out of the box and far beyond one step from 0
   EXPECT_EQ(problem.project(inputs), 2);
@@ -107,11 +112,7 @@ TEST(OcpProblem, CostOfAHandComputedCaseIncludesTheTwistTermWithoutTerminalScale
 
 TEST(OcpProblem, ProjectionKeepsTheStepBoundGoingDownToo) {
   const DoubleIntegratorModel model;
-  InputBounds bounds;
-  bounds.lower = Eigen::Vector3d::Constant(-1.0);
-  bounds.upper = Eigen::Vector3d::Constant(1.0);
-  bounds.max_step = Eigen::Vector3d::Constant(0.25);
-  OcpProblem problem(model, 4, 0.1, {}, bounds);
+  OcpProblem problem(model, 4, 0.1, {}, unit_box_with_step(0.25));
   Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 4);
   inputs(1, 1) = -5.0;  // below the box and far beyond one step down from 0
   EXPECT_EQ(problem.project(inputs), 1);
