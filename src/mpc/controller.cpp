@@ -112,7 +112,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
                        std::string name)
     : name_(std::move(name)), options_(validated(options)), layout_(vehicle.layout), reference_(std::move(reference)),
       baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()),
-      monitor_(6 + vehicle.layout.size(), options_.stale_measurement) {
+      monitor_(6 + vehicle.layout.size(), options_.stale_measurement), latency_(vehicle.layout, options_.dt) {
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
@@ -136,6 +136,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   fallback_input_ = Eigen::VectorXd::Zero(2 * modules_);
   module_bounds_ = input_bounds(layout_, options_.dt);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
+  now_ = Eigen::VectorXd::Zero(6 + modules_);
 }
 
 void Controller::reset() noexcept {
@@ -146,6 +147,7 @@ void Controller::reset() noexcept {
   previous_input_known_ = false;
   baseline_.reset();
   monitor_.reset();
+  latency_.reset();
   for (int i = 0; i < modules_; ++i) output_.modules[i] = ModuleCommand{};
 }
 
@@ -252,6 +254,7 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
 }
 
 const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
+  latency_.record(output_.modules);
   output_.step_time_s = to_seconds(clock().now() - step_start);
   return output_;
 }
@@ -286,9 +289,11 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     safe_stop(measured);
     return finish(step_start);
   }
+  // A measurement taken before t is rolled forward by the commands sent since (Smith predictor).
+  latency_.compensate(measured, t - measured_at, now_);
   // Update the problem in place: state, last applied input, reference window.
-  problem_->set_initial_state(measured);
-  if (!previous_input_known_) assume_previous_input(measured);
+  problem_->set_initial_state(now_);
+  if (!previous_input_known_) assume_previous_input(now_);
   problem_->set_previous_input(applied_decision_);
   for (int k = 1; k <= options_.horizon; ++k) {
     const ReferenceSample sample = reference_->sample(t + k * options_.dt);
@@ -297,10 +302,10 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   bool baseline_usable = false;
   {  // the baseline plan is both an initial guess and the second fallback
     baseline_usable =
-        baseline_.plan_twists(measured.head<3>(), measured.segment<3>(3), problem_->reference_poses(),
+        baseline_.plan_twists(now_.head<3>(), now_.segment<3>(3), problem_->reference_poses(),
                               problem_->reference_twists());
     if (baseline_usable) {
-      baseline_.module_inputs(measured.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
+      baseline_.module_inputs(now_.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
       baseline_.commit_first_step();
       if (twist_model_ != nullptr) {
         baseline_guess_ = baseline_.twist_plan();
@@ -312,7 +317,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   }
   if (deadline.passed()) {
     // The plan and the problem update alone used the budget: no time is left to solve.
-    fall_back(measured, baseline_usable, "no time left to solve after the baseline plan and the problem update");
+    fall_back(now_, baseline_usable, "no time left to solve after the baseline plan and the problem update");
     return finish(step_start);
   }
   InitialGuesses guesses;
@@ -327,7 +332,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     plan_.cost = solution_.cost;
     plan_.valid = true;
     plan_age_ = 0;
-    apply_decision(plan_.inputs, 0, measured);
+    apply_decision(plan_.inputs, 0, now_);
     output_.source = CommandSource::kOptimizer;
     output_.reason = output_.solve.reason;
     return finish(step_start);
@@ -335,7 +340,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   const char* why = late ? "the step overran its deadline"
                          : (has_solution(status) ? "the solver returned an infeasible or invalid plan"
                                                  : "the solver failed");
-  fall_back(measured, baseline_usable, why);
+  fall_back(now_, baseline_usable, why);
   return finish(step_start);
 }
 

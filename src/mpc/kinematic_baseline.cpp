@@ -50,7 +50,7 @@ void BaselineOptions::validate() const {
 KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference,
                                      BaselineOptions options)
     : options_(validated(options)), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
-      horizon_(options_.horizon) {
+      horizon_(options_.horizon), latency_(layout, options_.dt) {
   if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
   drive_sign_ = planned_first_sign_ = Eigen::VectorXi::Ones(modules_);
   twists_ = Eigen::MatrixXd::Zero(3, horizon_);
@@ -61,6 +61,7 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
   feedback_ = Eigen::MatrixXd::Zero(3, 6 * horizon_);
   feedforward_ = Eigen::MatrixXd::Zero(3, horizon_);
   module_states_ = ModuleStates(modules_);
+  now_ = Eigen::VectorXd::Zero(6 + modules_);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
   for (int k = 0; k < horizon_; ++k) {
     const double scale = k == horizon_ - 1 ? options_.terminal_scale : 1.0;
@@ -71,6 +72,7 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
 void KinematicBaseline::reset() noexcept {
   drive_sign_.setOnes();
   twists_.setZero();
+  latency_.reset();
 }
 
 bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
@@ -210,7 +212,7 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
 }
 
 const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
-                                             double /*measured_at*/) noexcept {
+                                             double measured_at) noexcept {
   output_.solve = SolveSummary{};
   const TimePoint start = clock().now();
   if (measured.size() != 6 + modules_ || !measured.allFinite() || !std::isfinite(t) ||
@@ -218,27 +220,33 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
     output_.source = CommandSource::kSafeStop;
     output_.reason = "measured state rejected (wrong size, NaN/inf or implausible)";
+    latency_.record(output_.modules);
     return output_;
   }
+  // A measurement taken before t is rolled forward by the commands sent since: a deadbeat
+  // steering law acting on a delayed angle would otherwise chase its own past and oscillate.
+  latency_.compensate(measured, std::isfinite(measured_at) ? t - measured_at : 0.0, now_);
   for (int k = 0; k < horizon_; ++k) {
     const ReferenceSample sample = reference_->sample(t + (k + 1) * options_.dt);
     reference_poses_.col(k) = sample.pose_world;
     reference_twists_.col(k) = sample.twist_body;
   }
-  if (!plan_twists(measured.head<3>(), measured.segment<3>(3), reference_poses_, reference_twists_)) {
+  if (!plan_twists(now_.head<3>(), now_.segment<3>(3), reference_poses_, reference_twists_)) {
     fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
     output_.source = CommandSource::kSafeStop;
     output_.reason = "the kinematic plan failed";
+    latency_.record(output_.modules);
     return output_;
   }
-  module_inputs(measured.segment(6, modules_), inputs_);
+  module_inputs(now_.segment(6, modules_), inputs_);
   commit_first_step();
   for (int i = 0; i < modules_; ++i) {
     ModuleCommand& command = output_.modules[i];
     command.steering_rate = inputs_(2 * i, 0);
-    command.steering_angle = wrap_angle(measured[6 + i] + options_.dt * command.steering_rate);
+    command.steering_angle = wrap_angle(now_[6 + i] + options_.dt * command.steering_rate);
     command.wheel_speed = inputs_(2 * i + 1, 0);
   }
+  latency_.record(output_.modules);
   output_.source = CommandSource::kOptimizer;
   output_.reason = "kinematic plan";
   output_.solve.status = SolveStatus::kConverged;

@@ -66,7 +66,8 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
   run.log.reserve(static_cast<std::size_t>(steps));
   for (int k = 0; k < steps; ++k) {
     const double t = k * period;
-    const ControlOutput& output = tracker->step(plant.measurement(), t);
+    // The measurement carries its timestamp, so a delayed one is known to be old.
+    const ControlOutput& output = tracker->step(plant.measurement(), t, t - plant.measurement_age());
     StepRecord record;
     record.t = t;
     record.pose_world = plant.state().head<3>();

@@ -14,6 +14,7 @@
 
 #include "swerve/models/vehicle_params.hpp"
 #include "swerve/mpc/kinematic_baseline.hpp"
+#include "swerve/mpc/latency_compensator.hpp"
 #include "swerve/mpc/measurement_monitor.hpp"
 #include "swerve/mpc/ocp_problem.hpp"
 #include "swerve/mpc/reference.hpp"
@@ -105,6 +106,8 @@ class Controller final : public TrackingController {
   InputBounds module_bounds_;        // the drives' limits on module inputs
   bool previous_input_known_ = false;  // false until a command of ours reaches the drives
   MeasurementMonitor monitor_;
+  LatencyCompensator latency_;       // rolls a delayed measurement forward to t
+  Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
   ControlOutput output_;
 };
 

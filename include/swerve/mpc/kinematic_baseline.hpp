@@ -15,6 +15,7 @@
 #include <memory>
 
 #include "swerve/kinematics/kinematics.hpp"
+#include "swerve/mpc/latency_compensator.hpp"
 #include "swerve/mpc/reference.hpp"
 #include "swerve/mpc/tracking_controller.hpp"
 
@@ -39,7 +40,8 @@ class KinematicBaseline final : public TrackingController {
   const char* name() const noexcept override { return "kinematic_baseline"; }
   using TrackingController::step;
   // The baseline trusts its measurement (the paper's controller); the staleness checks are the
-  // wear-aware controller's.
+  // wear-aware controller's. A measurement taken before t (measured_at < t) is rolled forward to t
+  // by the commands sent since (LatencyCompensator).
   const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
                             double measured_at) noexcept override;
   void reset() noexcept override;
@@ -76,6 +78,8 @@ class KinematicBaseline final : public TrackingController {
   Eigen::MatrixXd feedforward_;                       // 3 x N
 
   ModuleStates module_states_;
+  LatencyCompensator latency_;
+  Eigen::VectorXd now_;                               // 6 + n: the measurement rolled forward to t
   ControlOutput output_;
 };
 

@@ -57,6 +57,11 @@ class Simulator {
   // The measurement the controller receives now (pose, twist, steering angles), noisy and delayed
   // as configured.
   const Eigen::VectorXd& measurement() const noexcept { return measurement_; }
+  // How old measurement() is, in s: the configured delay once the run is that long (a sensor
+  // stamps its data; controllers read the age from the timestamp t - measurement_age()).
+  double measurement_age() const noexcept {
+    return static_cast<double>(delayed_.empty() ? 0 : delayed_.size() - 1) * options_.control_period;
+  }
 
   // Applies module commands (steering rate and wheel speed, through the plant's actuators) for one
   // control period. Returns false, leaving the state as it was, if the plant produced a non-finite
