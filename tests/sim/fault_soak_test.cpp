@@ -57,7 +57,10 @@ const std::vector<FaultWindow> kSchedule = {
     {Fault::kNanBurst, 4.0, 4.2},          {Fault::kFrozen, 11.0, 12.0},       {Fault::kJump, 18.0, 18.5},
     {Fault::kReversedModule, 25.0, 25.05}, {Fault::kSolverFailure, 32.0, 32.5}, {Fault::kSolverOverrun, 39.0, 39.5},
     {Fault::kNanBurst, 46.0, 46.1}};
-constexpr double kDuration = 52.0;
+// Sanitized builds run ~50x slower (SWERVE_TEST_TIME_SCALE): there the soak stops after the four
+// measurement faults (31.5 s; the whole soak took ~20 min under load before); the solver-fault paths keep their own
+// Controller tests, which run under the sanitizers too.
+constexpr double kDuration = SWERVE_TEST_TIME_SCALE > 1 ? 31.5 : 52.0;
 
 Fault fault_at(double t) {
   for (const FaultWindow& w : kSchedule) {
@@ -218,6 +221,7 @@ TEST(FaultSoak, EveryFaultIsFlaggedCommandsStayInLimitsAndTheTrackingRecovers) {
   }
   for (std::size_t w = 0; w < kSchedule.size(); ++w) {
     const FaultWindow& window = kSchedule[w];
+    if (window.end + kRecoverySeconds + 1.0 > kDuration + 1e-9) continue;  // beyond a shortened soak
     SCOPED_TRACE(::testing::Message() << name_of(window.fault) << " at " << window.start << " s");
     EXPECT_GE(faulty.first_flag_cycle[w], 0) << "never flagged";
     EXPECT_LE(faulty.first_flag_cycle[w], kFlagCycles);
