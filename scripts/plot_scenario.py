@@ -202,13 +202,16 @@ def plot_solve_time(run_dir, title, summary, logs):
 
 
 def plot_pareto(run_dir, title, summary, sweep):
-    pts = sorted(sweep.get("points") or [], key=lambda p: p["wear_weight"])
+    by_tolerance = sweep.get("swept") == "tracking_tolerance"
+    key = "tolerance_position_m" if by_tolerance else "wear_weight"
+    pts = sorted(sweep.get("points") or [], key=lambda p: p[key])
     fig, ax = plt.subplots(figsize=(8, 6))
     if pts:
         x, y = [p["tracking_rmse_m"] for p in pts], [p["wear_total"] for p in pts]
-        ax.plot(x, y, "o-", color="C0", label="wear MPC sweep")
+        ax.plot(x, y, "o-", color="C0", label="wear MPC, tolerance sweep" if by_tolerance else "wear MPC, lambda sweep")
         for p in pts:
-            ax.annotate("w=%g" % p["wear_weight"], (p["tracking_rmse_m"], p["wear_total"]),
+            label = ("tol=%g m" % p[key]) if by_tolerance else ("w=%g" % p[key])
+            ax.annotate(label, (p["tracking_rmse_m"], p["wear_total"]),
                         textcoords="offset points", xytext=(5, 5), fontsize=8)
     b = sweep.get("baseline")
     if b:

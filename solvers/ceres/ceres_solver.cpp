@@ -33,12 +33,13 @@ const LinearSolverName* find_linear_solver(const std::string& name) {
 // Ceres hands over each parameter block's Jacobian as a row-major (residuals x block size) array.
 using JacobianBlock = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
 
-// Residual rows of one stage, in this order: pose (3), twist (3), wear (1), effort, rate and
-// step penalty (nu each).
+// Residual rows of one stage, in this order: pose (3), twist (3), wear (1), tube (position and
+// heading excess, 2), effort, rate and step penalty (nu each).
 constexpr int kPoseRow = 0;
 constexpr int kTwistRow = 3;
 constexpr int kWearRow = 6;
-constexpr int kEffortRow = 7;
+constexpr int kTubeRow = 7;
+constexpr int kEffortRow = 9;
 int stage_residual_count(int nu) { return kEffortRow + 3 * nu; }
 
 // The OCP as one Ceres cost function over N parameter blocks of nu inputs: a single-shooting
@@ -114,6 +115,13 @@ class ShootingResiduals final : public ceres::CostFunction {
       if (!(wear_square > 0.0)) return false;
       const double wear_residual = std::sqrt(wear_square);
       r[row + kWearRow] = wear_residual;
+      // The tube: sqrt(2 mu) times the excess, so that 1/2 r^2 is OcpProblem's mu excess^2.
+      const double tube_root = std::sqrt(2.0 * weights.tube_penalty);
+      const double position_error = pose_error.head<2>().norm();
+      const double position_excess = std::max(0.0, position_error - problem.tube()(0, k));
+      const double heading_excess = std::max(0.0, std::abs(pose_error.z()) - problem.tube()(1, k));
+      r[row + kTubeRow] = tube_root * position_excess;
+      r[row + kTubeRow + 1] = tube_root * heading_excess;
       for (int i = 0; i < nu_; ++i) {
         const double u = inputs_(i, k);
         const double change = u - (k == 0 ? problem.previous_input()[i] : inputs_(i, k - 1));
@@ -136,6 +144,14 @@ class ShootingResiduals final : public ceres::CostFunction {
         block.block(row + kTwistRow, 0, 3, nu_) = twist_root.asDiagonal() * next_sensitivity_.block(3, column, 3, nu_);
         block.row(row + kWearRow).noalias() =
             (wear_factor * wear_gradient.head(nx_)).transpose() * sensitivity_.middleCols(column, nu_);
+        if (position_excess > 0.0) {
+          block.row(row + kTubeRow).noalias() = (tube_root / position_error) * pose_error.head<2>().transpose() *
+                                                next_sensitivity_.block(0, column, 2, nu_);
+        }
+        if (heading_excess > 0.0) {
+          block.row(row + kTubeRow + 1) =
+              (pose_error.z() > 0.0 ? tube_root : -tube_root) * next_sensitivity_.block(2, column, 1, nu_);
+        }
       }
       for (int i = 0; i < nu_; ++i) {
         const double change = inputs_(i, k) - (k == 0 ? problem.previous_input()[i] : inputs_(i, k - 1));

@@ -84,6 +84,13 @@ nlohmann::json controller_json(const ControllerConfig& c) {
   j["baseline_guess"] = o.baseline_guess;
   j["inputs"] = to_string(o.parameterization);
   j["max_plan_age"] = o.max_plan_age;
+  if (o.tracking_tolerance.enabled()) {
+    j["tracking_tolerance"] = {{"position_m", o.tracking_tolerance.position},
+                               {"heading_rad", o.tracking_tolerance.heading},
+                               {"penalty", o.tracking_tolerance.penalty}};
+  } else {
+    j["tracking_tolerance"] = nullptr;
+  }
   j["weights"] = {{"pose", {o.pose_weight.x(), o.pose_weight.y(), o.pose_weight.z()}},
                   {"twist", {o.twist_weight.x(), o.twist_weight.y(), o.twist_weight.z()}},
                   {"terminal_scale", o.terminal_scale},
@@ -92,7 +99,8 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                   {"wheel_speed_effort", o.wheel_speed_effort},
                   {"steering_rate_smoothness", o.steering_rate_smoothness},
                   {"wheel_speed_smoothness", o.wheel_speed_smoothness},
-                  {"twist_smoothness", o.twist_smoothness}};
+                  {"twist_smoothness", o.twist_smoothness},
+                  {"heading_from_geometry", o.heading_weight_from_geometry}};
   j["prediction"] = {{"method", to_string(o.prediction.method)},
                      {"substeps", o.prediction.substeps},
                      {"slow_substeps", o.prediction.slow_substeps},

@@ -139,38 +139,57 @@ int run(const RunArguments& a) {
   return kExitOk;
 }
 
-int sweep(const RunArguments& a, const std::vector<double>& lambdas) {
+// One sweep point: the wear-aware controller with lambda or a tracking tolerance overridden.
+struct SweepPoint {
+  std::optional<double> wear_weight;
+  std::optional<TrackingTolerance> tolerance;
+};
+
+int sweep(const RunArguments& a, const std::vector<SweepPoint>& sweep_points) {
   const ScenarioConfig loaded = load_scenario_config_file(a.scenario_file);
   RunOverrides base_overrides = overrides_of(a);
   const std::string out_dir = out_dir_of(a, loaded) + "/sweep";
   prepare_out_dir(out_dir);
-  // The baseline once, then the wear-aware controller at every lambda.
+  // The baseline once, then the wear-aware controller at every point.
   RunOverrides baseline_only = base_overrides;
   baseline_only.controllers = {"kinematic_baseline"};
   const ScenarioConfig baseline_scenario = with_overrides(loaded, baseline_only);
   const ControllerRun baseline = run_controller(baseline_scenario, baseline_scenario.controllers.front());
   nlohmann::json points = nlohmann::json::array();
-  std::printf("%-12s %12s %14s %14s %10s\n", "wear_weight", "rmse [m]", "wear total", "vs base [%]", "p99 [ms]");
-  std::printf("%-12s %12.4f %14.2f %14s %10s\n", "baseline", baseline.metrics.tracking_rmse_m,
+  std::printf("%-22s %12s %14s %14s %10s\n", "point", "rmse [m]", "wear total", "vs base [%]", "p99 [ms]");
+  std::printf("%-22s %12.4f %14.2f %14s %10s\n", "baseline", baseline.metrics.tracking_rmse_m,
               baseline.metrics.wear_total, "-", "-");
-  for (const double lambda : lambdas) {
+  for (const SweepPoint& point : sweep_points) {
     RunOverrides o = base_overrides;
     o.controllers = {"wear_mpc"};
-    o.wear_weight = lambda;
+    o.wear_weight = point.wear_weight;
+    o.tracking_tolerance = point.tolerance;
     const ScenarioConfig s = with_overrides(loaded, o);
     const ControllerRun r = run_controller(s, s.controllers.front());
     const double reduction = wear_reduction_pct(r.metrics, baseline.metrics);
-    std::printf("%-12g %12.4f %14.2f %14.2f %10.2f%s\n", lambda, r.metrics.tracking_rmse_m, r.metrics.wear_total,
+    char label[64];
+    if (point.tolerance) {
+      std::snprintf(label, sizeof label, "tol %g m, %g rad", point.tolerance->position, point.tolerance->heading);
+    } else {
+      std::snprintf(label, sizeof label, "lambda %g", *point.wear_weight);
+    }
+    std::printf("%-22s %12.4f %14.2f %14.2f %10.2f%s\n", label, r.metrics.tracking_rmse_m, r.metrics.wear_total,
                 -reduction, r.metrics.solve_time_p99_ms, r.completed ? "" : "  (plant diverged)");
-    points.push_back({{"wear_weight", lambda},
-                      {"tracking_rmse_m", r.metrics.tracking_rmse_m},
-                      {"wear_total", r.metrics.wear_total},
-                      {"wear_reduction_pct", reduction},
-                      {"solve_time_p99_ms", r.metrics.solve_time_p99_ms},
-                      {"completed", r.completed}});
+    nlohmann::json p = {{"wear_weight", s.controllers.front().config.mpc.wear_weight},
+                        {"tracking_rmse_m", r.metrics.tracking_rmse_m},
+                        {"wear_total", r.metrics.wear_total},
+                        {"wear_reduction_pct", reduction},
+                        {"solve_time_p99_ms", r.metrics.solve_time_p99_ms},
+                        {"completed", r.completed}};
+    if (point.tolerance) {
+      p["tolerance_position_m"] = point.tolerance->position;
+      p["tolerance_heading_rad"] = point.tolerance->heading;
+    }
+    points.push_back(p);
   }
   const nlohmann::json sweep_json = {
       {"scenario", loaded.name},
+      {"swept", sweep_points.front().tolerance ? "tracking_tolerance" : "wear_weight"},
       {"points", points},
       {"baseline", {{"tracking_rmse_m", baseline.metrics.tracking_rmse_m}, {"wear_total", baseline.metrics.wear_total}}}};
   // The plot script reads a summary beside the sweep for the scenario's name and units.
@@ -195,14 +214,39 @@ Command make_run_command() {
 }
 
 Command make_sweep_command() {
-  return {"sweep", "Run the wear-aware controller over a list of wear weights (the wear/tracking trade-off)",
+  return {"sweep",
+          "Run the wear-aware controller over wear weights or tracking tolerances (the wear/tracking trade-off)",
           [](CLI::App& app) -> std::function<int()> {
             auto a = std::make_shared<RunArguments>();
             auto lambdas = std::make_shared<std::vector<double>>();
+            auto tolerances = std::make_shared<std::vector<double>>();
+            auto heading = std::make_shared<double>(0.5 * kPi / 180.0);
             declare_common(app, a.get());
-            app.add_option("--lambda", *lambdas, "Wear weights, comma-separated")->delimiter(',')->required()
-                ->check(CLI::NonNegativeNumber);
-            return [a, lambdas]() { return sweep(*a, *lambdas); };
+            auto* lambda_option = app.add_option("--lambda", *lambdas, "Wear weights, comma-separated")
+                                      ->delimiter(',')
+                                      ->check(CLI::NonNegativeNumber);
+            auto* tolerance_option =
+                app.add_option("--tolerance", *tolerances,
+                               "Position tolerances in m, comma-separated (tracking-tolerance mode)")
+                    ->delimiter(',')
+                    ->check(CLI::PositiveNumber);
+            app.add_option("--heading-tolerance", *heading, "Heading tolerance in rad with --tolerance [0.5 deg]")
+                ->check(CLI::PositiveNumber);
+            lambda_option->excludes(tolerance_option);
+            return [a, lambdas, tolerances, heading]() {
+              if (lambdas->empty() == tolerances->empty()) {
+                throw UsageError("sweep: give exactly one of --lambda and --tolerance");
+              }
+              std::vector<SweepPoint> points;
+              for (const double lambda : *lambdas) points.push_back({lambda, std::nullopt});
+              for (const double position : *tolerances) {
+                TrackingTolerance t;
+                t.position = position;
+                t.heading = *heading;
+                points.push_back({std::nullopt, t});
+              }
+              return sweep(*a, points);
+            };
           }};
 }
 

@@ -52,6 +52,7 @@ void load_weights(const ConfigNode& node, ControllerOptions* o) {
   o->wheel_speed_smoothness =
       node.get_double_or("wheel_speed_smoothness", o->wheel_speed_smoothness, Bound::non_negative());
   o->twist_smoothness = node.get_double_or("twist_smoothness", o->twist_smoothness, Bound::non_negative());
+  o->heading_weight_from_geometry = node.get_bool_or("heading_from_geometry", o->heading_weight_from_geometry);
 }
 
 }  // namespace
@@ -88,6 +89,12 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
       o.max_age = stale->get_double_or("max_age", o.max_age, Bound::positive());
       o.frozen_cycles = stale->get_int_or("frozen_cycles", o.frozen_cycles, 2, 1000000);
       o.moving_speed = stale->get_double_or("moving_speed", o.moving_speed, Bound::positive());
+    }
+    if (const auto tolerance = node.optional_child("tracking_tolerance")) {
+      TrackingTolerance& o = c.mpc.tracking_tolerance;
+      o.position = tolerance->get_double("position", Bound::positive());
+      o.heading = tolerance->get_double("heading", Bound::positive());
+      o.penalty = tolerance->get_double_or("penalty", o.penalty, Bound::positive());
     }
     if (const auto weights = node.optional_child("weights")) load_weights(*weights, &c.mpc);
     c.mpc.parameterization = node.get_choice_or("inputs", {"body_twist", "module_rates"}, "body_twist") == "module_rates"

@@ -18,12 +18,25 @@ void require_non_negative(const char* field, double value) {
   if (!std::isfinite(value) || value < 0.0) reject(field, value, "must be finite and >= 0");
 }
 
-CostWeights cost_weights(const ControllerOptions& o, int modules) {
+// The outermost module's distance from the body origin (m).
+double outermost_module_radius(const ModuleLayout& layout) {
+  double radius = 0.0;
+  for (const Eigen::Vector2d& p : layout.positions_body()) radius = std::max(radius, p.norm());
+  return radius;
+}
+
+CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout) {
+  const int modules = layout.size();
   CostWeights w;
   w.pose = o.pose_weight;
+  if (o.heading_weight_from_geometry) {
+    const double radius = outermost_module_radius(layout);
+    w.pose.z() = 0.5 * (o.pose_weight.x() + o.pose_weight.y()) * radius * radius;
+  }
   w.twist = o.twist_weight;
   w.terminal_scale = o.terminal_scale;
   w.wear = o.wear_weight;
+  w.tube_penalty = o.tracking_tolerance.penalty;
   if (o.parameterization == InputParameterization::kBodyTwist) {
     w.effort = Eigen::VectorXd::Zero(3);
     w.rate = Eigen::VectorXd::Constant(3, o.twist_smoothness);
@@ -86,6 +99,19 @@ const char* to_string(InputParameterization parameterization) noexcept {
   return parameterization == InputParameterization::kBodyTwist ? "body_twist" : "module_rates";
 }
 
+void TrackingTolerance::validate() const {
+  if (!enabled()) return;
+  if (!std::isfinite(position) || position <= 0.0) {
+    throw_invalid_field("TrackingTolerance", "position", position, "must be finite and > 0 (m)");
+  }
+  if (!std::isfinite(heading) || heading <= 0.0) {
+    throw_invalid_field("TrackingTolerance", "heading", heading, "must be finite and > 0 (rad)");
+  }
+  if (!std::isfinite(penalty) || penalty <= 0.0) {
+    throw_invalid_field("TrackingTolerance", "penalty", penalty, "must be finite and > 0");
+  }
+}
+
 void ControllerOptions::validate() const {
   if (horizon < 1) reject("horizon", horizon, "must be >= 1");
   if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
@@ -104,6 +130,7 @@ void ControllerOptions::validate() const {
   require_non_negative("twist_smoothness", twist_smoothness);
   if (max_plan_age < 0) reject("max_plan_age", max_plan_age, "must be >= 0");
   stale_measurement.validate();
+  tracking_tolerance.validate();
   prediction.validate();
 }
 
@@ -123,7 +150,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   } else {
     model_ = std::make_unique<VehiclePredictionModel>(vehicle, options_.prediction);
   }
-  problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, modules_),
+  problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, layout_),
                                           twist ? twist_bounds(layout_, options_.dt) : input_bounds(layout_, options_.dt));
   solver_ = make_solver(*problem_);
   if (!solver_) throw ConfigError("Controller.solver: the solver factory returned nothing");
@@ -131,6 +158,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   plan_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
   baseline_inputs_ = Eigen::MatrixXd::Zero(2 * modules_, options_.horizon);
   baseline_guess_ = Eigen::MatrixXd::Zero(problem_->input_size(), options_.horizon);
+  baseline_states_ = Eigen::MatrixXd::Zero(problem_->state_size(), options_.horizon + 1);
+  baseline_stage_costs_ = Eigen::VectorXd::Zero(options_.horizon);
   applied_decision_ = Eigen::VectorXd::Zero(problem_->input_size());
   applied_input_ = Eigen::VectorXd::Zero(2 * modules_);
   fallback_input_ = Eigen::VectorXd::Zero(2 * modules_);
@@ -231,6 +260,33 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
   safe_stop(measured);
 }
 
+void Controller::set_tube(bool baseline_usable) noexcept {
+  const TrackingTolerance& tolerance = options_.tracking_tolerance;
+  const bool rolled_out =
+      baseline_usable && std::isfinite(problem_->rollout(baseline_guess_, 0, baseline_states_, baseline_stage_costs_));
+  for (int k = 1; k <= options_.horizon; ++k) {
+    double position = tolerance.position, heading = tolerance.heading;
+    if (rolled_out) {
+      // Where the baseline's own plan is predicted further off, the tube widens to it.
+      const auto kk = static_cast<Eigen::Index>(k);
+      const Eigen::Vector3d& reference = problem_->reference_poses().col(kk - 1);
+      position = std::max(position, (baseline_states_.col(kk).head<2>() - reference.head<2>()).norm());
+      heading = std::max(heading, std::abs(wrap_angle(baseline_states_(2, kk) - reference.z())));
+    }
+    problem_->set_tube(k, position, heading);
+  }
+}
+
+void Controller::send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept {
+  // The baseline's own module commands (as the kinematic_baseline controller sends them), within
+  // the drives' limits; the decision the smoothness cost starts from next cycle is its twist.
+  fallback_input_ = baseline_inputs_.col(0).cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
+  apply_module_inputs(fallback_input_, state.segment(StateIndex::kFirstSteering, modules_));
+  applied_decision_ = baseline_guess_.col(0);
+  output_.source = CommandSource::kTrackingFirst;
+  output_.reason = "tracking first: the plan left the tracking tolerance, so the baseline's commands were sent";
+}
+
 bool Controller::motion_commanded() const noexcept {
   for (int i = 0; i < modules_; ++i) {
     const ModuleCommand& command = output_.modules[i];
@@ -315,6 +371,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
       problem_->project(baseline_guess_);
     }
   }
+  if (options_.tracking_tolerance.enabled()) set_tube(baseline_usable);
   if (deadline.passed()) {
     // The plan and the problem update alone used the budget: no time is left to solve.
     fall_back(now_, baseline_usable, "no time left to solve after the baseline plan and the problem update");
@@ -332,6 +389,16 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     plan_.cost = solution_.cost;
     plan_.valid = true;
     plan_age_ = 0;
+    if (options_.tracking_tolerance.enabled() && baseline_usable) {
+      // A quarter of the tolerance of slack: the penalty is exterior, so a kept tube is kept to
+      // within the small excess the penalty's stiffness allows.
+      const Eigen::Vector2d excess = problem_->tube_excess(plan_.states);
+      if (excess[0] > 0.25 * options_.tracking_tolerance.position ||
+          excess[1] > 0.25 * options_.tracking_tolerance.heading) {
+        send_baseline_commands(now_);
+        return finish(step_start);
+      }
+    }
     apply_decision(plan_.inputs, 0, now_);
     output_.source = CommandSource::kOptimizer;
     output_.reason = output_.solve.reason;

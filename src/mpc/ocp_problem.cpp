@@ -46,6 +46,7 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
   }
   require_non_negative("weights.terminal_scale", weights_.terminal_scale);
   require_non_negative("weights.wear", weights_.wear);
+  require_non_negative("weights.tube_penalty", weights_.tube_penalty);
   weights_.effort = expand(weights_.effort, nu_, 0.0, "weights.effort");
   weights_.rate = expand(weights_.rate, nu_, 0.0, "weights.rate");
   for (int i = 0; i < nu_; ++i) {
@@ -69,6 +70,29 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
   u_previous_ = Eigen::VectorXd::Zero(nu_).cwiseMax(bounds_.lower).cwiseMin(bounds_.upper);
   reference_pose_ = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, horizon_);
   reference_twist_ = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, horizon_);
+  tube_ = Eigen::Matrix<double, 2, Eigen::Dynamic>::Constant(2, horizon_, kInfinity);
+}
+
+bool OcpProblem::set_tube(int k, double position_bound, double heading_bound) noexcept {
+  if (k < 1 || k > horizon_ || !(position_bound > 0.0) || !(heading_bound > 0.0)) return false;
+  tube_(0, k - 1) = position_bound;
+  tube_(1, k - 1) = heading_bound;
+  return true;
+}
+
+void OcpProblem::clear_tube() noexcept { tube_.setConstant(kInfinity); }
+
+Eigen::Vector2d OcpProblem::tube_excess(const Eigen::Ref<const Eigen::MatrixXd>& states) const noexcept {
+  Eigen::Vector2d worst = Eigen::Vector2d::Zero();
+  if (states.rows() != nx_ || states.cols() != horizon_ + 1) return Eigen::Vector2d::Constant(kInfinity);
+  for (int k = 0; k < horizon_; ++k) {
+    const auto kk = static_cast<Eigen::Index>(k);
+    const double position = (states.col(kk + 1).head<2>() - reference_pose_.col(kk).head<2>()).norm();
+    const double heading = std::abs(wrap_angle(states(2, kk + 1) - reference_pose_(2, kk)));
+    worst[0] = std::max(worst[0], position - tube_(0, kk));
+    worst[1] = std::max(worst[1], heading - tube_(1, kk));
+  }
+  return worst;
 }
 
 bool OcpProblem::set_initial_state(const Eigen::Ref<const Eigen::VectorXd>& x0) noexcept {
@@ -145,7 +169,10 @@ double OcpProblem::stage_cost(int k, const Eigen::Ref<const Eigen::VectorXd>& x_
   pose_error.z() = wrap_angle(pose_error.z());
   const Eigen::Vector3d twist_error = x_next.segment<3>(3) - reference_twist_.col(kk);
   const double scale = (k == horizon_ - 1) ? weights_.terminal_scale : 1.0;
-  const double tracking = scale * pose_error.cwiseAbs2().dot(weights_.pose) + twist_error.cwiseAbs2().dot(weights_.twist);
+  const double position_excess = std::max(0.0, pose_error.head<2>().norm() - tube_(0, kk));
+  const double heading_excess = std::max(0.0, std::abs(pose_error.z()) - tube_(1, kk));
+  const double tracking = scale * pose_error.cwiseAbs2().dot(weights_.pose) + twist_error.cwiseAbs2().dot(weights_.twist) +
+                          weights_.tube_penalty * (position_excess * position_excess + heading_excess * heading_excess);
   const double wear_cost = weights_.wear * wear;
   const double effort = u.cwiseAbs2().dot(weights_.effort);
   const double rate = (u - u_before).cwiseAbs2().dot(weights_.rate);
@@ -171,6 +198,14 @@ double OcpProblem::stage_cost_without_wear(int k, const Eigen::Ref<const Eigen::
   d_x_next.setZero();
   d_x_next.head<3>() = 2.0 * scale * weights_.pose.cwiseProduct(pose_error);
   d_x_next.segment<3>(3) = 2.0 * weights_.twist.cwiseProduct(twist_error);
+  // The tube: d/de mu max(0, |e| - b)^2 = 2 mu (|e| - b) e / |e| beyond the bound, 0 inside.
+  const double position_error = pose_error.head<2>().norm();
+  if (position_error > tube_(0, kk)) {
+    d_x_next.head<2>() += 2.0 * weights_.tube_penalty * (position_error - tube_(0, kk)) / position_error * pose_error.head<2>();
+  }
+  if (std::abs(pose_error.z()) > tube_(1, kk)) {
+    d_x_next[2] += 2.0 * weights_.tube_penalty * (std::abs(pose_error.z()) - tube_(1, kk)) * (pose_error.z() > 0.0 ? 1.0 : -1.0);
+  }
   d_u = 2.0 * weights_.effort.cwiseProduct(u) + 2.0 * weights_.rate.cwiseProduct(u - u_before);
   d_u_before = -2.0 * weights_.rate.cwiseProduct(u - u_before);
   return stage_cost(k, x_next, u, u_before, 0.0, nullptr);

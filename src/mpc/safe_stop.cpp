@@ -8,6 +8,7 @@ namespace swerve {
 const char* to_string(CommandSource source) noexcept {
   switch (source) {
     case CommandSource::kOptimizer: return "optimizer";
+    case CommandSource::kTrackingFirst: return "tracking_first";
     case CommandSource::kPreviousPlan: return "previous_plan";
     case CommandSource::kBaseline: return "baseline";
     case CommandSource::kSafeStop: return "safe_stop";

@@ -45,7 +45,8 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
       step_ms.push_back(1e3 * record.step_time_s);
       if (record.step_time_s > solve_budget) ++m.deadline_misses;
     }
-    if (record.source != CommandSource::kOptimizer) ++m.fallbacks;
+    if (record.source == CommandSource::kTrackingFirst) ++m.tracking_first_steps;
+    if (record.source != CommandSource::kOptimizer && record.source != CommandSource::kTrackingFirst) ++m.fallbacks;
   }
   if (!log.empty()) {
     m.tracking_rmse_m = std::sqrt(position_sq / static_cast<double>(log.size()));

@@ -109,6 +109,7 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
         {"deadline_misses", m.deadline_misses},
         {"solve_iterations_mean", m.solve_iterations_mean},
         {"fallbacks", m.fallbacks},
+        {"tracking_first_steps", m.tracking_first_steps},
         {"log_csv", run.name + ".csv"},
     };
   }

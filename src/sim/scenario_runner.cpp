@@ -41,6 +41,14 @@ ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverride
     if (overrides.backend) c.config.solver.backend = *overrides.backend;
     // A sweep moves the wear-aware controllers' lambda, never a configured lambda = 0 comparison.
     if (overrides.wear_weight && c.config.mpc.wear_weight > 0.0) c.config.mpc.wear_weight = *overrides.wear_weight;
+    if (overrides.tracking_tolerance) {
+      try {
+        overrides.tracking_tolerance->validate();
+      } catch (const ConfigError& error) {
+        throw OverrideError(std::string("--tolerance: ") + error.what());
+      }
+      c.config.mpc.tracking_tolerance = *overrides.tracking_tolerance;
+    }
   }
   return s;
 }

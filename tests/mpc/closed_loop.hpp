@@ -32,6 +32,9 @@ inline VehicleParams small_robot() {
   params.name = "small_robot";
   params.mass = 40.0;
   params.yaw_inertia = 40.0 * (0.6 * 0.6 + 0.5 * 0.5) / 12.0;  // 2.03
+  // The plant below is the model with ideal actuators, so the prediction must not expect lagged
+  // drives either (it charges a command change only their share of the wear, VehiclePredictionModel).
+  params.plant.actuator_lag = false;
   return params;
 }
 

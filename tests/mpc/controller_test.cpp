@@ -827,6 +827,10 @@ TEST(Controller, RejectsAFinitePlanThatBreaksTheInputBoundsAndFallsBack) {
         Controller controller(
             small_robot(), testing::line_reference(0.5), options,
             [box](const OcpProblem& p) { return std::make_unique<OutOfBoundsSolver>(p, box, 0); });
+        // A clock that stands still: on the steady clock a slow (sanitized) build ran out of budget
+        // before the solve and the test saw "no time left" instead of the rejected plan.
+        testing::ManualClock clock;
+        controller.set_clock(clock);
         const ControlOutput& out = controller.step(at_rest(), 0.0);
         EXPECT_EQ(out.solve.status, SolveStatus::kConverged) << to_string(out.solve.status);
         EXPECT_EQ(out.source, CommandSource::kBaseline) << to_string(out.source);
@@ -839,6 +843,8 @@ TEST(Controller, RejectsAFinitePlanThatBreaksTheInputBoundsAndFallsBack) {
         Controller controller(
             small_robot(), testing::line_reference(0.5), options,
             [box](const OcpProblem& p) { return std::make_unique<OutOfBoundsSolver>(p, box, 1); });
+        testing::ManualClock clock;
+        controller.set_clock(clock);
         ASSERT_EQ(controller.step(at_rest(), 0.0).source, CommandSource::kOptimizer);
         const ControlOutput& out = controller.step(at_rest(), options.dt);
         EXPECT_EQ(out.source, CommandSource::kPreviousPlan) << to_string(out.source);
@@ -907,6 +913,52 @@ TEST(Controller, CommandsTheSteeringAngleOneCycleAlongTheCommandedRate) {
                   1e-12);
     }
   }
+}
+
+// Tracking-tolerance mode (issue 15): the reference held at its start (t < 0), so the baseline holds
+// still and its tube is the tolerance; the fake plan creeps forward 0.105 m over the horizon.
+TEST(Controller, APlanThatLeavesTheTrackingToleranceSendsTheBaselineCommandsAndSaysSo) {
+  for (const double tolerance : {0.0, 0.02, 0.5}) {
+    SCOPED_TRACE(::testing::Message() << "position tolerance " << tolerance);
+    FakeScript script;
+    ControllerOptions options = fast_options();
+    options.tracking_tolerance.position = tolerance;
+    options.tracking_tolerance.heading = tolerance > 0.0 ? 0.1 : 0.0;
+    Controller controller = make_fake_controller(&script, options);
+    const ControlOutput& out = controller.step(at_rest(), -1.0);
+    if (tolerance == 0.0 || tolerance == 0.5) {
+      // Off, or wide enough: the plan is sent.
+      EXPECT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+      EXPECT_GT(out.modules[0].wheel_speed, 0.0);
+    } else {
+      EXPECT_EQ(out.source, CommandSource::kTrackingFirst);
+      EXPECT_EQ(reason_of(out), "tracking first: the plan left the tracking tolerance, so the baseline's commands were sent");
+      // The baseline holds still at the reference: no wheel turns.
+      for (int i = 0; i < out.modules.size(); ++i) EXPECT_NEAR(out.modules[i].wheel_speed, 0.0, 1e-9);
+      // Its tube: the tolerance, as the baseline's own plan stays on the reference.
+      for (int k = 0; k < options.horizon; ++k) {
+        EXPECT_NEAR(controller.problem().tube()(0, k), tolerance, 1e-9);
+        EXPECT_NEAR(controller.problem().tube()(1, k), 0.1, 1e-9);
+      }
+    }
+  }
+}
+
+TEST(Controller, TheTubeWidensToTheBaselinePlansOwnPredictedError) {
+  // A 0.3 m lateral offset from a line: the baseline's plan starts 0.3 m off and closes in, so
+  // the tube is that predicted error where it exceeds the 0.02 m tolerance, and never below it.
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.tracking_tolerance.position = 0.02;
+  options.tracking_tolerance.heading = 0.01;
+  Controller controller = make_fake_controller(&script, options);
+  Eigen::VectorXd offset = at_rest();
+  offset[1] = 0.3;
+  controller.step(offset, -1.0);
+  const auto& tube = controller.problem().tube();
+  EXPECT_GT(tube(0, 0), 0.25);
+  for (int k = 0; k < options.horizon; ++k) EXPECT_GE(tube(0, k), 0.02);
+  EXPECT_LT(tube(0, options.horizon - 1), tube(0, 0));
 }
 
 }  // namespace

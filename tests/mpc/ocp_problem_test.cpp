@@ -175,6 +175,58 @@ std::string error_of(Build build) {
   return "";
 }
 
+// The tracking tube: mu (max(0, |e_xy| - b)^2 + max(0, |e_psi| - c)^2), by hand. dt = 1, x0 = 0,
+// u = (1, 0, 1): x1 = (0.5, 0, 0.5 rad), so 0.3 m and 0.4 rad beyond a (0.2 m, 0.1 rad) tube.
+TEST(OcpProblem, TheTubeCostsMuTimesTheSquaredExcessAndNothingInside) {
+  const DoubleIntegratorModel model(1.0);
+  CostWeights w;
+  w.pose = Eigen::Vector3d::Zero();
+  w.tube_penalty = 100.0;
+  OcpProblem problem(model, 1, 1.0, w, {});
+  Eigen::MatrixXd inputs(3, 1);
+  inputs << 1.0, 0.0, 1.0;
+  Eigen::MatrixXd states(6, 2);
+  EXPECT_DOUBLE_EQ(problem.evaluate(inputs, states).tracking, 0.0);  // no tube by default
+  EXPECT_EQ(problem.tube_excess(states), Eigen::Vector2d::Zero());
+  ASSERT_TRUE(problem.set_tube(1, 0.2, 0.1));
+  EXPECT_NEAR(problem.evaluate(inputs, states).tracking, 100.0 * (0.3 * 0.3 + 0.4 * 0.4), 1e-12);
+  EXPECT_NEAR(problem.tube_excess(states).x(), 0.3, 1e-12);
+  EXPECT_NEAR(problem.tube_excess(states).y(), 0.4, 1e-12);
+  ASSERT_TRUE(problem.set_tube(1, 0.6, 0.6));  // inside: free
+  EXPECT_DOUBLE_EQ(problem.evaluate(inputs, states).tracking, 0.0);
+  EXPECT_EQ(problem.tube_excess(states), Eigen::Vector2d::Zero());
+  problem.clear_tube();
+  ASSERT_TRUE(problem.set_tube(1, 0.2, 0.1));
+  EXPECT_FALSE(problem.set_tube(1, 0.0, 0.1));
+  EXPECT_FALSE(problem.set_tube(1, 0.2, std::nan("")));
+  EXPECT_FALSE(problem.set_tube(2, 0.2, 0.1));  // beyond the horizon
+  EXPECT_NEAR(problem.tube()(0, 0), 0.2, 0.0);  // the rejected calls changed nothing
+}
+
+TEST(OcpProblem, TheTubeGradientMatchesFiniteDifferencesOutsideTheTube) {
+  const DoubleIntegratorModel model(1.0);
+  CostWeights w = hand_weights();
+  w.tube_penalty = 1e3;
+  OcpProblem problem(model, 2, 1.0, w, {});
+  ASSERT_TRUE(problem.set_tube(1, 0.05, 0.02));
+  ASSERT_TRUE(problem.set_reference(1, Eigen::Vector3d(0.1, -0.2, 0.3), Eigen::Vector3d::Zero()));
+  Eigen::VectorXd x_next(6);
+  x_next << 0.3, 0.1, -0.2, 0.5, 0.0, 0.1;  // 0.36 m and 0.5 rad off: outside on both
+  const Eigen::VectorXd u = Eigen::Vector3d(0.2, -0.1, 0.3), u_before = Eigen::Vector3d::Zero();
+  Eigen::VectorXd d_x(6), d_u(3), d_u_before(3), scratch_x(6), scratch_u(3), scratch_before(3);
+  problem.stage_cost_without_wear(0, x_next, u, u_before, d_x, d_u, d_u_before);
+  for (int i = 0; i < 3; ++i) {
+    const double h = 1e-6;
+    Eigen::VectorXd plus = x_next, minus = x_next;
+    plus[i] += h;
+    minus[i] -= h;
+    const double numeric = (problem.stage_cost_without_wear(0, plus, u, u_before, scratch_x, scratch_u, scratch_before) -
+                            problem.stage_cost_without_wear(0, minus, u, u_before, scratch_x, scratch_u, scratch_before)) /
+                           (2 * h);
+    EXPECT_NEAR(d_x[i], numeric, 1e-4 * std::max(1.0, std::abs(numeric))) << "state " << i;
+  }
+}
+
 TEST(OcpProblem, ConstructionValidatesEveryField) {
   const DoubleIntegratorModel model;
   EXPECT_EQ(error_of([&] { OcpProblem(model, 0, 0.1, {}, {}); }), "OcpProblem.horizon = 0: must be >= 1");

@@ -63,5 +63,69 @@ TEST(StalenessOptions, ValidateNamesTheField) {
   }
 }
 
+TEST(ControllerConfig, ReadsTheTrackingToleranceAndTheGeometryHeadingWeight) {
+  const ControllerConfig c =
+      load("  tracking_tolerance: {position: 0.05, heading: 0.02}\n  weights: {heading_from_geometry: true}\n");
+  EXPECT_DOUBLE_EQ(c.mpc.tracking_tolerance.position, 0.05);
+  EXPECT_DOUBLE_EQ(c.mpc.tracking_tolerance.heading, 0.02);
+  EXPECT_DOUBLE_EQ(c.mpc.tracking_tolerance.penalty, TrackingTolerance{}.penalty);
+  EXPECT_TRUE(c.mpc.tracking_tolerance.enabled());
+  EXPECT_TRUE(c.mpc.heading_weight_from_geometry);
+  EXPECT_FALSE(load("").mpc.tracking_tolerance.enabled());
+}
+
+TEST(ControllerConfig, RejectsABadTrackingToleranceNamingTheFileKeyPathAndValue) {
+  const struct {
+    const char* block;
+    const char* key;
+  } cases[] = {{"  tracking_tolerance: {position: 0, heading: 0.02}\n", "controller.tracking_tolerance.position"},
+               {"  tracking_tolerance: {position: -0.05, heading: 0.02}\n", "controller.tracking_tolerance.position"},
+               {"  tracking_tolerance: {position: .nan, heading: 0.02}\n", "controller.tracking_tolerance.position"},
+               {"  tracking_tolerance: {position: 0.05, heading: abc}\n", "controller.tracking_tolerance.heading"},
+               {"  tracking_tolerance: {position: 0.05}\n", "controller.tracking_tolerance.heading"},
+               {"  tracking_tolerance: {position: 0.05, heading: 0.02, penalty: 0}\n",
+                "controller.tracking_tolerance.penalty"},
+               {"  tracking_tolerance: {position: 0.05, heading: 0.02, width: 1}\n",
+                "controller.tracking_tolerance.width"}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.block);
+    try {
+      load(c.block);
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("c.yaml"), std::string::npos) << message;
+      EXPECT_NE(message.find(c.key), std::string::npos) << message;
+    }
+  }
+}
+
+TEST(ControllerConfig, RejectsATrackingToleranceOnTheKinematicBaselineWhichCannotUseIt) {
+  const std::string yaml =
+      "controller:\n  name: b\n  type: kinematic_baseline\n  tracking_tolerance: {position: 0.05, heading: 0.02}\n";
+  const config::ConfigNode root = config::ConfigNode::parse(yaml, "b.yaml");
+  try {
+    load_controller_config(root.child("controller"));
+    root.expect_all_read();
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("b.yaml"), std::string::npos) << message;
+    EXPECT_NE(message.find("controller.tracking_tolerance"), std::string::npos) << message;
+  }
+}
+
+TEST(TrackingTolerance, ValidateNamesTheFieldAndAllowsOffOnly) {
+  EXPECT_NO_THROW(TrackingTolerance{}.validate());  // both 0: off
+  TrackingTolerance half;
+  half.position = 0.05;  // one bound without the other is not a tube
+  try {
+    half.validate();
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("heading"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace swerve

@@ -103,6 +103,39 @@ TEST(CeresSolver, ResidualJacobianMatchesCentralFiniteDifferences) {
   }
 }
 
+TEST(CeresSolver, WithATrackingTubeTheResidualsStillSumToTheCostAndTheJacobianMatchesFiniteDifferences) {
+  // A tube narrow enough that most stages leave it in position or heading (issue 15's tolerance).
+  SwerveProblem s(10);
+  for (int k = 1; k <= 10; ++k) ASSERT_TRUE(s.problem.set_tube(k, 0.002 * k, 0.001 * k));
+  const Eigen::MatrixXd inputs = s.jittered_inputs(0.05, 7);
+  ASSERT_TRUE(s.problem.is_feasible(inputs));
+  CeresSolver solver(s.problem, {});
+  const int rows = solver.residual_count();
+  Eigen::VectorXd residuals(rows), plus_residuals(rows), minus_residuals(rows);
+  Eigen::MatrixXd jacobian;
+  ASSERT_TRUE(solver.evaluate_residuals(s.problem, inputs, residuals, &jacobian));
+  Eigen::MatrixXd states(s.model.state_size(), 11);
+  Eigen::VectorXd stage_costs(10);
+  const double cost = s.problem.rollout(inputs, 0, states, stage_costs);
+  const double smoothing = 10 * CeresSolver::kWearSmoothing * CeresSolver::kWearSmoothing;
+  EXPECT_NEAR(0.5 * residuals.squaredNorm() - smoothing, cost, 1e-12 * cost);
+  ASSERT_GT(s.problem.tube_excess(states).maxCoeff(), 0.0);  // the tube term is in play
+  Eigen::MatrixXd fd(rows, 30);
+  const double h = 1e-6;
+  for (int k = 0; k < 10; ++k) {
+    for (int i = 0; i < 3; ++i) {
+      Eigen::MatrixXd plus = inputs, minus = inputs;
+      plus(i, k) += h;
+      minus(i, k) -= h;
+      ASSERT_TRUE(solver.evaluate_residuals(s.problem, plus, plus_residuals, nullptr));
+      ASSERT_TRUE(solver.evaluate_residuals(s.problem, minus, minus_residuals, nullptr));
+      fd.col(3 * k + i) = (plus_residuals - minus_residuals) / (2 * h);
+    }
+  }
+  const double scale = fd.cwiseAbs().maxCoeff();
+  EXPECT_LT((jacobian - fd).cwiseAbs().maxCoeff(), 1e-5 * scale) << "max entry error at scale " << scale;
+}
+
 TEST(CeresSolver, ReachesTheClosedFormOptimumOfALinearQuadraticProblem) {
   const DoubleIntegratorModel model(0.5);
   const OcpProblem problem = testing::make_lq_problem(model, 6);

@@ -30,12 +30,32 @@ namespace swerve {
 enum class InputParameterization { kBodyTwist, kModuleRates };
 const char* to_string(InputParameterization parameterization) noexcept;  // "body_twist", "module_rates"
 
+// Tracking-tolerance mode (issue 15): the tracking error the user accepts. The controller then
+// minimises wear inside a tube around the reference whose half-width at each step of the horizon
+// is the tolerance, or the kinematic baseline's own predicted error there where that is larger (a
+// hard start the baseline cannot track either): never planned worse than the baseline, never
+// worse than the tolerance where the baseline manages it. The tube is an exterior penalty
+// (`penalty`, OcpProblem) for every backend; a solved plan that still leaves it by more than a
+// quarter of the tolerance is not sent: the baseline's commands are (CommandSource::kTrackingFirst).
+// Both bounds 0: off (the wear weight alone trades tracking for wear).
+struct TrackingTolerance {
+  double position = 0.0;  // m
+  double heading = 0.0;   // rad
+  double penalty = 1e5;   // per m^2 and rad^2 of excess
+  bool enabled() const noexcept { return position > 0.0 || heading > 0.0; }
+  void validate() const;  // throws ConfigError naming the field and value
+};
+
 struct ControllerOptions {
   int horizon = 20;                  // N (paper-notes assumption 7)
   double dt = 0.05;                  // s
   double solve_budget = 0.02;        // s of wall clock for the whole step(): baseline plan, problem update, solve
   double overrun_grace = 0.002;      // s past the deadline before an answer counts as late
   Eigen::Vector3d pose_weight{10.0, 10.0, 5.0};
+  // When true the heading weight is the position weight times R^2, R the distance of the outermost
+  // module from the body origin: a heading error then costs what the displacement it causes at
+  // that module costs, so one config serves a 2-module robot and a 5-axle carrier (issue 15).
+  bool heading_weight_from_geometry = false;
   Eigen::Vector3d twist_weight{0.0, 0.0, 0.0};
   double terminal_scale = 10.0;
   double wear_weight = 1.0;          // lambda; 0 gives the dynamic controller without wear
@@ -49,6 +69,7 @@ struct ControllerOptions {
   bool baseline_guess = true;        // also start the solver from the kinematic baseline's plan
   int max_plan_age = 5;              // cycles a previous plan may stand in for a failed solve
   StalenessOptions stale_measurement;  // when a measurement is too old or frozen to act on
+  TrackingTolerance tracking_tolerance;  // off by default
   void validate() const;             // throws ConfigError naming the field and value
 };
 
@@ -82,6 +103,9 @@ class Controller final : public TrackingController {
   void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                            const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
+  // Tracking tolerance: the tube for this cycle (the baseline plan rolled out when usable).
+  void set_tube(bool baseline_usable) noexcept;
+  void send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
   void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   bool motion_commanded() const noexcept;
   const ControlOutput& finish(TimePoint step_start) noexcept;
@@ -106,6 +130,8 @@ class Controller final : public TrackingController {
   InputBounds module_bounds_;        // the drives' limits on module inputs
   bool previous_input_known_ = false;  // false until a command of ours reaches the drives
   MeasurementMonitor monitor_;
+  Eigen::MatrixXd baseline_states_;       // nx x N+1: the baseline plan rolled out (tracking tolerance)
+  Eigen::VectorXd baseline_stage_costs_;  // N
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
   ControlOutput output_;

@@ -7,7 +7,11 @@
 //        + |twist(x_{k+1}) - twist_ref,k+1|^2_Qv
 //        + lambda * wear_k                      (tire wear accumulated over step k)
 //        + |u_k|^2_R + |u_k - u_{k-1}|^2_S      (u_{-1}: the input applied last cycle)
-// Heading errors are wrapped to (-pi, pi].
+//        + mu (max(0, |e_xy,k+1| - b_k)^2 + max(0, |e_psi,k+1| - c_k)^2)   (the tracking tube)
+// Heading errors are wrapped to (-pi, pi]. The tube (issue 15's tracking tolerance) is an exterior
+// penalty on the position and heading errors beyond per-stage bounds b_k, c_k (+inf: no tube,
+// the default); mu = weights.tube_penalty is stiff, so inside the tube the wear term rules and
+// outside it the tracking does.
 #pragma once
 
 #include <Eigen/Core>
@@ -23,6 +27,7 @@ struct CostWeights {
   double wear = 0.0;                      // lambda
   Eigen::VectorXd effort;                 // R, one per input (empty: zeros)
   Eigen::VectorXd rate;                   // S, one per input (empty: zeros)
+  double tube_penalty = 1e5;              // mu, per m^2 and per rad^2 of error beyond the tube
 };
 
 // Box bounds on every input and a bound on its change per step (|u_k - u_{k-1}| <= max_step;
@@ -58,6 +63,14 @@ class OcpProblem {
   bool set_reference(int k, const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body) noexcept;
   // Changes only the wear weight (the lambda sweep and the no-wear comparison use this).
   bool set_wear_weight(double lambda) noexcept;
+  // The tracking tube at x_k, k = 1..N: the position error (m) and heading error (rad) beyond which
+  // the tube penalty applies; false (nothing changed) unless both are > 0 (+inf: no tube there).
+  bool set_tube(int k, double position_bound, double heading_bound) noexcept;
+  void clear_tube() noexcept;  // no tube at any stage
+  // The largest excess over the tube of a rolled-out plan (states nx x N+1): position (m) and
+  // heading (rad), each >= 0.
+  Eigen::Vector2d tube_excess(const Eigen::Ref<const Eigen::MatrixXd>& states) const noexcept;
+  const Eigen::Matrix<double, 2, Eigen::Dynamic>& tube() const noexcept { return tube_; }
 
   const Eigen::VectorXd& initial_state() const noexcept { return x0_; }
   const Eigen::VectorXd& previous_input() const noexcept { return u_previous_; }
@@ -103,6 +116,7 @@ class OcpProblem {
   Eigen::VectorXd u_previous_;                            // nu
   Eigen::Matrix<double, 3, Eigen::Dynamic> reference_pose_;   // 3 x N
   Eigen::Matrix<double, 3, Eigen::Dynamic> reference_twist_;  // 3 x N
+  Eigen::Matrix<double, 2, Eigen::Dynamic> tube_;             // 2 x N: position, heading bounds
 };
 
 }  // namespace swerve

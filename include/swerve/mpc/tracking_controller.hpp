@@ -16,9 +16,10 @@ struct ModuleCommand {
   double wheel_speed = 0.0;     // rad/s of the wheel (signed)
 };
 
-// Where the applied commands came from, worst last.
-enum class CommandSource { kOptimizer, kPreviousPlan, kBaseline, kSafeStop };
-const char* to_string(CommandSource source) noexcept;  // "optimizer", "previous_plan", ...
+// Where the applied commands came from, worst last. kTrackingFirst: the solve succeeded, but its
+// plan left the tracking tolerance, so the kinematic baseline's commands were sent instead.
+enum class CommandSource { kOptimizer, kTrackingFirst, kPreviousPlan, kBaseline, kSafeStop };
+const char* to_string(CommandSource source) noexcept;  // "optimizer", "tracking_first", "previous_plan", ...
 
 struct ControlOutput {
   ModuleArray<ModuleCommand> modules;

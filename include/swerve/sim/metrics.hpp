@@ -42,7 +42,8 @@ struct RunMetrics {
   double solve_time_mean_ms = 0.0, solve_time_p50_ms = 0.0, solve_time_p99_ms = 0.0, solve_time_max_ms = 0.0;
   double step_time_p99_ms = 0.0, step_time_max_ms = 0.0;  // the whole step (plan, update, solve)
   int deadline_misses = 0;         // steps (or, where unknown, solves) that took longer than the budget
-  int fallbacks = 0;               // periods whose command did not come from the optimiser
+  int fallbacks = 0;               // periods whose command did not come from a successful solve
+  int tracking_first_steps = 0;    // periods that sent the baseline's commands because the plan left the tube
   double solve_iterations_mean = 0.0;
 };
 

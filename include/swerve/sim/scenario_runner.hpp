@@ -38,6 +38,7 @@ struct RunOverrides {
   std::optional<std::uint64_t> seed;     // the simulator's seed
   std::optional<std::string> backend;    // every wear_mpc controller's backend
   std::optional<double> wear_weight;     // every wear_mpc controller's lambda (sweeps)
+  std::optional<TrackingTolerance> tracking_tolerance;  // every wear_mpc controller's tube (sweeps)
 };
 
 // Called after every control period with (controller index, steps done, steps in the run).
