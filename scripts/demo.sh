@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `make demo`: the paper's two experiments (curve tracking, 60 deg heading offset) on the embedded
 # default controller config, each controller on the same simulated plant; prints both comparison
-# tables and writes summary.json, per-step CSV logs and plots under the output directory.
+# tables, then the goal table of the whole shipped set (gentle references, figure-eight, layouts),
+# and writes summary.json, per-step CSV logs and plots under the output directory.
 set -euo pipefail
 build_dir=${1:-build/release}
 out_dir=${2:-out}
@@ -16,6 +17,19 @@ for scenario in curve offset60; do
   "$cli" run "configs/scenarios/$scenario.yaml" --out "$out_dir/$scenario"
   echo
 done
+# The whole shipped set (issue 15's goals): the planner-like variants of the paper pair, the
+# figure-eight and the layouts set with both references, wear_mpc against kinematic_baseline only.
+set_dirs=("$out_dir/curve" "$out_dir/offset60")
+for scenario in configs/scenarios/curve_smooth.yaml configs/scenarios/offset60_smooth.yaml \
+                configs/scenarios/figure8.yaml configs/scenarios/layouts/*.yaml; do
+  name=$(basename "$scenario" .yaml)
+  case "$scenario" in */layouts/*) name="layouts_$name" ;; esac
+  "$cli" run "$scenario" --controllers wear_mpc,kinematic_baseline --out "$out_dir/set/$name" --quiet > /dev/null
+  set_dirs+=("$out_dir/set/$name")
+done
+echo "== the shipped set: wear_mpc against kinematic_baseline (goals: README, 'Keeping the tracking') =="
+python3 scripts/goal_table.py "${set_dirs[@]}"
+echo
 # Debian's matplotlib lives with the system interpreter (a pyenv or venv python3 may lack it).
 python=/usr/bin/python3
 [ -x "$python" ] || python=python3
