@@ -961,5 +961,17 @@ TEST(Controller, TheTubeWidensToTheBaselinePlansOwnPredictedError) {
   EXPECT_LT(tube(0, options.horizon - 1), tube(0, 0));
 }
 
+TEST(Controller, TheHeadingWeightFromGeometryIsThePositionWeightTimesTheOutermostModuleRadiusSquared) {
+  // small_robot: modules at (+-0.3, +-0.25), R^2 = 0.09 + 0.0625.
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.pose_weight = {10.0, 10.0, 200.0};
+  EXPECT_DOUBLE_EQ(make_fake_controller(&script, options).problem().weights().pose.z(), 200.0);
+  options.heading_weight_from_geometry = true;
+  const Controller scaled = make_fake_controller(&script, options);
+  EXPECT_NEAR(scaled.problem().weights().pose.z(), 10.0 * (0.3 * 0.3 + 0.25 * 0.25), 1e-12);
+  EXPECT_DOUBLE_EQ(scaled.problem().weights().pose.x(), 10.0);
+}
+
 }  // namespace
 }  // namespace swerve
