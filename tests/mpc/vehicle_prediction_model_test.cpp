@@ -28,6 +28,17 @@ VehicleParams small_agv(bool actuator_lag) {
   return params;
 }
 
+// The 4-module state moving with `twist`, every wheel along its own velocity.
+Eigen::VectorXd moving_with(const VehicleParams& params, const Eigen::Vector3d& twist) {
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(10);
+  x.segment<3>(StateIndex::kVx) = twist;
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector2d& p = params.layout.position_body(i);
+    x[StateIndex::steering(i)] = std::atan2(twist.y() + twist.z() * p.x(), twist.x() - twist.z() * p.y());
+  }
+  return x;
+}
+
 // One controller step (0.05 s) of `command` from a state moving with `twist` (wheels along it),
 // with ideal actuators on both sides (the prediction then charges the whole energy balance).
 WearPair stage_wear(const Eigen::Vector3d& twist, const Eigen::Vector3d& command) {
@@ -35,12 +46,7 @@ WearPair stage_wear(const Eigen::Vector3d& twist, const Eigen::Vector3d& command
   const TwistPredictionModel prediction(params);
   const VehicleModel<double> model(params, Fidelity::kIdeal);
   const DiscreteDynamics<double> plant(model, IntegratorMethod::kRk4);
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(10), x_next(10), u(8);
-  x.segment<3>(StateIndex::kVx) = twist;
-  for (int i = 0; i < 4; ++i) {
-    const Eigen::Vector2d& p = params.layout.position_body(i);
-    x[StateIndex::steering(i)] = std::atan2(twist.y() + twist.z() * p.x(), twist.x() - twist.z() * p.y());
-  }
+  Eigen::VectorXd x = moving_with(params, twist), x_next(10), u(8);
   prediction.module_inputs(x, command, 0.05, u);
   WearPair w;
   EXPECT_TRUE(prediction.step(x, command, 0.05, x_next, &w.predicted));
@@ -90,12 +96,7 @@ LaggedWear lagged_stage_wear(const Eigen::Vector3d& twist, const Eigen::Vector3d
   const VehicleParams params = small_agv(true);
   const TwistPredictionModel prediction(params);
   const TwistPredictionModel unscaled(small_agv(false));
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(10), x_next(10), u(8);
-  x.segment<3>(StateIndex::kVx) = twist;
-  for (int i = 0; i < 4; ++i) {
-    const Eigen::Vector2d& p = params.layout.position_body(i);
-    x[StateIndex::steering(i)] = std::atan2(twist.y() + twist.z() * p.x(), twist.x() - twist.z() * p.y());
-  }
+  Eigen::VectorXd x = moving_with(params, twist), x_next(10), u(8);
   prediction.module_inputs(x, command, 0.05, u);
   LaggedWear w;
   EXPECT_TRUE(prediction.step(x, command, 0.05, x_next, &w.predicted));

@@ -20,6 +20,19 @@ ControllerConfig load(const std::string& stale_block) {
   return config;
 }
 
+// A block that must be rejected with an error naming the file and the key path.
+void expect_rejected(const char* block, const char* key) {
+  SCOPED_TRACE(block);
+  try {
+    load(block);
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("c.yaml"), std::string::npos) << message;
+    EXPECT_NE(message.find(key), std::string::npos) << message;
+  }
+}
+
 TEST(ControllerConfig, ReadsTheStaleMeasurementLimits) {
   const ControllerConfig c = load("  stale_measurement: {max_age: 0.25, frozen_cycles: 5, moving_speed: 0.02}\n");
   EXPECT_DOUBLE_EQ(c.mpc.stale_measurement.max_age, 0.25);
@@ -39,17 +52,7 @@ TEST(ControllerConfig, RejectsBadStaleMeasurementLimitsNamingTheKeyPath) {
                {"  stale_measurement: {frozen_cycles: 1}\n", "controller.stale_measurement.frozen_cycles"},
                {"  stale_measurement: {moving_speed: -1}\n", "controller.stale_measurement.moving_speed"},
                {"  stale_measurement: {max_agee: 1}\n", "controller.stale_measurement.max_agee"}};
-  for (const auto& c : cases) {
-    SCOPED_TRACE(c.block);
-    try {
-      load(c.block);
-      ADD_FAILURE() << "accepted";
-    } catch (const ConfigError& e) {
-      const std::string message = e.what();
-      EXPECT_NE(message.find("c.yaml"), std::string::npos) << message;
-      EXPECT_NE(message.find(c.key), std::string::npos) << message;
-    }
-  }
+  for (const auto& c : cases) expect_rejected(c.block, c.key);
 }
 
 TEST(StalenessOptions, ValidateNamesTheField) {
@@ -87,17 +90,7 @@ TEST(ControllerConfig, RejectsABadTrackingToleranceNamingTheFileKeyPathAndValue)
                 "controller.tracking_tolerance.penalty"},
                {"  tracking_tolerance: {position: 0.05, heading: 0.02, width: 1}\n",
                 "controller.tracking_tolerance.width"}};
-  for (const auto& c : cases) {
-    SCOPED_TRACE(c.block);
-    try {
-      load(c.block);
-      ADD_FAILURE() << "accepted";
-    } catch (const ConfigError& e) {
-      const std::string message = e.what();
-      EXPECT_NE(message.find("c.yaml"), std::string::npos) << message;
-      EXPECT_NE(message.find(c.key), std::string::npos) << message;
-    }
-  }
+  for (const auto& c : cases) expect_rejected(c.block, c.key);
 }
 
 TEST(ControllerConfig, RejectsATrackingToleranceOnTheKinematicBaselineWhichCannotUseIt) {

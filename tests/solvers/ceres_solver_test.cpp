@@ -36,6 +36,25 @@ struct SwerveProblem : testing::SwerveTestProblem {
       : testing::SwerveTestProblem(testing::SwerveScene::kTurn, horizon, max_step) {}
 };
 
+// Central differences of the residuals over every input of a 10-step, 3-input plan.
+Eigen::MatrixXd finite_difference_jacobian(CeresSolver& solver, const OcpProblem& problem, const Eigen::MatrixXd& inputs) {
+  const int rows = solver.residual_count();
+  Eigen::VectorXd plus_residuals(rows), minus_residuals(rows);
+  Eigen::MatrixXd fd(rows, 30);
+  const double h = 1e-6;
+  for (int k = 0; k < 10; ++k) {
+    for (int i = 0; i < 3; ++i) {
+      Eigen::MatrixXd plus = inputs, minus = inputs;
+      plus(i, k) += h;
+      minus(i, k) -= h;
+      EXPECT_TRUE(solver.evaluate_residuals(problem, plus, plus_residuals, nullptr));
+      EXPECT_TRUE(solver.evaluate_residuals(problem, minus, minus_residuals, nullptr));
+      fd.col(3 * k + i) = (plus_residuals - minus_residuals) / (2 * h);
+    }
+  }
+  return fd;
+}
+
 TEST(CeresSolver, HalfTheResidualSumOfSquaresIsTheOcpCostPlusTheWearSmoothingConstant) {
   SwerveProblem s(10);
   const Eigen::MatrixXd inputs = s.jittered_inputs(0.05, 7);
@@ -76,23 +95,12 @@ TEST(CeresSolver, ResidualJacobianMatchesCentralFiniteDifferences) {
   const Eigen::MatrixXd inputs = s.jittered_inputs(0.05, 11);
   CeresSolver solver(s.problem, {});
   const int rows = solver.residual_count();
-  Eigen::VectorXd residuals(rows), plus_residuals(rows), minus_residuals(rows);
+  Eigen::VectorXd residuals(rows);
   Eigen::MatrixXd jacobian;
   ASSERT_TRUE(solver.evaluate_residuals(s.problem, inputs, residuals, &jacobian));
   ASSERT_EQ(jacobian.rows(), rows);
   ASSERT_EQ(jacobian.cols(), 30);
-  Eigen::MatrixXd fd(rows, 30);
-  const double h = 1e-6;
-  for (int k = 0; k < 10; ++k) {
-    for (int i = 0; i < 3; ++i) {
-      Eigen::MatrixXd plus = inputs, minus = inputs;
-      plus(i, k) += h;
-      minus(i, k) -= h;
-      ASSERT_TRUE(solver.evaluate_residuals(s.problem, plus, plus_residuals, nullptr));
-      ASSERT_TRUE(solver.evaluate_residuals(s.problem, minus, minus_residuals, nullptr));
-      fd.col(3 * k + i) = (plus_residuals - minus_residuals) / (2 * h);
-    }
-  }
+  const Eigen::MatrixXd fd = finite_difference_jacobian(solver, s.problem, inputs);
   const double scale = fd.cwiseAbs().maxCoeff();
   EXPECT_GT(scale, 1.0);
   EXPECT_LT((jacobian - fd).cwiseAbs().maxCoeff(), 1e-5 * scale) << "max entry error at scale " << scale;
@@ -111,7 +119,7 @@ TEST(CeresSolver, WithATrackingTubeTheResidualsStillSumToTheCostAndTheJacobianMa
   ASSERT_TRUE(s.problem.is_feasible(inputs));
   CeresSolver solver(s.problem, {});
   const int rows = solver.residual_count();
-  Eigen::VectorXd residuals(rows), plus_residuals(rows), minus_residuals(rows);
+  Eigen::VectorXd residuals(rows);
   Eigen::MatrixXd jacobian;
   ASSERT_TRUE(solver.evaluate_residuals(s.problem, inputs, residuals, &jacobian));
   Eigen::MatrixXd states(s.model.state_size(), 11);
@@ -120,18 +128,7 @@ TEST(CeresSolver, WithATrackingTubeTheResidualsStillSumToTheCostAndTheJacobianMa
   const double smoothing = 10 * CeresSolver::kWearSmoothing * CeresSolver::kWearSmoothing;
   EXPECT_NEAR(0.5 * residuals.squaredNorm() - smoothing, cost, 1e-12 * cost);
   ASSERT_GT(s.problem.tube_excess(states).maxCoeff(), 0.0);  // the tube term is in play
-  Eigen::MatrixXd fd(rows, 30);
-  const double h = 1e-6;
-  for (int k = 0; k < 10; ++k) {
-    for (int i = 0; i < 3; ++i) {
-      Eigen::MatrixXd plus = inputs, minus = inputs;
-      plus(i, k) += h;
-      minus(i, k) -= h;
-      ASSERT_TRUE(solver.evaluate_residuals(s.problem, plus, plus_residuals, nullptr));
-      ASSERT_TRUE(solver.evaluate_residuals(s.problem, minus, minus_residuals, nullptr));
-      fd.col(3 * k + i) = (plus_residuals - minus_residuals) / (2 * h);
-    }
-  }
+  const Eigen::MatrixXd fd = finite_difference_jacobian(solver, s.problem, inputs);
   const double scale = fd.cwiseAbs().maxCoeff();
   EXPECT_LT((jacobian - fd).cwiseAbs().maxCoeff(), 1e-5 * scale) << "max entry error at scale " << scale;
 }
