@@ -55,8 +55,7 @@ CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout)
 // drive, and no module asked to change its velocity faster than the drive acceleration (per axis).
 InputBounds twist_bounds(const ModuleLayout& layout, double dt) {
   const ModuleLimits& limits = layout.limits();
-  double max_radius = 0.0;
-  for (const Eigen::Vector2d& p : layout.positions_body()) max_radius = std::max(max_radius, p.norm());
+  const double max_radius = outermost_module_radius(layout);
   InputBounds b;
   b.upper = Eigen::Vector3d(limits.max_drive_speed, limits.max_drive_speed, limits.max_drive_speed / max_radius);
   b.lower = -b.upper;
@@ -265,15 +264,10 @@ void Controller::set_tube(bool baseline_usable) noexcept {
   const bool rolled_out =
       baseline_usable && std::isfinite(problem_->rollout(baseline_guess_, 0, baseline_states_, baseline_stage_costs_));
   for (int k = 1; k <= options_.horizon; ++k) {
-    double position = tolerance.position, heading = tolerance.heading;
-    if (rolled_out) {
-      // Where the baseline's own plan is predicted further off, the tube widens to it.
-      const auto kk = static_cast<Eigen::Index>(k);
-      const Eigen::Vector3d& reference = problem_->reference_poses().col(kk - 1);
-      position = std::max(position, (baseline_states_.col(kk).head<2>() - reference.head<2>()).norm());
-      heading = std::max(heading, std::abs(wrap_angle(baseline_states_(2, kk) - reference.z())));
-    }
-    problem_->set_tube(k, position, heading);
+    Eigen::Vector2d bound(tolerance.position, tolerance.heading);
+    // Where the baseline's own plan is predicted further off, the tube widens to it.
+    if (rolled_out) bound = bound.cwiseMax(problem_->tracking_error(k, baseline_states_.col(k)));
+    problem_->set_tube(k, bound[0], bound[1]);
   }
 }
 

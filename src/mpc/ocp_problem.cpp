@@ -85,14 +85,17 @@ void OcpProblem::clear_tube() noexcept { tube_.setConstant(kInfinity); }
 Eigen::Vector2d OcpProblem::tube_excess(const Eigen::Ref<const Eigen::MatrixXd>& states) const noexcept {
   Eigen::Vector2d worst = Eigen::Vector2d::Zero();
   if (states.rows() != nx_ || states.cols() != horizon_ + 1) return Eigen::Vector2d::Constant(kInfinity);
-  for (int k = 0; k < horizon_; ++k) {
-    const auto kk = static_cast<Eigen::Index>(k);
-    const double position = (states.col(kk + 1).head<2>() - reference_pose_.col(kk).head<2>()).norm();
-    const double heading = std::abs(wrap_angle(states(2, kk + 1) - reference_pose_(2, kk)));
-    worst[0] = std::max(worst[0], position - tube_(0, kk));
-    worst[1] = std::max(worst[1], heading - tube_(1, kk));
+  for (int k = 1; k <= horizon_; ++k) {
+    const Eigen::Vector2d error = tracking_error(k, states.col(k));
+    worst = worst.cwiseMax(error - tube_.col(k - 1));
   }
   return worst;
+}
+
+Eigen::Vector2d OcpProblem::tracking_error(int k, const Eigen::Ref<const Eigen::VectorXd>& x) const noexcept {
+  const auto column = static_cast<Eigen::Index>(k - 1);
+  return {(x.head<2>() - reference_pose_.col(column).head<2>()).norm(),
+          std::abs(wrap_angle(x[2] - reference_pose_(2, column)))};
 }
 
 bool OcpProblem::set_initial_state(const Eigen::Ref<const Eigen::VectorXd>& x0) noexcept {

@@ -67,6 +67,9 @@ class OcpProblem {
   // the tube penalty applies; false (nothing changed) unless both are > 0 (+inf: no tube there).
   bool set_tube(int k, double position_bound, double heading_bound) noexcept;
   void clear_tube() noexcept;  // no tube at any stage
+  // The position error (m) and the wrapped heading error's magnitude (rad) of state `x` against
+  // the reference at x_k, k = 1..N.
+  Eigen::Vector2d tracking_error(int k, const Eigen::Ref<const Eigen::VectorXd>& x) const noexcept;
   // The largest excess over the tube of a rolled-out plan (states nx x N+1): position (m) and
   // heading (rad), each >= 0.
   Eigen::Vector2d tube_excess(const Eigen::Ref<const Eigen::MatrixXd>& states) const noexcept;
