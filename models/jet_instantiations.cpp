@@ -14,6 +14,9 @@ template WheelSlip<ModelJet> compute_wheel_slip<ModelJet>(const MagicFormulaPara
 template class MagicFormulaTire<ModelJet>;
 template class VehicleModel<ModelJet>;
 template class DiscreteDynamics<ModelJet>;
+template WheelSlip<TwistJet> compute_wheel_slip<TwistJet>(const MagicFormulaParams&, TwistJet, TwistJet, TwistJet);
+template class MagicFormulaTire<TwistJet>;
+template class VehicleModel<TwistJet>;
 
 struct DynamicsJacobian::Impl {
   Impl(const VehicleParams& params, Fidelity fidelity, IntegratorMethod method)

