@@ -81,6 +81,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
   const ControllerOptions& o = c.mpc;
   j["solve_budget_s"] = o.solve_budget;
   j["overrun_grace_s"] = o.overrun_grace;
+  j["deadline_margin"] = o.deadline_margin;
   j["baseline_guess"] = o.baseline_guess;
   j["inputs"] = to_string(o.parameterization);
   j["max_plan_age"] = o.max_plan_age;

@@ -82,6 +82,7 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
   if (c.kind == ControllerKind::kWearMpc) {
     c.mpc.solve_budget = node.get_double_or("solve_budget", c.mpc.solve_budget, Bound::positive());
     c.mpc.overrun_grace = node.get_double_or("overrun_grace", c.mpc.overrun_grace, Bound::non_negative());
+    c.mpc.deadline_margin = node.get_double_or("deadline_margin", c.mpc.deadline_margin, Bound::closed(0.0, 0.5));
     c.mpc.baseline_guess = node.get_bool_or("baseline_guess", c.mpc.baseline_guess);
     c.mpc.max_plan_age = node.get_int_or("max_plan_age", c.mpc.max_plan_age, 0);
     if (const auto stale = node.optional_child("stale_measurement")) {

@@ -116,6 +116,9 @@ void ControllerOptions::validate() const {
   if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
   if (!std::isfinite(solve_budget) || solve_budget <= 0.0) reject("solve_budget", solve_budget, "must be finite and > 0");
   require_non_negative("overrun_grace", overrun_grace);
+  if (!(deadline_margin >= 0.0 && deadline_margin <= 0.5)) {
+    reject("deadline_margin", deadline_margin, "must be in [0, 0.5] (a share of solve_budget)");
+  }
   for (int i = 0; i < 3; ++i) {
     require_non_negative("pose_weight", pose_weight[i]);
     require_non_negative("twist_weight", twist_weight[i]);
@@ -305,15 +308,29 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
 
 const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   latency_.record(output_.modules);
-  output_.step_time_s = to_seconds(clock().now() - step_start);
+  const TimePoint end = clock().now();
+  output_.step_time_s = to_seconds(end - step_start);
+  if (solved_) {
+    // Memory of the worst overshoot, halving every 100 steps.
+    constexpr double kDecayPerStep = 0.99309;  // 0.5^(1/100)
+    overshoot_s_ = std::max(to_seconds(end - solve_deadline_), kDecayPerStep * overshoot_s_);
+  }
   return output_;
+}
+
+Duration Controller::solve_margin() const noexcept {
+  const double margin_s = std::min(0.5 * options_.solve_budget,
+                                   std::max(options_.deadline_margin * options_.solve_budget, 1.5 * overshoot_s_));
+  return to_duration(margin_s);
 }
 
 const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
                                       double measured_at) noexcept {
   // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
   const TimePoint step_start = clock().now();
-  const Deadline deadline(step_start + to_duration(options_.solve_budget), clock());
+  const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
+  const Deadline deadline(step_deadline - solve_margin(), clock());
+  solved_ = false;
   output_.solve = SolveSummary{};
   output_.measurement_stale = false;
   // The previous plan moves on by one cycle whatever happens now.
@@ -375,8 +392,10 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   if (plan_.valid && plan_age_ == 1) guesses.add(&plan_.inputs);
   if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_guess_);
 
+  solved_ = true;
+  solve_deadline_ = deadline.at();
   const SolveStatus status = solver_->solve(*problem_, guesses, deadline, &solution_, &output_.solve);
-  const bool late = clock().now() > deadline.at() + to_duration(options_.overrun_grace);
+  const bool late = clock().now() > step_deadline + to_duration(options_.overrun_grace);
   if (has_solution(status) && solution_.valid && !late && problem_->is_feasible(solution_.inputs, 1e-6)) {
     plan_.inputs = solution_.inputs;
     plan_.states = solution_.states;

@@ -337,6 +337,9 @@ TEST(Controller, RejectsEveryInvalidOptionNamingTheField) {
       {"solve_budget", [](ControllerOptions& o) { o.solve_budget = -0.01; }},
       {"solve_budget", [](ControllerOptions& o) { o.solve_budget = kNaN; }},
       {"overrun_grace", [](ControllerOptions& o) { o.overrun_grace = -0.001; }},
+      {"deadline_margin", [](ControllerOptions& o) { o.deadline_margin = -0.01; }},
+      {"deadline_margin", [](ControllerOptions& o) { o.deadline_margin = 0.6; }},
+      {"deadline_margin", [](ControllerOptions& o) { o.deadline_margin = kNaN; }},
       {"pose_weight", [](ControllerOptions& o) { o.pose_weight.y() = -1.0; }},
       {"twist_weight", [](ControllerOptions& o) { o.twist_weight.z() = -1.0; }},
       {"terminal_scale", [](ControllerOptions& o) { o.terminal_scale = -1.0; }},
@@ -597,8 +600,63 @@ TEST(Controller, TheDeadlineCoversTheWholeStepNotOnlyTheSolve) {
   controller.set_clock(clock);
   const ControlOutput& out = controller.step(at_rest(), 0.0);
   ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
-  EXPECT_NEAR(remaining_s, options.solve_budget - options.horizon * 1e-4, 1e-9);
+  // Less the margin kept free at the end of the step (deadline_margin: 5 % of the budget).
+  EXPECT_NEAR(remaining_s, (1.0 - options.deadline_margin) * options.solve_budget - options.horizon * 1e-4, 1e-9);
   EXPECT_NEAR(out.step_time_s, options.horizon * 1e-4, 1e-9);
+}
+
+// Uses its whole time and then `overshoot_s` more (an operating-system stall), recording the time
+// it was given.
+class StallingSolver final : public Solver {
+ public:
+  StallingSolver(const OcpProblem& shape, testing::ManualClock* clock, const double* overshoot_s, double* remaining_s)
+      : Solver(shape), clock_(clock), overshoot_s_(overshoot_s), remaining_s_(remaining_s) {}
+  const char* name() const noexcept override { return "stalling"; }
+
+ private:
+  SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
+                       SolveSummary* summary) noexcept override {
+    *remaining_s_ = to_seconds(deadline.remaining());
+    Eigen::MatrixXd candidate_inputs = out->inputs, candidate_states = out->states;
+    Eigen::VectorXd stage_costs(problem.horizon());
+    long rollouts = 0;
+    out->cost = cheapest_start(problem, guesses, out->inputs, out->states, candidate_inputs, candidate_states,
+                               stage_costs, &rollouts);
+    clock_->advance(deadline.remaining() + to_duration(*overshoot_s_));
+    summary->reason = "stalling: the cheapest start, late";
+    return SolveStatus::kConverged;
+  }
+  testing::ManualClock* clock_;
+  const double* overshoot_s_;
+  double* remaining_s_;
+};
+
+TEST(Controller, AStallPastTheSolversDeadlineWidensTheMarginSoTheNextStepsEndInTime) {
+  // 5 ms budget, 0.25 ms base margin. One step overshoots the solver's deadline by 1 ms (a stall):
+  // that step misses, and the next steps give the solver 1.5 ms less, so the same stall again would
+  // end inside the budget. The memory halves every 100 steps, back towards the base margin.
+  testing::ManualClock clock;
+  double overshoot_s = 0.001, remaining_s = -1.0;
+  const ControllerOptions options = fast_options();
+  Controller controller(small_robot(), testing::line_reference(0.5), options, [&](const OcpProblem& p) {
+    return std::make_unique<StallingSolver>(p, &clock, &overshoot_s, &remaining_s);
+  });
+  controller.set_clock(clock);
+  const double budget = options.solve_budget;
+  const ControlOutput& stalled = controller.step(at_rest(), 0.0);
+  EXPECT_NEAR(remaining_s, 0.95 * budget, 1e-9);
+  EXPECT_GT(stalled.step_time_s, budget);
+  overshoot_s = 0.001;  // the same stall again
+  const ControlOutput& next = controller.step(at_rest(), options.dt);
+  EXPECT_NEAR(remaining_s, budget - 1.5 * 0.001, 1e-9);
+  EXPECT_LE(next.step_time_s, budget);
+  EXPECT_EQ(next.source, CommandSource::kOptimizer) << reason_of(next);
+  overshoot_s = 0.0;  // no more stalls: the margin decays towards the base
+  double t = 2 * options.dt;
+  for (int k = 0; k < 100; ++k, t += options.dt) controller.step(at_rest(), t);
+  EXPECT_NEAR(remaining_s, budget - 1.5 * 0.001 * 0.5, 1e-5);  // half the memory after 100 steps
+  for (int k = 0; k < 300; ++k, t += options.dt) controller.step(at_rest(), t);
+  EXPECT_NEAR(remaining_s, 0.95 * budget, 1e-9);
 }
 
 TEST(Controller, SkipsTheSolveAndUsesTheBaselineWhenThePlanAloneUsesTheBudget) {

@@ -30,7 +30,7 @@ struct ControllerConfig {
 // Keys (defaults in brackets; SI units):
 //   name, description [""], type (wear_mpc | kinematic_baseline), horizon [20], dt [0.05]
 //   wear_mpc only:
-//     solve_budget [0.02], overrun_grace [0.002], baseline_guess [true], max_plan_age [5],
+//     solve_budget [0.02], overrun_grace [0.002], deadline_margin [0.05], baseline_guess [true], max_plan_age [5],
 //     inputs [body_twist] (body_twist | module_rates: what the optimiser searches, see ControllerOptions)
 //     weights: {pose [10,10,5], twist [0,0,0], terminal_scale [10], wear [1], steering_rate_effort [0.01],
 //               wheel_speed_effort [0], steering_rate_smoothness [0.05], wheel_speed_smoothness [0.01],

@@ -51,6 +51,11 @@ struct ControllerOptions {
   double dt = 0.05;                  // s
   double solve_budget = 0.02;        // s of wall clock for the whole step(): baseline plan, problem update, solve
   double overrun_grace = 0.002;      // s past the deadline before an answer counts as late
+  // Share of solve_budget kept free at the end of each step, for the work after the solve and for
+  // an operating-system stall. The controller widens the margin to 1.5x the largest overshoot past
+  // the solver's deadline it has measured (that memory halving every 100 steps), so one stall
+  // does not become a run of deadline misses. At most half the budget.
+  double deadline_margin = 0.05;
   Eigen::Vector3d pose_weight{10.0, 10.0, 5.0};
   // When true the heading weight is the position weight times R^2, R the distance of the outermost
   // module from the body origin: a heading error then costs what the displacement it causes at
@@ -109,6 +114,8 @@ class Controller final : public TrackingController {
   void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   bool motion_commanded() const noexcept;
   const ControlOutput& finish(TimePoint step_start) noexcept;
+  // The solver's deadline this step: the budget less the margin (see deadline_margin).
+  Duration solve_margin() const noexcept;
 
   std::string name_;
   ControllerOptions options_;
@@ -134,6 +141,9 @@ class Controller final : public TrackingController {
   Eigen::VectorXd baseline_stage_costs_;  // N
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
+  double overshoot_s_ = 0.0;         // decaying maximum of step end - solver deadline (s)
+  TimePoint solve_deadline_{};       // this step's, when a solve ran
+  bool solved_ = false;              // whether this step ran the solver
   ControlOutput output_;
 };
 
