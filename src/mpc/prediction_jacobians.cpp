@@ -21,6 +21,7 @@ struct PredictionJets {
     out = ModelJetVector::Zero(nx);
   }
   PredictionStep<ModelJet> step;
+  PredictionStep<ModelJet>::Data data{step};
   ModelJetVector x, u, twist, out;  // u: module inputs (given, or mapped from the twist)
 };
 
@@ -34,7 +35,7 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   modules_ = values_->model().modules();
   state_size_ = values_->model().state_size();
   input_size_ = values_->model().input_size();
-  inputs_ = Eigen::VectorXd::Zero(input_size_);
+  data_ = std::make_unique<Data>(create_data());
 }
 
 VehiclePredictionModel::~VehiclePredictionModel() = default;
@@ -62,8 +63,8 @@ bool VehiclePredictionModel::step_jacobians(const Eigen::Ref<const Eigen::Vector
   bool first = true;
   const bool ok = jet_jacobian(x, u, j.x, j.u, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
                                [&](ModelJet* wear) {
-                                 j.step.begin_chunk(std::exchange(first, false));
-                                 return j.step.step(j.x, j.u, dt, j.out, wear);
+                                 detail::PredictionStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
+                                 return j.step.step(j.data, j.x, j.u, dt, j.out, wear);
                                });
   return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
 }
@@ -78,10 +79,10 @@ bool VehiclePredictionModel::twist_step_jacobians(const Eigen::Ref<const Eigen::
   bool first = true;
   const bool ok = jet_jacobian(x, twist_body, j.x, j.twist, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
                                [&](ModelJet* wear) {
-                                 j.step.begin_chunk(std::exchange(first, false));
+                                 detail::PredictionStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
                                  const Eigen::Matrix<ModelJet, 3, 1> twist = j.twist;
                                  j.step.module_inputs(j.x, twist, dt, j.u);
-                                 return j.step.step(j.x, j.u, dt, j.out, wear);
+                                 return j.step.step(j.data, j.x, j.u, dt, j.out, wear);
                                });
   return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
 }

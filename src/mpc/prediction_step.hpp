@@ -91,14 +91,29 @@ inline constexpr double kAlignmentSmoothing = 0.05;   // on cos(remaining steeri
 // iteration, ~19 a step.)
 class BodyTwistSolver {
  public:
+  using TwistJetVector = Eigen::Matrix<TwistJet, Eigen::Dynamic, 1>;
+
+  // The solver's scratch, owned by its caller: one per thread makes solves re-entrant.
+  struct Data {
+    explicit Data(const BodyTwistSolver& solver)
+        : state(TwistJetVector::Zero(solver.state_size_)), inputs(TwistJetVector::Zero(solver.input_size_)),
+          state_dot(TwistJetVector::Zero(solver.state_size_)), diagnostics(static_cast<std::size_t>(solver.modules_)),
+          value_state(Eigen::VectorXd::Zero(solver.state_size_)), value_inputs(Eigen::VectorXd::Zero(solver.input_size_)),
+          value_state_dot(Eigen::VectorXd::Zero(solver.state_size_)),
+          value_diagnostics(static_cast<std::size_t>(solver.modules_)) {}
+    TwistJetVector state, inputs, state_dot;
+    std::vector<ModuleDiagnostics<TwistJet>> diagnostics;
+    TwistJet wear_rate{0.0};
+    Eigen::VectorXd value_state, value_inputs, value_state_dot;
+    std::vector<ModuleDiagnostics<double>> value_diagnostics;
+    double value_wear_rate = 0.0;
+    bool final_in_double = false;  // whether the last evaluation was final_values()
+    long evaluations = 0;
+  };
+
   BodyTwistSolver(const VehicleParams& params, int max_iterations)
-      : model_(params, Fidelity::kIdeal), max_iterations_(max_iterations),
-        state_(TwistJetVector::Zero(model_.state_size())), inputs_(TwistJetVector::Zero(model_.input_size())),
-        state_dot_(TwistJetVector::Zero(model_.state_size())),
-        diagnostics_(static_cast<std::size_t>(model_.modules())), value_model_(params, Fidelity::kIdeal),
-        value_state_(Eigen::VectorXd::Zero(model_.state_size())), value_inputs_(Eigen::VectorXd::Zero(model_.input_size())),
-        value_state_dot_(Eigen::VectorXd::Zero(model_.state_size())),
-        value_diagnostics_(static_cast<std::size_t>(model_.modules())) {}
+      : model_(params, Fidelity::kIdeal), value_model_(params, Fidelity::kIdeal), max_iterations_(max_iterations),
+        state_size_(model_.state_size()), input_size_(model_.input_size()), modules_(model_.modules()) {}
 
   // v+ for the state `trial_state` (steering already advanced; its twist entries are ignored) under
   // `inputs`, from v0 over h, started at `guess`. Step halving keeps each iterate's residual below
@@ -106,17 +121,17 @@ class BodyTwistSolver {
   // residual non-monotone, and a long step from rest then has no root near v0 or several (Newton
   // wandered, and an unconverged 6.5 m/s was once returned for a 4 cm/s command); the caller
   // splits the step.
-  bool solve(const Eigen::Ref<const Eigen::VectorXd>& trial_state, const Eigen::Ref<const Eigen::VectorXd>& inputs,
+  bool solve(Data& d, const Eigen::Ref<const Eigen::VectorXd>& trial_state, const Eigen::Ref<const Eigen::VectorXd>& inputs,
              const Eigen::Vector3d& v0, const Eigen::Vector3d& guess, double h, Eigen::Vector3d* v_out) const noexcept {
-    for (Eigen::Index k = 0; k < state_.size(); ++k) state_[k] = TwistJet(trial_state[k]);
-    for (Eigen::Index k = 0; k < inputs_.size(); ++k) inputs_[k] = TwistJet(inputs[k]);
+    for (Eigen::Index k = 0; k < d.state.size(); ++k) d.state[k] = TwistJet(trial_state[k]);
+    for (Eigen::Index k = 0; k < d.inputs.size(); ++k) d.inputs[k] = TwistJet(inputs[k]);
     Eigen::Vector3d v = guess, a;
     Eigen::Matrix3d da_dv;
-    if (!acceleration(v, &a, &da_dv)) return false;
+    if (!acceleration(d, v, &a, &da_dv)) return false;
     Eigen::Vector3d residual = v - v0 - h * a;
     double residual_norm = residual.norm();
     double previous_norm = 0.0;  // the residual before the last full Newton step; 0 if there was none
-    final_in_double_ = false;
+    d.final_in_double = false;
     for (int iteration = 0; iteration < max_iterations_ && residual_norm > kTolerance; ++iteration) {
       const Eigen::Matrix3d jacobian = Eigen::Matrix3d::Identity() - h * da_dv;
       const Eigen::Vector3d newton_step = jacobian.partialPivLu().solve(-residual);
@@ -130,7 +145,7 @@ class BodyTwistSolver {
         const double predicted = residual_norm / (previous_norm * previous_norm) * residual_norm * residual_norm;
         if (predicted <= kTolerance) {
           v += newton_step;
-          if (!final_values(v)) return false;
+          if (!final_values(d, v)) return false;
           residual_norm = predicted;
           break;
         }
@@ -141,7 +156,7 @@ class BodyTwistSolver {
         const Eigen::Vector3d trial = v + scale * newton_step;
         Eigen::Vector3d trial_a;
         Eigen::Matrix3d trial_da_dv;
-        if (!acceleration(trial, &trial_a, &trial_da_dv)) continue;
+        if (!acceleration(d, trial, &trial_a, &trial_da_dv)) continue;
         const Eigen::Vector3d trial_residual = trial - v0 - h * trial_a;
         if (trial_residual.norm() < residual_norm) {
           previous_norm = halving == 0 ? residual_norm : 0.0;
@@ -160,13 +175,13 @@ class BodyTwistSolver {
     return v.allFinite() && residual_norm <= kConverged;
   }
 
-  long evaluations() const noexcept { return evaluations_; }
+  static long evaluations(const Data& d) noexcept { return d.evaluations; }
   // At the twist the last solve() returned (when it converged): the wear rate and each module's
   // longitudinal wheel-frame force.
-  double wear_rate() const noexcept { return final_in_double_ ? value_wear_rate_ : wear_rate_.a; }
-  double drive_force(int module) const noexcept {
+  static double wear_rate(const Data& d) noexcept { return d.final_in_double ? d.value_wear_rate : d.wear_rate.a; }
+  static double drive_force(const Data& d, int module) noexcept {
     const auto i = static_cast<std::size_t>(module);
-    return final_in_double_ ? value_diagnostics_[i].fx_wheel : diagnostics_[i].fx_wheel.a;
+    return d.final_in_double ? d.value_diagnostics[i].fx_wheel : d.diagnostics[i].fx_wheel.a;
   }
 
  private:
@@ -175,43 +190,34 @@ class BodyTwistSolver {
 
   // a(v) and da/dv, the twist seeded in the Jets' three directions; the per-module forces and the
   // wear rate come along, so the step needs no further evaluation at the converged twist.
-  bool acceleration(const Eigen::Vector3d& v, Eigen::Vector3d* a, Eigen::Matrix3d* da_dv) const noexcept {
-    ++evaluations_;
-    for (int j = 0; j < 3; ++j) state_[StateIndex::kVx + j] = TwistJet(v[j], j);
-    if (model_.derivative(state_, inputs_, state_dot_, diagnostics_.data(), &wear_rate_) != ModelStatus::kOk) {
+  bool acceleration(Data& d, const Eigen::Vector3d& v, Eigen::Vector3d* a, Eigen::Matrix3d* da_dv) const noexcept {
+    ++d.evaluations;
+    for (int j = 0; j < 3; ++j) d.state[StateIndex::kVx + j] = TwistJet(v[j], j);
+    if (model_.derivative(d.state, d.inputs, d.state_dot, d.diagnostics.data(), &d.wear_rate) != ModelStatus::kOk) {
       return false;
     }
     for (int i = 0; i < 3; ++i) {
-      (*a)[i] = state_dot_[StateIndex::kVx + i].a;
-      da_dv->row(i) = state_dot_[StateIndex::kVx + i].v.transpose();
+      (*a)[i] = d.state_dot[StateIndex::kVx + i].a;
+      da_dv->row(i) = d.state_dot[StateIndex::kVx + i].v.transpose();
     }
     return a->allFinite() && da_dv->allFinite();
   }
 
   // The model in double at v (the converged twist): forces and wear rate.
-  bool final_values(const Eigen::Vector3d& v) const noexcept {
-    ++evaluations_;
-    final_in_double_ = true;
-    for (Eigen::Index k = 0; k < state_.size(); ++k) value_state_[k] = state_[k].a;
-    for (Eigen::Index k = 0; k < inputs_.size(); ++k) value_inputs_[k] = inputs_[k].a;
-    value_state_.segment<3>(StateIndex::kVx) = v;
-    return value_model_.derivative(value_state_, value_inputs_, value_state_dot_, value_diagnostics_.data(),
-                                   &value_wear_rate_) == ModelStatus::kOk &&
-           std::isfinite(value_wear_rate_);
+  bool final_values(Data& d, const Eigen::Vector3d& v) const noexcept {
+    ++d.evaluations;
+    d.final_in_double = true;
+    for (Eigen::Index k = 0; k < d.state.size(); ++k) d.value_state[k] = d.state[k].a;
+    for (Eigen::Index k = 0; k < d.inputs.size(); ++k) d.value_inputs[k] = d.inputs[k].a;
+    d.value_state.segment<3>(StateIndex::kVx) = v;
+    return value_model_.derivative(d.value_state, d.value_inputs, d.value_state_dot, d.value_diagnostics.data(),
+                                   &d.value_wear_rate) == ModelStatus::kOk &&
+           std::isfinite(d.value_wear_rate);
   }
 
-  using TwistJetVector = Eigen::Matrix<TwistJet, Eigen::Dynamic, 1>;
   VehicleModel<TwistJet> model_;
-  int max_iterations_;
-  mutable TwistJetVector state_, inputs_, state_dot_;
-  mutable std::vector<ModuleDiagnostics<TwistJet>> diagnostics_;
-  mutable TwistJet wear_rate_{0.0};
   VehicleModel<double> value_model_;
-  mutable Eigen::VectorXd value_state_, value_inputs_, value_state_dot_;
-  mutable std::vector<ModuleDiagnostics<double>> value_diagnostics_;
-  mutable double value_wear_rate_ = 0.0;
-  mutable bool final_in_double_ = false;  // whether the last evaluation was final_values()
-  mutable long evaluations_ = 0;
+  int max_iterations_, state_size_, input_size_, modules_;
 };
 
 template <typename T>
@@ -224,25 +230,6 @@ class PredictionStep {
       : options_(options), model_(params, Fidelity::kIdeal), rk4_(model_, IntegratorMethod::kRk4),
         twist_solver_(params, options.max_newton_iterations), layout_(params.layout), kinematics_(params.layout),
         modules_(model_.modules()) {
-    const int nx = model_.state_size();
-    const int nu = model_.input_size();
-    u_applied_ = Vector::Zero(nu);
-    trial_state_ = Vector::Zero(nx);
-    state_dot_ = Vector::Zero(nx);
-    substep_state_ = Vector::Zero(nx);
-    seeded_state_ = Vector::Zero(nx);
-    constant_inputs_ = Vector::Zero(nu);
-    state_values_ = Eigen::VectorXd::Zero(nx);
-    input_values_ = Eigen::VectorXd::Zero(nu);
-    diagnostics_.resize(static_cast<std::size_t>(modules_));
-    // One slot per Newton solve: every substep, each split into halves down to kMaxSplits deep.
-    const auto most_solves = static_cast<std::size_t>(std::max(options.substeps, options.slow_substeps)) *
-                             ((std::size_t{1} << (kMaxSplits + 1)) - 1);
-    twist_values_.assign(most_solves, Eigen::Vector3d::Zero());
-    twist_factorizations_.assign(most_solves, Eigen::PartialPivLU<Eigen::Matrix3d>(Eigen::Matrix3d::Identity()));
-    split_.assign(most_solves, 0);
-    split_states_.assign(kMaxSplits, Vector::Zero(nx));
-    wheel_states_ = ModuleStates(modules_);
     energy_wear_ = params.casters.empty() && params.wear.model == WearModelKind::kFrictionalPower;
     wheel_radius_ = params.layout.wheel_radius();
     wear_coefficient_ = params.wear.coefficient;
@@ -260,48 +247,86 @@ class PredictionStep {
     }
   }
 
+  // The step's scratch, owned by its caller (Crocoddyl's createData(), acados' workspace): the
+  // step itself is immutable, so rollouts with a Data each may run on threads of their own.
+  struct Data {
+    explicit Data(const PredictionStep& step) : twist(step.twist_solver_) {
+      const int nx = step.model_.state_size();
+      const int nu = step.model_.input_size();
+      u_applied = Vector::Zero(nu);
+      trial_state = Vector::Zero(nx);
+      state_dot = Vector::Zero(nx);
+      substep_state = Vector::Zero(nx);
+      seeded_state = Vector::Zero(nx);
+      constant_inputs = Vector::Zero(nu);
+      state_values = Eigen::VectorXd::Zero(nx);
+      input_values = Eigen::VectorXd::Zero(nu);
+      diagnostics.resize(static_cast<std::size_t>(step.modules_));
+      // One slot per Newton solve: every substep, each split into halves down to kMaxSplits deep.
+      const auto most_solves =
+          static_cast<std::size_t>(std::max(step.options_.substeps, step.options_.slow_substeps)) *
+          ((std::size_t{1} << (kMaxSplits + 1)) - 1);
+      twist_values.assign(most_solves, Eigen::Vector3d::Zero());
+      twist_factorizations.assign(most_solves, Eigen::PartialPivLU<Eigen::Matrix3d>(Eigen::Matrix3d::Identity()));
+      split.assign(most_solves, 0);
+      split_states.assign(kMaxSplits, Vector::Zero(nx));
+      wheel_states = ModuleStates(step.modules_);
+    }
+    Vector u_applied, trial_state, state_dot, substep_state, seeded_state, constant_inputs;
+    Eigen::VectorXd state_values, input_values;
+    std::vector<ModuleDiagnostics<T>> diagnostics;
+    bool replay = false;  // see begin_chunk
+    int substep_index = 0;
+    std::vector<Eigen::Vector3d> twist_values;                             // per solve
+    std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> twist_factorizations;  // per solve
+    std::vector<char> split;                                                 // per solve
+    std::vector<Vector> split_states;                                        // per split depth
+    ModuleStates wheel_states;
+    BodyTwistSolver::Data twist;
+  };
+
   const VehicleModel<T>& model() const noexcept { return model_; }
   // Evaluations of the vehicle model's derivative in double by the semi-implicit steps so far.
-  long model_evaluations() const noexcept { return twist_solver_.evaluations(); }
+  static long model_evaluations(const Data& d) noexcept { return BodyTwistSolver::evaluations(d.twist); }
 
   // Jacobians are evaluated in chunks of Jet directions, each a full step at the same values. The
   // first chunk records each substep's Newton solution and dG/dv factorisation; later chunks
   // replay them instead of solving again (Jet instances only).
-  void begin_chunk(bool first) const noexcept { replay_ = !first; }
+  static void begin_chunk(Data& d, bool first) noexcept { d.replay = !first; }
 
   // x_next = F(x, u) over dt with module inputs u (steering rate, wheel speed per module) and the
   // stage wear. Sizes and finiteness are the caller's to check. No allocation.
-  bool step(const Eigen::Ref<const Vector>& x, const Eigen::Ref<const Vector>& u, double dt, Eigen::Ref<Vector> x_next,
-            T* stage_wear) const noexcept {
+  bool step(Data& d, const Eigen::Ref<const Vector>& x, const Eigen::Ref<const Vector>& u, double dt,
+            Eigen::Ref<Vector> x_next, T* stage_wear) const noexcept {
     const ModuleLimits& limits = layout_.limits();
     // End stops: the steering rate is clipped so the angle stays inside the module's range. A
     // [-pi, pi] range means none: the module turns freely through +-pi (a clip there left a
     // module reversed by pi unable to steer one way, and the tracking stuck).
-    u_applied_ = u;
+    d.u_applied = u;
     for (int i = 0; i < modules_ && limits.has_steering_end_stops(); ++i) {
       const T& angle = x[StateIndex::steering(i)];
-      T& rate = u_applied_[InputIndex::steering_rate(i)];
+      T& rate = d.u_applied[InputIndex::steering_rate(i)];
       rate = clamp_by_value<T>(rate, (limits.min_steering_angle - angle) / dt, (limits.max_steering_angle - angle) / dt);
     }
     T wear(0.0);
     bool ok = true;
     if (options_.method == PredictionMethod::kRk4) {
-      ok = rk4_.step(x, u_applied_, dt, options_.substeps, x_next, &wear) == ModelStatus::kOk;
+      ok = rk4_.step(x, d.u_applied, dt, options_.substeps, x_next, &wear) == ModelStatus::kOk;
     } else {
       // Slow motion (body and every commanded contact speed under 0.25 m/s) is where one implicit
       // step per controller step mispredicts wear most; there it takes more, shorter steps.
       double fastest = std::hypot(scalar_value(x[StateIndex::kVx]), scalar_value(x[StateIndex::kVy]));
       for (int i = 0; i < modules_; ++i) {
-        fastest = std::max(fastest, std::abs(scalar_value(u_applied_[InputIndex::wheel_speed(i)])) * wheel_radius_);
+        fastest = std::max(fastest, std::abs(scalar_value(d.u_applied[InputIndex::wheel_speed(i)])) * wheel_radius_);
       }
       const int substeps =
           fastest < kSlowSpeed ? std::max(options_.substeps, options_.slow_substeps) : options_.substeps;
       const double h = dt / substeps;
-      substep_index_ = 0;
-      substep_state_ = x;
+      d.substep_index = 0;
+      d.substep_state = x;
       for (int s = 0; s < substeps && ok; ++s) {
-        ok = semi_implicit_substep(substep_state_, h, x_next, &wear, 0);
-        substep_state_ = x_next;
+        ok = semi_implicit_substep(d, d.substep_state, h, x_next, &wear, 0);
+        d.substep_state = x_next;
       }
     }
     if (stage_wear != nullptr) *stage_wear = wear;
@@ -363,20 +388,20 @@ class PredictionStep {
   // dv+/dp by the implicit function theorem at the converged v+ (T is a Jet; see the top). A member
   // template so that the double instantiation never compiles it.
   template <typename Jet = T>
-  bool implicit_twist(const Vector3& v0, const Eigen::Vector3d& v_value, double h, std::size_t slot,
+  bool implicit_twist(Data& d, const Vector3& v0, const Eigen::Vector3d& v_value, double h, std::size_t slot,
                       Vector3* v) const noexcept {
     constexpr int kDirections = decltype(std::declval<Jet>().v)::RowsAtCompileTime;
     static_assert(kDirections >= 3, "the Jet must hold the three twist directions");
-    Eigen::PartialPivLU<Eigen::Matrix3d>& lu = twist_factorizations_[slot];
-    if (!replay_) {
-      if (!twist_jacobian(v_value, h, &lu)) return false;
+    Eigen::PartialPivLU<Eigen::Matrix3d>& lu = d.twist_factorizations[slot];
+    if (!d.replay) {
+      if (!twist_jacobian(d, v_value, h, &lu)) return false;
     }
     // dG/dp: v held at its value, the state's and inputs' own derivatives flowing.
-    for (int j = 0; j < 3; ++j) trial_state_[StateIndex::kVx + j] = T(v_value[j]);
-    if (model_.derivative(trial_state_, u_applied_, state_dot_) != ModelStatus::kOk) return false;
+    for (int j = 0; j < 3; ++j) d.trial_state[StateIndex::kVx + j] = T(v_value[j]);
+    if (model_.derivative(d.trial_state, d.u_applied, d.state_dot) != ModelStatus::kOk) return false;
     Eigen::Matrix<double, 3, kDirections> dg_dp;
     for (int i = 0; i < 3; ++i) {
-      const T g = T(v_value[i]) - v0[i] - h * state_dot_[StateIndex::kVx + i];
+      const T g = T(v_value[i]) - v0[i] - h * d.state_dot[StateIndex::kVx + i];
       dg_dp.row(i) = g.v.transpose();
     }
     const Eigen::Matrix<double, 3, kDirections> dv_dp = -lu.solve(dg_dp);
@@ -389,17 +414,17 @@ class PredictionStep {
 
   // dG/dv = I - h da/dv at v+, exactly: the twist seeded alone, everything else constant.
   template <typename Jet = T>
-  bool twist_jacobian(const Eigen::Vector3d& v_value, double h, Eigen::PartialPivLU<Eigen::Matrix3d>* lu) const noexcept {
-    for (Eigen::Index k = 0; k < trial_state_.size(); ++k) seeded_state_[k] = T(scalar_value(trial_state_[k]));
-    for (Eigen::Index k = 0; k < u_applied_.size(); ++k) constant_inputs_[k] = T(scalar_value(u_applied_[k]));
+  bool twist_jacobian(Data& d, const Eigen::Vector3d& v_value, double h, Eigen::PartialPivLU<Eigen::Matrix3d>* lu) const noexcept {
+    for (Eigen::Index k = 0; k < d.trial_state.size(); ++k) d.seeded_state[k] = T(scalar_value(d.trial_state[k]));
+    for (Eigen::Index k = 0; k < d.u_applied.size(); ++k) d.constant_inputs[k] = T(scalar_value(d.u_applied[k]));
     for (int j = 0; j < 3; ++j) {
-      seeded_state_[StateIndex::kVx + j] = T(v_value[j]);
-      seeded_state_[StateIndex::kVx + j].v[j] = 1.0;
+      d.seeded_state[StateIndex::kVx + j] = T(v_value[j]);
+      d.seeded_state[StateIndex::kVx + j].v[j] = 1.0;
     }
-    if (model_.derivative(seeded_state_, constant_inputs_, state_dot_) != ModelStatus::kOk) return false;
+    if (model_.derivative(d.seeded_state, d.constant_inputs, d.state_dot) != ModelStatus::kOk) return false;
     Eigen::Matrix3d dg_dv;
     for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) dg_dv(i, j) = (i == j ? 1.0 : 0.0) - h * state_dot_[StateIndex::kVx + i].v[j];
+      for (int j = 0; j < 3; ++j) dg_dv(i, j) = (i == j ? 1.0 : 0.0) - h * d.state_dot[StateIndex::kVx + i].v[j];
     }
     lu->compute(dg_dv);
     return dg_dv.allFinite();
@@ -410,15 +435,15 @@ class PredictionStep {
   // modules), the body's momentum holding it at v0: v+ = (v0 + (h/tau_t) v_wheels) / (1 + h/tau_t),
   // the exact root of the linearised residual. Newton's method starts there (from v0 it took 4-5
   // iterations at cruise).
-  Eigen::Vector3d quasi_steady_twist(const Eigen::Ref<const Eigen::VectorXd>& state,
+  Eigen::Vector3d quasi_steady_twist(Data& d, const Eigen::Ref<const Eigen::VectorXd>& state,
                                      const Eigen::Ref<const Eigen::VectorXd>& inputs, const Eigen::Vector3d& v0,
                                      double h) const noexcept {
     if (slip_stiffness_sum_ <= 0.0) return v0;
     for (int i = 0; i < modules_; ++i) {
-      wheel_states_[i] = ModuleState{wheel_radius_ * inputs[InputIndex::wheel_speed(i)], state[StateIndex::steering(i)]};
+      d.wheel_states[i] = ModuleState{wheel_radius_ * inputs[InputIndex::wheel_speed(i)], state[StateIndex::steering(i)]};
     }
     Eigen::Vector3d wheels;
-    if (kinematics_.forward(wheel_states_, &wheels) != KinematicsStatus::kOk) return v0;
+    if (kinematics_.forward(d.wheel_states, &wheels) != KinematicsStatus::kOk) return v0;
     const double tire_time = mass_ * std::sqrt(v0.head<2>().squaredNorm() + slip_speed_epsilon_ * slip_speed_epsilon_) /
                              slip_stiffness_sum_;
     const double ratio = h / tire_time;
@@ -429,45 +454,45 @@ class PredictionStep {
   // peak: see BodyTwistSolver::solve) the substep is taken as two half steps instead, down to
   // h / 2^kMaxSplits, which keeps the root the one that continues v0. The Jet instances replay the
   // split decisions of the first chunk.
-  bool semi_implicit_substep(const Eigen::Ref<const Vector>& x, double h, Eigen::Ref<Vector> x_next, T* wear,
+  bool semi_implicit_substep(Data& d, const Eigen::Ref<const Vector>& x, double h, Eigen::Ref<Vector> x_next, T* wear,
                              int depth) const noexcept {
-    const auto slot = static_cast<std::size_t>(substep_index_++);
-    if (slot >= split_.size()) return false;
+    const auto slot = static_cast<std::size_t>(d.substep_index++);
+    if (slot >= d.split.size()) return false;
     // Steering advances explicitly under the (already end-stop-clipped) rate.
-    trial_state_ = x;
+    d.trial_state = x;
     for (int i = 0; i < modules_; ++i) {
-      trial_state_[StateIndex::steering(i)] = x[StateIndex::steering(i)] + h * u_applied_[InputIndex::steering_rate(i)];
+      d.trial_state[StateIndex::steering(i)] = x[StateIndex::steering(i)] + h * d.u_applied[InputIndex::steering_rate(i)];
     }
     const Vector3 v0 = x.template segment<3>(StateIndex::kVx);
     Vector3 v;
     if constexpr (std::is_same_v<T, double>) {
-      split_[slot] = !twist_solver_.solve(trial_state_, u_applied_, v0, quasi_steady_twist(trial_state_, u_applied_, v0, h),
+      d.split[slot] = !twist_solver_.solve(d.twist, d.trial_state, d.u_applied, v0, quasi_steady_twist(d, d.trial_state, d.u_applied, v0, h),
                                           h, &v);
     } else {
-      for (Eigen::Index k = 0; k < trial_state_.size(); ++k) state_values_[k] = scalar_value(trial_state_[k]);
-      for (Eigen::Index k = 0; k < u_applied_.size(); ++k) input_values_[k] = scalar_value(u_applied_[k]);
+      for (Eigen::Index k = 0; k < d.trial_state.size(); ++k) d.state_values[k] = scalar_value(d.trial_state[k]);
+      for (Eigen::Index k = 0; k < d.u_applied.size(); ++k) d.input_values[k] = scalar_value(d.u_applied[k]);
       const Eigen::Vector3d v0_value(scalar_value(v0.x()), scalar_value(v0.y()), scalar_value(v0.z()));
-      Eigen::Vector3d& v_value = twist_values_[slot];
-      if (!replay_) {
-        split_[slot] = !twist_solver_.solve(state_values_, input_values_, v0_value,
-                                            quasi_steady_twist(state_values_, input_values_, v0_value, h), h, &v_value);
+      Eigen::Vector3d& v_value = d.twist_values[slot];
+      if (!d.replay) {
+        d.split[slot] = !twist_solver_.solve(d.twist, d.state_values, d.input_values, v0_value,
+                                            quasi_steady_twist(d, d.state_values, d.input_values, v0_value, h), h, &v_value);
       }
-      if (!split_[slot] && !implicit_twist(v0, v_value, h, slot, &v)) return false;
+      if (!d.split[slot] && !implicit_twist(d, v0, v_value, h, slot, &v)) return false;
     }
-    if (split_[slot]) {
+    if (d.split[slot]) {
       if (depth >= kMaxSplits) return false;
-      Vector& middle = split_states_[static_cast<std::size_t>(depth)];
-      return semi_implicit_substep(x, 0.5 * h, middle, wear, depth + 1) &&
-             semi_implicit_substep(middle, 0.5 * h, x_next, wear, depth + 1);
+      Vector& middle = d.split_states[static_cast<std::size_t>(depth)];
+      return semi_implicit_substep(d, x, 0.5 * h, middle, wear, depth + 1) &&
+             semi_implicit_substep(d, middle, 0.5 * h, x_next, wear, depth + 1);
     }
-    trial_state_.template segment<3>(StateIndex::kVx) = v;
+    d.trial_state.template segment<3>(StateIndex::kVx) = v;
     T wear_rate(0.0);
     if constexpr (std::is_same_v<T, double>) {
       // The solver's last evaluation was at v+: its forces and wear rate are the step's.
-      wear_rate = twist_solver_.wear_rate();
-      for (int i = 0; i < modules_; ++i) diagnostics_[static_cast<std::size_t>(i)].fx_wheel = twist_solver_.drive_force(i);
+      wear_rate = BodyTwistSolver::wear_rate(d.twist);
+      for (int i = 0; i < modules_; ++i) d.diagnostics[static_cast<std::size_t>(i)].fx_wheel = BodyTwistSolver::drive_force(d.twist, i);
     } else {
-      if (model_.derivative(trial_state_, u_applied_, state_dot_, diagnostics_.data(), &wear_rate) != ModelStatus::kOk) {
+      if (model_.derivative(d.trial_state, d.u_applied, d.state_dot, d.diagnostics.data(), &wear_rate) != ModelStatus::kOk) {
         return false;
       }
     }
@@ -476,8 +501,8 @@ class PredictionStep {
       // The drives' work with the implicit step's forces at v+, less the body's kinetic-energy gain.
       T drive_work(0.0);
       for (int i = 0; i < modules_; ++i) {
-        drive_work += h * diagnostics_[static_cast<std::size_t>(i)].fx_wheel * wheel_radius_ *
-                      u_applied_[InputIndex::wheel_speed(i)];
+        drive_work += h * d.diagnostics[static_cast<std::size_t>(i)].fx_wheel * wheel_radius_ *
+                      d.u_applied[InputIndex::wheel_speed(i)];
       }
       const T dissipated = drive_work - (kinetic_energy(v) - kinetic_energy(v0));
       step_wear = lagged_wear(step_wear, wear_coefficient_ * positive_part(dissipated), v0);
@@ -485,7 +510,7 @@ class PredictionStep {
     // Pose: the body moves with the constant twist v over h (exact on arcs).
     const Vector3 delta_body = h * v;
     const Vector3 pose = compose_pose_of<T>(x.template head<3>(), delta_body);
-    x_next = trial_state_;
+    x_next = d.trial_state;
     x_next.template head<3>() = pose;
     *wear += step_wear;
     for (Eigen::Index k = 0; k < x_next.size(); ++k) {
@@ -522,16 +547,19 @@ class PredictionStep {
   bool energy_wear_ = false;
   double wheel_radius_ = 0.0, wear_coefficient_ = 0.0;
   double drive_lag_ = 0.0, mass_ = 0.0, slip_speed_epsilon_ = 0.0, slip_stiffness_sum_ = 0.0;
-  mutable Vector u_applied_, trial_state_, state_dot_, substep_state_, seeded_state_, constant_inputs_;
-  mutable Eigen::VectorXd state_values_, input_values_;
-  mutable std::vector<ModuleDiagnostics<T>> diagnostics_;
-  mutable bool replay_ = false;  // see begin_chunk
-  mutable int substep_index_ = 0;
-  mutable std::vector<Eigen::Vector3d> twist_values_;                             // per solve
-  mutable std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> twist_factorizations_;  // per solve
-  mutable std::vector<char> split_;                                                 // per solve
-  mutable std::vector<Vector> split_states_;                                        // per split depth
-  mutable ModuleStates wheel_states_;
 };
 
 }  // namespace swerve::detail
+
+namespace swerve {
+
+// VehiclePredictionModel's caller-owned scratch: the double step's and the module inputs a
+// twist_step maps to.
+struct VehiclePredictionModel::Data::Impl {
+  explicit Impl(const detail::PredictionStep<double>& step)
+      : values(step), inputs(Eigen::VectorXd::Zero(step.model().input_size())) {}
+  detail::PredictionStep<double>::Data values;
+  Eigen::VectorXd inputs;
+};
+
+}  // namespace swerve

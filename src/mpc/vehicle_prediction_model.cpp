@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 #include "prediction_step.hpp"
 #include "swerve/config/config_error.hpp"
@@ -25,15 +26,34 @@ void PredictionOptions::validate() const {
 
 const VehicleModel<double>& VehiclePredictionModel::vehicle() const noexcept { return values_->model(); }
 
-long VehiclePredictionModel::model_evaluations() const noexcept { return values_->model_evaluations(); }
+VehiclePredictionModel::Data::Data(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+VehiclePredictionModel::Data::Data(Data&&) noexcept = default;
+VehiclePredictionModel::Data& VehiclePredictionModel::Data::operator=(Data&&) noexcept = default;
+VehiclePredictionModel::Data::~Data() = default;
+
+VehiclePredictionModel::Data VehiclePredictionModel::create_data() const {
+  return Data(std::make_unique<Data::Impl>(*values_));
+}
+
+long VehiclePredictionModel::model_evaluations() const noexcept { return model_evaluations(*data_); }
+
+long VehiclePredictionModel::model_evaluations(const Data& data) noexcept {
+  return detail::PredictionStep<double>::model_evaluations(data.impl_->values);
+}
 
 bool VehiclePredictionModel::step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                                   double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
+  return step(*data_, x, u, dt, x_next, stage_wear);
+}
+
+bool VehiclePredictionModel::step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                  const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                  Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
   if (x.size() != state_size_ || u.size() != input_size_ || x_next.size() != state_size_ || !(dt > 0.0) ||
       !std::isfinite(dt) || !x.allFinite() || !u.allFinite()) {
     return false;
   }
-  return values_->step(x, u, dt, x_next, stage_wear);
+  return values_->step(data.impl_->values, x, u, dt, x_next, stage_wear);
 }
 
 void VehiclePredictionModel::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
@@ -44,12 +64,19 @@ void VehiclePredictionModel::module_inputs(const Eigen::Ref<const Eigen::VectorX
 bool VehiclePredictionModel::twist_step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
                                         double dt, Eigen::Ref<Eigen::VectorXd> x_next,
                                         double* stage_wear) const noexcept {
+  return twist_step(*data_, x, twist_body, dt, x_next, stage_wear);
+}
+
+bool VehiclePredictionModel::twist_step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                        const Eigen::Vector3d& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+                                        double* stage_wear) const noexcept {
   if (x.size() != state_size_ || x_next.size() != state_size_ || !(dt > 0.0) || !std::isfinite(dt) ||
       !x.allFinite() || !twist_body.allFinite()) {
     return false;
   }
-  values_->module_inputs(x, twist_body, dt, inputs_);
-  return values_->step(x, inputs_, dt, x_next, stage_wear);
+  Data::Impl& scratch = *data.impl_;
+  values_->module_inputs(x, twist_body, dt, scratch.inputs);
+  return values_->step(scratch.values, x, scratch.inputs, dt, x_next, stage_wear);
 }
 
 }  // namespace swerve

@@ -2,6 +2,7 @@
 // RK4 at a fine step. Stage wear is what the wear term optimises, so it must not be off by large
 // factors anywhere the controller operates (start-up, slow motion, cruise, corners).
 #include "swerve/mpc/twist_prediction_model.hpp"
+#include "swerve/mpc/vehicle_prediction_model.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,6 +11,8 @@
 #include <algorithm>
 #include <numeric>
 #include <random>
+#include <thread>
+#include <vector>
 
 #include "models/model_fixtures.hpp"
 #include "swerve/models/integrators.hpp"
@@ -171,6 +174,67 @@ TEST(VehiclePredictionModel, AStartUpFromRestNeverPredictsASpeedBeyondTheCommand
     }
   }
   std::printf("[          ] fastest predicted body speed %.3f m/s\n", fastest_predicted);
+}
+
+// The model is immutable and its scratch belongs to the caller (issue 16): rollouts with a Data
+// each, on two threads at once, give bit for bit what one thread gives.
+TEST(VehiclePredictionModel, RolloutsWithTheirOwnDataOnTwoThreadsMatchOneThreadBitForBit) {
+  const VehicleParams params = small_agv(true);
+  const VehiclePredictionModel model(params);
+  constexpr int kSequences = 32, kStages = 20;
+  std::mt19937_64 random(11);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  std::vector<Eigen::MatrixXd> twists(kSequences, Eigen::MatrixXd(3, kStages));
+  for (int s = 0; s < kSequences; ++s) {
+    for (int k = 0; k < kStages; ++k) {
+      // Even sequences start from rest (slow-motion substeps), odd ones cruise along an arc.
+      const double speed = s % 2 == 0 ? 0.6 * (k + 1) / kStages : 0.8;
+      twists[static_cast<std::size_t>(s)].col(k) = Eigen::Vector3d(speed + noise(random), noise(random), 0.3 + noise(random));
+    }
+  }
+  const auto rollout = [&](VehiclePredictionModel::Data& data, int s, Eigen::VectorXd* final_state, double* wear) {
+    Eigen::VectorXd x = s % 2 == 0 ? Eigen::VectorXd::Zero(10) : moving_with(params, {0.8, 0.0, 0.3});
+    Eigen::VectorXd x_next = x;
+    *wear = 0.0;
+    for (int k = 0; k < kStages; ++k) {
+      double stage_wear = 0.0;
+      if (!model.twist_step(data, x, twists[static_cast<std::size_t>(s)].col(k), 0.05, x_next, &stage_wear)) return false;
+      *wear += stage_wear;
+      x.swap(x_next);
+    }
+    *final_state = x;
+    return true;
+  };
+  std::vector<Eigen::VectorXd> expected_states(kSequences);
+  std::vector<double> expected_wear(kSequences);
+  {
+    VehiclePredictionModel::Data data = model.create_data();
+    for (int s = 0; s < kSequences; ++s) {
+      ASSERT_TRUE(rollout(data, s, &expected_states[static_cast<std::size_t>(s)], &expected_wear[static_cast<std::size_t>(s)]));
+    }
+  }
+  // Each thread runs every sequence three times, the second in the opposite order, so the two
+  // threads' rollouts overlap in every combination.
+  std::vector<int> mismatches(2, 0);
+  const auto worker = [&](int id) {
+    VehiclePredictionModel::Data data = model.create_data();
+    for (int pass = 0; pass < 3; ++pass) {
+      for (int i = 0; i < kSequences; ++i) {
+        const int s = id == 1 ? kSequences - 1 - i : i;
+        Eigen::VectorXd state;
+        double wear = 0.0;
+        const auto index = static_cast<std::size_t>(s);
+        if (!rollout(data, s, &state, &wear) || state != expected_states[index] || wear != expected_wear[index]) {
+          ++mismatches[static_cast<std::size_t>(id)];
+        }
+      }
+    }
+  };
+  std::thread first(worker, 0), second(worker, 1);
+  first.join();
+  second.join();
+  EXPECT_EQ(mismatches[0], 0);
+  EXPECT_EQ(mismatches[1], 0);
 }
 
 TEST(VehiclePredictionModel, SteadyMotionWearsNothingInPredictionAndPlant) {

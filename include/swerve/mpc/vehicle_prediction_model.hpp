@@ -87,10 +87,34 @@ class VehiclePredictionModel final : public PredictionModel {
   void module_inputs(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
                      Eigen::Ref<Eigen::VectorXd> inputs) const noexcept;
 
+  // Scratch owned by the caller. The model itself is immutable: rollouts that each pass a Data of
+  // their own (made once, by create_data(); allocation-free after) may run on threads of their
+  // own, bit for bit as on one. The overloads without a Data use the model's own, so they are not
+  // re-entrant; nor, yet, are the Jacobians.
+  class Data {
+   public:
+    Data(Data&&) noexcept;
+    Data& operator=(Data&&) noexcept;
+    ~Data();
+
+   private:
+    friend class VehiclePredictionModel;
+    struct Impl;
+    explicit Data(std::unique_ptr<Impl> impl);
+    std::unique_ptr<Impl> impl_;
+  };
+  Data create_data() const;
+  bool step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+            double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
+  bool twist_step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
+                  Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
+
   const VehicleModel<double>& vehicle() const noexcept;
-  // How many times the double steps (step, twist_step) evaluated the vehicle model's derivative
-  // since construction: the rollout's cost driver (BM_Prediction_Rollout reports it per stage).
+  // Evaluations of the vehicle model (each with the twist Jacobian, or in double for the final
+  // values) by the double steps through `data` (default: the model's own) since it was made: the
+  // rollout's cost driver (BM_Prediction_Rollout reports them per stage).
   long model_evaluations() const noexcept;
+  static long model_evaluations(const Data& data) noexcept;
   const PredictionOptions& options() const noexcept { return options_; }
 
  private:
@@ -98,7 +122,7 @@ class VehiclePredictionModel final : public PredictionModel {
   int modules_, state_size_, input_size_;
   std::unique_ptr<detail::PredictionStep<double>> values_;
   std::unique_ptr<detail::PredictionJets> jets_;  // the Jet twin of values_ (prediction_jacobians.cpp)
-  mutable Eigen::VectorXd inputs_;                 // module inputs of twist_step
+  std::unique_ptr<Data> data_;                     // the scratch of the overloads without a Data
 };
 
 }  // namespace swerve
