@@ -36,19 +36,19 @@ ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverride
       throw OverrideError(std::string("--backend: ") + error.what());
     }
   }
+  if (overrides.tracking_tolerance) {  // checked even when no controller would use it, as --backend
+    try {
+      overrides.tracking_tolerance->validate();
+    } catch (const ConfigError& error) {
+      throw OverrideError(std::string("--tolerance: ") + error.what());
+    }
+  }
   for (ScenarioController& c : s.controllers) {
     if (c.config.kind != ControllerKind::kWearMpc) continue;
     if (overrides.backend) c.config.solver.backend = *overrides.backend;
     // A sweep moves the wear-aware controllers' lambda, never a configured lambda = 0 comparison.
     if (overrides.wear_weight && c.config.mpc.wear_weight > 0.0) c.config.mpc.wear_weight = *overrides.wear_weight;
-    if (overrides.tracking_tolerance) {
-      try {
-        overrides.tracking_tolerance->validate();
-      } catch (const ConfigError& error) {
-        throw OverrideError(std::string("--tolerance: ") + error.what());
-      }
-      c.config.mpc.tracking_tolerance = *overrides.tracking_tolerance;
-    }
+    if (overrides.tracking_tolerance) c.config.mpc.tracking_tolerance = *overrides.tracking_tolerance;
   }
   return s;
 }

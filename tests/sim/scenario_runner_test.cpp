@@ -216,6 +216,23 @@ TEST(ScenarioRunner, ARepeatedControllerOverrideIsAnOverrideError) {
   EXPECT_THROW(apply_overrides(scenario, unknown), OverrideError);
 }
 
+TEST(ScenarioRunner, ABadToleranceOverrideIsAnOverrideErrorEvenWithoutAWearAwareController) {
+  // Like --backend: a typo must not pass just because the chosen controllers would ignore it.
+  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_curve_baseline.yaml"));
+  RunOverrides bad;
+  TrackingTolerance tolerance;
+  tolerance.position = -0.05;
+  tolerance.heading = 0.01;
+  bad.tracking_tolerance = tolerance;
+  try {
+    apply_overrides(scenario, bad);
+    FAIL() << "a negative tolerance was accepted";
+  } catch (const OverrideError& error) {
+    EXPECT_NE(std::string(error.what()).find("--tolerance: "), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("-0.05"), std::string::npos) << error.what();
+  }
+}
+
 TEST(ScenarioConfig, StepCountIsBoundedInsteadOfOverflowing) {
   ScenarioConfig scenario = load_scenario_config_file(data_file("short_curve_baseline.yaml"));
   EXPECT_EQ(scenario.steps(), 40);  // 2 s at 50 ms
