@@ -444,9 +444,7 @@ class PredictionStep {
     }
     Eigen::Vector3d wheels;
     if (kinematics_.forward(d.wheel_states, &wheels) != KinematicsStatus::kOk) return v0;
-    const double tire_time = mass_ * std::sqrt(v0.head<2>().squaredNorm() + slip_speed_epsilon_ * slip_speed_epsilon_) /
-                             slip_stiffness_sum_;
-    const double ratio = h / tire_time;
+    const double ratio = h / tire_time_constant<double>(v0.x(), v0.y());
     return (v0 + ratio * wheels) / (1.0 + ratio);
   }
 
@@ -529,12 +527,18 @@ class PredictionStep {
   // 1 cm/s correction in cruise was predicted ~8x dearer than the plant (tau_a = 50 ms against
   // tau_t = 7 ms on the paper's AGV at 1 m/s), and the controller let the tracking go to save it.
   T lagged_wear(const T& steady, const T& balance, const Vector3& v0) const noexcept {
-    using std::sqrt;
     if (drive_lag_ <= 0.0 || slip_stiffness_sum_ <= 0.0) return balance;
-    const T speed = sqrt(v0.x() * v0.x() + v0.y() * v0.y() + slip_speed_epsilon_ * slip_speed_epsilon_);
-    const T tire_time = mass_ * speed / slip_stiffness_sum_;
+    const T tire_time = tire_time_constant<T>(v0.x(), v0.y());
     const T share = tire_time / (tire_time + drive_lag_);
     return steady + share * (balance - steady);
+  }
+
+  // tau_t = m / c of the tyres acting on the body as one damper c = stiffness / |v| (|v| regularised
+  // by the slip-speed epsilon), for a body moving at (vx, vy). Needs slip_stiffness_sum_ > 0.
+  template <typename S>
+  S tire_time_constant(const S& vx, const S& vy) const noexcept {
+    using std::sqrt;
+    return mass_ * sqrt(vx * vx + vy * vy + slip_speed_epsilon_ * slip_speed_epsilon_) / slip_stiffness_sum_;
   }
 
   PredictionOptions options_;

@@ -566,10 +566,13 @@ class ChargedReference final : public Reference {
   double cost_s_;
 };
 
-// Records the time the solver was given.
+// Records the time the solver was given and returns the cheapest start. With a clock and an
+// overshoot it then uses its whole time and `*overshoot_s` more (an operating-system stall).
 class DeadlineRecorder final : public Solver {
  public:
-  DeadlineRecorder(const OcpProblem& shape, double* remaining_s) : Solver(shape), remaining_s_(remaining_s) {}
+  DeadlineRecorder(const OcpProblem& shape, double* remaining_s, testing::ManualClock* clock = nullptr,
+                   const double* overshoot_s = nullptr)
+      : Solver(shape), remaining_s_(remaining_s), clock_(clock), overshoot_s_(overshoot_s) {}
   const char* name() const noexcept override { return "deadline_recorder"; }
 
  private:
@@ -581,10 +584,15 @@ class DeadlineRecorder final : public Solver {
     long rollouts = 0;
     out->cost = cheapest_start(problem, guesses, out->inputs, out->states, candidate_inputs, candidate_states,
                                stage_costs, &rollouts);
+    if (clock_ != nullptr && overshoot_s_ != nullptr) {
+      clock_->advance(deadline.remaining() + to_duration(*overshoot_s_));
+    }
     summary->reason = "deadline recorder: the cheapest start";
     return SolveStatus::kConverged;
   }
   double* remaining_s_;
+  testing::ManualClock* clock_;
+  const double* overshoot_s_;
 };
 
 TEST(Controller, TheDeadlineCoversTheWholeStepNotOnlyTheSolve) {
@@ -605,32 +613,6 @@ TEST(Controller, TheDeadlineCoversTheWholeStepNotOnlyTheSolve) {
   EXPECT_NEAR(out.step_time_s, options.horizon * 1e-4, 1e-9);
 }
 
-// Uses its whole time and then `overshoot_s` more (an operating-system stall), recording the time
-// it was given.
-class StallingSolver final : public Solver {
- public:
-  StallingSolver(const OcpProblem& shape, testing::ManualClock* clock, const double* overshoot_s, double* remaining_s)
-      : Solver(shape), clock_(clock), overshoot_s_(overshoot_s), remaining_s_(remaining_s) {}
-  const char* name() const noexcept override { return "stalling"; }
-
- private:
-  SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
-                       SolveSummary* summary) noexcept override {
-    *remaining_s_ = to_seconds(deadline.remaining());
-    Eigen::MatrixXd candidate_inputs = out->inputs, candidate_states = out->states;
-    Eigen::VectorXd stage_costs(problem.horizon());
-    long rollouts = 0;
-    out->cost = cheapest_start(problem, guesses, out->inputs, out->states, candidate_inputs, candidate_states,
-                               stage_costs, &rollouts);
-    clock_->advance(deadline.remaining() + to_duration(*overshoot_s_));
-    summary->reason = "stalling: the cheapest start, late";
-    return SolveStatus::kConverged;
-  }
-  testing::ManualClock* clock_;
-  const double* overshoot_s_;
-  double* remaining_s_;
-};
-
 TEST(Controller, AStallPastTheSolversDeadlineWidensTheMarginSoTheNextStepsEndInTime) {
   // 5 ms budget, 0.25 ms base margin. One step overshoots the solver's deadline by 1 ms (a stall):
   // that step misses, and the next steps give the solver 1.5 ms less, so the same stall again would
@@ -639,7 +621,7 @@ TEST(Controller, AStallPastTheSolversDeadlineWidensTheMarginSoTheNextStepsEndInT
   double overshoot_s = 0.001, remaining_s = -1.0;
   const ControllerOptions options = fast_options();
   Controller controller(small_robot(), testing::line_reference(0.5), options, [&](const OcpProblem& p) {
-    return std::make_unique<StallingSolver>(p, &clock, &overshoot_s, &remaining_s);
+    return std::make_unique<DeadlineRecorder>(p, &remaining_s, &clock, &overshoot_s);
   });
   controller.set_clock(clock);
   const double budget = options.solve_budget;

@@ -114,7 +114,8 @@ class Controller final : public TrackingController {
   void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   bool motion_commanded() const noexcept;
   const ControlOutput& finish(TimePoint step_start) noexcept;
-  // The solver's deadline this step: the budget less the margin (see deadline_margin).
+  // The time kept free at the end of this step: the solver's deadline is the budget less it
+  // (see deadline_margin).
   Duration solve_margin() const noexcept;
 
   std::string name_;
