@@ -76,7 +76,10 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                    {"terminal_scale", b.terminal_scale},
                    {"gauss_newton_iterations", b.gauss_newton_iterations},
                    {"cosine_scaling", b.cosine_scaling},
-                   {"flip_hysteresis_rad", b.flip_hysteresis}};
+                   {"flip_hysteresis_rad", b.flip_hysteresis},
+                   {"steer_speed_threshold_m_per_s", b.steer_speed_threshold}};
+  j["measurement_filter"] = {{"pose_gain", b.measurement_filter.pose_gain},
+                             {"steering_gain", b.measurement_filter.steering_gain}};
   if (c.kind != ControllerKind::kWearMpc) return j;
   const ControllerOptions& o = c.mpc;
   j["solve_budget_s"] = o.solve_budget;

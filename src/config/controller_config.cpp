@@ -37,6 +37,7 @@ BaselineOptions load_baseline(const ConfigNode& node, BaselineOptions b) {
   b.gauss_newton_iterations = node.get_int_or("gauss_newton_iterations", b.gauss_newton_iterations, 1, 100);
   b.cosine_scaling = node.get_bool_or("cosine_scaling", b.cosine_scaling);
   b.flip_hysteresis = node.get_double_or("flip_hysteresis", b.flip_hysteresis, Bound::closed(0.0, kPi / 2));
+  b.steer_speed_threshold = node.get_double_or("steer_speed_threshold", b.steer_speed_threshold, Bound::non_negative());
   return b;
 }
 
@@ -56,6 +57,16 @@ void load_weights(const ConfigNode& node, ControllerOptions* o) {
 }
 
 }  // namespace
+
+MeasurementFilterOptions load_measurement_filter(const ConfigNode& node, MeasurementFilterOptions f) {
+  f.pose_gain = node.get_double_or("pose_gain", f.pose_gain, Bound::half_open(0.0, 1.0));
+  f.steering_gain = node.get_double_or("steering_gain", f.steering_gain, Bound::half_open(0.0, 1.0));
+  return f;
+}
+
+void ControllerConfig::set_measurement_filter(const MeasurementFilterOptions& filter) {
+  mpc.measurement_filter = baseline.measurement_filter = filter;
+}
 
 const char* to_string(ControllerKind kind) noexcept {
   return kind == ControllerKind::kWearMpc ? "wear_mpc" : "kinematic_baseline";
@@ -158,6 +169,9 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
     }
   }
   if (const auto baseline = node.optional_child("baseline")) c.baseline = load_baseline(*baseline, c.baseline);
+  if (const auto filter = node.optional_child("measurement_filter")) {
+    c.set_measurement_filter(load_measurement_filter(*filter, c.mpc.measurement_filter));
+  }
   try {
     c.validate();
   } catch (const ConfigError& error) {

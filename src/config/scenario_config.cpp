@@ -196,6 +196,12 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
     }
     s.controllers.push_back(std::move(c));
   }
+  // The vehicle's state observer, the same in front of every controller: a comparison in which one
+  // controller filters the sensor noise and the other does not would compare the filters.
+  if (const auto filter = node.optional_child("measurement_filter")) {
+    const MeasurementFilterOptions options = load_measurement_filter(*filter, MeasurementFilterOptions{});
+    for (ScenarioController& c : s.controllers) c.config.set_measurement_filter(options);
+  }
   s.simulator.control_period = s.controllers.front().config.dt();
   for (const ScenarioController& c : s.controllers) {
     if (std::abs(c.config.dt() - s.simulator.control_period) > 1e-12) {

@@ -116,6 +116,7 @@ void ControllerOptions::validate() const {
   if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
   if (!std::isfinite(solve_budget) || solve_budget <= 0.0) reject("solve_budget", solve_budget, "must be finite and > 0");
   require_non_negative("overrun_grace", overrun_grace);
+  measurement_filter.validate();
   if (!(deadline_margin >= 0.0 && deadline_margin <= 0.5)) {
     reject("deadline_margin", deadline_margin, "must be in [0, 0.5] (a share of solve_budget)");
   }
@@ -141,7 +142,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
                        std::string name)
     : name_(std::move(name)), options_(validated(options)), layout_(vehicle.layout), reference_(std::move(reference)),
       baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()),
-      monitor_(6 + vehicle.layout.size(), options_.stale_measurement), latency_(vehicle.layout, options_.dt) {
+      monitor_(6 + vehicle.layout.size(), options_.stale_measurement), latency_(vehicle.layout, options_.dt, options_.measurement_filter) {
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
@@ -356,8 +357,9 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     safe_stop(measured);
     return finish(step_start);
   }
-  // A measurement taken before t is rolled forward by the commands sent since (Smith predictor).
-  latency_.compensate(measured, t - measured_at, now_);
+  // A measurement taken before t is rolled forward by the commands sent since (Smith predictor),
+  // after the observer's filtering when it is on.
+  latency_.estimate(measured, measured_at, t, now_);
   // Update the problem in place: state, last applied input, reference window.
   problem_->set_initial_state(now_);
   if (!previous_input_known_) assume_previous_input(now_);

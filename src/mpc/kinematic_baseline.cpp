@@ -1,5 +1,6 @@
 #include "swerve/mpc/kinematic_baseline.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -45,12 +46,16 @@ void BaselineOptions::validate() const {
   if (!std::isfinite(flip_hysteresis) || flip_hysteresis < 0 || flip_hysteresis > kPi / 2) {
     reject("flip_hysteresis", flip_hysteresis, "must be in [0, pi/2]");
   }
+  measurement_filter.validate();
+  if (!std::isfinite(steer_speed_threshold) || steer_speed_threshold < 0) {
+    reject("steer_speed_threshold", steer_speed_threshold, "must be finite and >= 0");
+  }
 }
 
 KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference,
                                      BaselineOptions options)
     : options_(validated(options)), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
-      horizon_(options_.horizon), latency_(layout, options_.dt) {
+      horizon_(options_.horizon), latency_(layout, options_.dt, options_.measurement_filter) {
   if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
   drive_sign_ = planned_first_sign_ = Eigen::VectorXi::Ones(modules_);
   twists_ = Eigen::MatrixXd::Zero(3, horizon_);
@@ -61,6 +66,10 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
   feedback_ = Eigen::MatrixXd::Zero(3, 6 * horizon_);
   feedforward_ = Eigen::MatrixXd::Zero(3, horizon_);
   module_states_ = ModuleStates(modules_);
+  planned_angles_ = planned_speeds_ = Eigen::MatrixXd::Zero(modules_, horizon_);
+  steer_from_ = Eigen::MatrixXi::Constant(modules_, horizon_, -1);
+  angles_ = turns_ = Eigen::VectorXd::Zero(modules_);
+  signs_ = Eigen::VectorXi::Ones(modules_);
   now_ = Eigen::VectorXd::Zero(6 + modules_);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
   for (int k = 0; k < horizon_; ++k) {
@@ -177,37 +186,87 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
   const double dt = options_.dt;
   const double radius = kinematics_.layout().wheel_radius();
   const bool end_stops = limits.has_steering_end_stops();
-  const double hold_threshold = kinematics_.options().hold_speed_threshold;
+  const double threshold = std::max(options_.steer_speed_threshold, kinematics_.options().hold_speed_threshold);
+  const double band = options_.flip_hysteresis;
+  for (int k = 0; k < horizon_; ++k) {
+    kinematics_.inverse(twists_.col(k), &module_states_);
+    for (int i = 0; i < modules_; ++i) {
+      planned_angles_(i, k) = module_states_[i].angle;
+      planned_speeds_(i, k) = module_states_[i].speed;
+    }
+  }
+  // steer_from_(i, k): the first step j >= k at which module i is planned faster than the threshold,
+  // -1 if none. Below it, a module's planned direction is set by the feedback on the measured pose
+  // (under sensor noise, by the noise): the steering aims at the next direction the plan really
+  // drives in, or holds when there is none (issue 14, item 7).
   for (int i = 0; i < modules_; ++i) {
-    double angle = steering_angles[i];
-    int sign = drive_sign_[i];
-    for (int k = 0; k < horizon_; ++k) {
-      kinematics_.inverse(twists_.col(k), &module_states_);
-      const double speed = module_states_[i].speed;
+    int next = -1;
+    for (int k = horizon_ - 1; k >= 0; --k) {
+      if (planned_speeds_(i, k) > threshold) next = k;
+      steer_from_(i, k) = next;
+    }
+  }
+  angles_ = steering_angles;
+  signs_ = drive_sign_;
+  for (int k = 0; k < horizon_; ++k) {
+    // The 180 deg flip: a module keeps its drive direction while the steering error stays below
+    // 90 deg - hysteresis and takes the other one above 90 deg + hysteresis (widened at low planned
+    // speed, below). Inside that band the two choices need about a quarter turn either way round,
+    // and modules choosing on their own (by noise) would turn opposite ways with their wheels
+    // driving, and fight. So the modules in the band all turn the same way round: the one of least
+    // turn for them, plus the turns of the decided modules they would turn against (each weighted
+    // by its planned speed). A tie (a clean start exactly 90 deg off) keeps every drive direction.
+    double cost_positive = 0.0, cost_negative = 0.0;
+    for (int i = 0; i < modules_; ++i) {
+      const int j = steer_from_(i, k);
+      turns_[i] = 0.0;
+      if (j < 0) continue;
+      const double forward = planned_angles_(i, j);
+      double same = wrap_angle((signs_[i] > 0 ? forward : wrap_angle(forward + kPi)) - angles_[i]);
+      const double weight = planned_speeds_(i, j);
+      // A direction planned at speed v is uncertain by about atan(threshold / v) (the threshold is
+      // the speed noise makes of the feedback): the band widens by that much before a flip.
+      if (std::abs(same) > kPi / 2 + band + std::atan2(threshold, weight)) {
+        signs_[i] = -signs_[i];
+        same = same > 0.0 ? same - kPi : same + kPi;
+      } else if (std::abs(same) >= kPi / 2 - band) {
+        turns_[i] = same;  // in the band: decided below
+        const double kept = weight * std::abs(same);
+        const double flipped = weight * (kPi - std::abs(same));
+        cost_positive += same > 0.0 ? kept : flipped;
+        cost_negative += same > 0.0 ? flipped : kept;
+        continue;
+      }
+      (same > 0.0 ? cost_negative : cost_positive) += weight * std::abs(same);
+    }
+    const int common_turn = cost_positive < cost_negative ? 1 : (cost_negative < cost_positive ? -1 : 0);
+    for (int i = 0; i < modules_; ++i) {
+      const int j = steer_from_(i, k);
+      double angle = angles_[i];
       double target = angle;
-      double signed_speed = 0.0;
-      if (speed > hold_threshold) {
-        // The 180 deg flip: keep the current drive direction while its steering error stays within
-        // 90 deg + hysteresis, else drive the other way round; never past an end stop.
-        const double forward = module_states_[i].angle;
+      if (j >= 0) {
+        if (turns_[i] != 0.0 && common_turn != 0 && (turns_[i] > 0.0) != (common_turn > 0)) signs_[i] = -signs_[i];
+        const double forward = planned_angles_(i, j);
         const double reverse = wrap_angle(forward + kPi);
-        const double error_same = std::abs(wrap_angle((sign > 0 ? forward : reverse) - angle));
-        if (error_same > kPi / 2 + options_.flip_hysteresis) sign = -sign;
-        target = sign > 0 ? forward : reverse;
+        target = signs_[i] > 0 ? forward : reverse;
         if (end_stops && (target < limits.min_steering_angle || target > limits.max_steering_angle)) {
-          sign = -sign;
-          target = sign > 0 ? forward : reverse;
+          signs_[i] = -signs_[i];  // never past an end stop
+          target = signs_[i] > 0 ? forward : reverse;
         }
-        signed_speed = sign * speed;
       }
       const double error = end_stops ? target - angle : wrap_angle(target - angle);
       const double rate = std::clamp(error / dt, -limits.max_steering_rate, limits.max_steering_rate);
       angle = end_stops ? angle + dt * rate : wrap_angle(angle + dt * rate);
+      // At speed the wheel runs the planned speed in the chosen direction; below the threshold it
+      // runs the planned velocity's component along its heading (either sign, no flip needed).
+      double signed_speed = j == k ? signs_[i] * planned_speeds_(i, k)
+                                   : planned_speeds_(i, k) * std::cos(planned_angles_(i, k) - angle);
       if (options_.cosine_scaling) signed_speed *= std::max(0.0, std::cos(target - angle));
       inputs(2 * i, k) = rate;
       inputs(2 * i + 1, k) = signed_speed / radius;
-      if (k == 0) planned_first_sign_[i] = sign;
+      angles_[i] = angle;
     }
+    if (k == 0) planned_first_sign_ = signs_;
   }
 }
 
@@ -224,8 +283,9 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     return output_;
   }
   // A measurement taken before t is rolled forward by the commands sent since: a deadbeat
-  // steering law acting on a delayed angle would otherwise chase its own past and oscillate.
-  latency_.compensate(measured, std::isfinite(measured_at) ? t - measured_at : 0.0, now_);
+  // steering law acting on a delayed angle would otherwise chase its own past and oscillate. The
+  // observer, when on, filters it first.
+  latency_.estimate(measured, measured_at, t, now_);
   for (int k = 0; k < horizon_; ++k) {
     const ReferenceSample sample = reference_->sample(t + (k + 1) * options_.dt);
     reference_poses_.col(k) = sample.pose_world;

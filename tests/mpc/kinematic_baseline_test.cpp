@@ -207,6 +207,76 @@ TEST(KinematicBaseline, ModuleInputsNeverExceedTheSteeringRateLimit) {
   EXPECT_DOUBLE_EQ(largest_rate, max_rate);  // the limit is active
 }
 
+// Issue 14 item 7: at a standstill a few millimetres off the reference (what sensor noise makes of
+// the pose), the plan asks for a few cm/s in some direction. A module planned slower than
+// steer_speed_threshold does not swing round toward it: its steering holds, and its wheel drives
+// only the planned velocity's component along its heading. A real offset still steers.
+TEST(KinematicBaseline, AModulePlannedSlowerThanTheSteerSpeedThresholdHoldsItsSteering) {
+  const ModuleLayout layout = small_robot().layout;
+  const auto reference = testing::line_reference(0.5);
+  const BaselineOptions options;
+  const double radius = layout.wheel_radius();
+  for (const double offset : {0.002, 0.2}) {
+    SCOPED_TRACE(::testing::Message() << "lateral offset " << offset << " m");
+    KinematicBaseline baseline(layout, reference, options);
+    // At rest at the origin, heading +x; the reference stands still `offset` to the left.
+    const Eigen::MatrixXd poses = Eigen::Vector3d(0.0, offset, 0.0).replicate(1, options.horizon);
+    const Eigen::MatrixXd twists = Eigen::MatrixXd::Zero(3, options.horizon);
+    ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), poses, twists));
+    double fastest = 0.0;  // m/s, the fastest module speed of the plan (v + r x p)
+    for (int k = 0; k < options.horizon; ++k) {
+      for (const Eigen::Vector2d& p : layout.positions_body()) {
+        fastest = std::max(fastest, module_velocity(baseline.twist_plan().col(k), p).norm());
+      }
+    }
+    Eigen::MatrixXd inputs(2 * layout.size(), options.horizon);
+    baseline.module_inputs(Eigen::Vector4d::Zero(), inputs);  // every module along +x
+    if (offset < 0.01) {
+      ASSERT_LT(fastest, options.steer_speed_threshold);  // the case under test
+      ASSERT_GT(fastest, 1e-3);                           // and not one the singularity hold covers
+      for (int i = 0; i < layout.size(); ++i) {
+        EXPECT_EQ(inputs(2 * i, 0), 0.0) << "module " << i << " steered toward a " << fastest << " m/s plan";
+        // The plan moves sideways (+y); the wheels point along x: nothing of it is theirs to drive.
+        EXPECT_LT(std::abs(inputs(2 * i + 1, 0)) * radius, 0.1 * fastest) << "module " << i;
+      }
+    } else {
+      ASSERT_GT(fastest, options.steer_speed_threshold);
+      for (int i = 0; i < layout.size(); ++i) {
+        EXPECT_EQ(std::abs(inputs(2 * i, 0)), layout.limits().max_steering_rate) << "module " << i;
+      }
+    }
+  }
+}
+
+// Issue 14 item 7: modules whose steering errors straddle 90 deg (the flip band) must not turn
+// opposite ways round while their wheels drive, as they did when each decided alone: module 1 still
+// drives reversed from an earlier decision and, deciding alone, kept that and turned the other way
+// from the rest. Its error (95 deg) is in the band, so it joins the others' quarter turn.
+TEST(KinematicBaseline, ModulesInTheFlipBandAllTurnTheSameWayRound) {
+  const ModuleLayout layout = small_robot().layout;
+  const auto reference = testing::line_reference(0.5);
+  const BaselineOptions options;
+  KinematicBaseline baseline(layout, reference, options);
+  Eigen::MatrixXd poses, twists;
+  Eigen::MatrixXd inputs(2 * layout.size(), options.horizon);
+  // Driving along +x with module 1 turned round by pi: it drives reversed (a clear flip).
+  met_reference(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.5, 0.0, 0.0), options.horizon, options.dt, &poses, &twists);
+  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.5, 0.0, 0.0), poses, twists));
+  baseline.module_inputs(Eigen::Vector4d(0.0, kPi, 0.0, 0.0), inputs);
+  ASSERT_LT(inputs(3, 0), 0.0);  // module 1's wheel runs backwards
+  baseline.commit_first_step();
+  // Now a crab to -y from headings at 0 (module 1 at -0.05 rad): every module is about 90 deg off.
+  met_reference(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, -0.5, 0.0), options.horizon, options.dt, &poses, &twists);
+  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, -0.5, 0.0), poses, twists));
+  baseline.module_inputs(Eigen::Vector4d(0.0, -0.05, 0.0, 0.0), inputs);
+  for (int i = 0; i < layout.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << "module " << i);
+    // All turn clockwise, toward -90 deg (the least turn in total), and drive forwards.
+    EXPECT_LT(inputs(2 * i, 0), 0.0);
+    EXPECT_GT(inputs(2 * i + 1, 0), 0.0);
+  }
+}
+
 TEST(KinematicBaseline, SafeStopsWithFiniteCommandsOnANaNState) {
   const VehicleParams params = small_robot();
   const auto reference = testing::line_reference(0.5);
@@ -267,6 +337,17 @@ TEST(KinematicBaseline, RejectsInvalidOptionsNamingTheField) {
   o = {};
   o.flip_hysteresis = 2.0;
   expect_named(o, "flip_hysteresis");
+  o = {};
+  o.steer_speed_threshold = -0.1;
+  expect_named(o, "steer_speed_threshold");
+  try {
+    o = {};
+    o.measurement_filter.pose_gain = 0.0;
+    KinematicBaseline baseline(layout, reference, o);
+    ADD_FAILURE() << "accepted a pose gain of 0";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("MeasurementFilterOptions.pose_gain = 0"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

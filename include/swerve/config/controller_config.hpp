@@ -24,6 +24,8 @@ struct ControllerConfig {
   BaselineOptions baseline;    // the baseline controller, and the wear_mpc's initial-guess planner
   double solve_budget() const { return kind == ControllerKind::kWearMpc ? mpc.solve_budget : baseline.dt; }
   double dt() const { return kind == ControllerKind::kWearMpc ? mpc.dt : baseline.dt; }
+  // The observer in front of either controller (and of the wear_mpc's initial-guess planner).
+  void set_measurement_filter(const MeasurementFilterOptions& filter);
   void validate() const;       // throws ConfigError naming the field and value
 };
 
@@ -43,8 +45,11 @@ struct ControllerConfig {
 //              nlopt: {algorithm [LN_BOBYQA], xtol_rel [1e-8], ftol_rel [1e-12], max_evaluations [200000],
 //                      initial_step_fraction [0.1]}}
 //   baseline [defaults of BaselineOptions]: {pose_weight, twist_weight, rate_weight, terminal_scale,
-//              gauss_newton_iterations, cosine_scaling, flip_hysteresis}
+//              gauss_newton_iterations, cosine_scaling, flip_hysteresis, steer_speed_threshold}
+//   measurement_filter [off]: {pose_gain [1], steering_gain [1]} (either type; MeasurementFilterOptions)
 ControllerConfig load_controller_config(const config::ConfigNode& controller_node);
+// A `measurement_filter:` section over `defaults` (also the scenario-wide one).
+MeasurementFilterOptions load_measurement_filter(const config::ConfigNode& node, MeasurementFilterOptions defaults);
 ControllerConfig load_controller_config_file(const std::string& file_path);
 
 // Builds the controller a config describes, tracking `reference` on `vehicle`. Throws ConfigError.

@@ -59,6 +59,7 @@ struct ScenarioConfig {
 //   simulator: {substeps [0: automatic], seed [1], measurement_delay_steps [0],
 //     noise: {position, heading, velocity, yaw_rate, steering_angle} [0]}
 //   controllers: [{name, config (file), wear_weight [from file], backend [from file]}]  (>= 1)
+//   measurement_filter [each controller's own]: {pose_gain [1], steering_gain [1]}, for every controller alike
 //   paper: {wear_reduction_pct}  [absent]
 // The plant's control period is the first controller's dt; every controller must share it.
 // After loading, the plant and every controller are built once and dropped, so that a file that

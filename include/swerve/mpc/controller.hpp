@@ -75,6 +75,7 @@ struct ControllerOptions {
   int max_plan_age = 5;              // cycles a previous plan may stand in for a failed solve
   StalenessOptions stale_measurement;  // when a measurement is too old or frozen to act on
   TrackingTolerance tracking_tolerance;  // off by default
+  MeasurementFilterOptions measurement_filter;  // off by default (gains 1)
   void validate() const;             // throws ConfigError naming the field and value
 };
 

@@ -31,6 +31,11 @@ struct BaselineOptions {
   int gauss_newton_iterations = 3;
   bool cosine_scaling = false;       // the paper's baseline drives at the IK speed
   double flip_hysteresis = 0.1;      // rad around 90 deg, as in KinematicsOptions
+  // m/s: a module planned slower than this does not steer toward its planned direction (under
+  // sensor noise that direction is noise); it steers toward the next direction planned faster, or
+  // holds, and its wheel drives the planned velocity's component along its heading.
+  double steer_speed_threshold = 0.03;
+  MeasurementFilterOptions measurement_filter;  // off by default (gains 1), as the wear-aware controller's
   void validate() const;             // throws ConfigError naming the field and value
 };
 
@@ -70,6 +75,10 @@ class KinematicBaseline final : public TrackingController {
   Eigen::MatrixXd twists_;                            // 3 x N
   Eigen::MatrixXd reference_poses_, reference_twists_;  // 3 x N
   Eigen::MatrixXd inputs_;                            // 2n x N
+  Eigen::MatrixXd planned_angles_, planned_speeds_;   // n x N: inverse kinematics of the twist plan
+  Eigen::MatrixXi steer_from_;                        // n x N: the step each module's steering aims at
+  Eigen::VectorXd angles_, turns_;                    // n: steering angles along the plan; turns in the flip band
+  Eigen::VectorXi signs_;                             // n: drive directions along the plan
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
   using Vector6 = Eigen::Matrix<double, 6, 1>;
   Eigen::VectorXd weights_, target_;                  // 3N: pose weights and targets of steps 1..N
