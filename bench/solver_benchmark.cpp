@@ -8,8 +8,9 @@
 // 1e-10, SA its 3000 proposals), no deadline. Counters: per-solve p50/p99, iterations per solve,
 // time per iteration, cost. Goal (issue 9): Ipopt warm, 4 modules, N = 20: p99 <= 10 ms.
 //   BM_Solver_GapToIpoptReference: the curve scenario's closed loop with the default SA controller
-// (20 ms budget); every 40th cycle the same problem is solved by Ipopt to tol 1e-9 without a
-// deadline (from SA's plan and from the held input) and SA's cost is compared with the best.
+// at a solve budget of budget_ms and an SA polish share of polish_pct %; every 40th cycle the same
+// problem is solved by Ipopt to tol 1e-9 without a deadline (from SA's plan and from the held
+// input) and SA's cost is compared with the best.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -142,9 +143,12 @@ void BM_Solver_GapToIpoptReference(benchmark::State& state) {
     state.SkipWithError("curve.yaml has no wear_mpc controller");
     return;
   }
+  ControllerConfig config = wear_mpc->config;
+  config.mpc.solve_budget = 1e-3 * static_cast<double>(state.range(0));
+  config.solver.sa.polish_share = 0.01 * static_cast<double>(state.range(1));
   std::vector<double> gaps;
   for (auto _ : state) {
-    std::unique_ptr<TrackingController> tracker = make_controller(wear_mpc->config, scenario.vehicle, scenario.reference);
+    std::unique_ptr<TrackingController> tracker = make_controller(config, scenario.vehicle, scenario.reference);
     auto* controller = dynamic_cast<Controller*>(tracker.get());
     Simulator plant(scenario.vehicle, scenario.simulator);
     plant.reset(scenario.initial_state);
@@ -184,7 +188,11 @@ void BM_Solver_GapToIpoptReference(benchmark::State& state) {
   state.counters["gap_p90_pct"] = percentile(gaps, 90.0);
   state.counters["gap_max_pct"] = gaps.empty() ? 0.0 : *std::max_element(gaps.begin(), gaps.end());
 }
-BENCHMARK(BM_Solver_GapToIpoptReference)->Iterations(1)->Unit(benchmark::kSecond);
+BENCHMARK(BM_Solver_GapToIpoptReference)
+    ->ArgsProduct({{20, 10, 5}, {0, 30}})
+    ->ArgNames({"budget_ms", "polish_pct"})
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond);
 
 }  // namespace
 }  // namespace swerve

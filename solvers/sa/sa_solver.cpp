@@ -20,6 +20,8 @@ template <typename Value>
 std::uint64_t rotate_left(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
 
 constexpr int kProbeMoves = 16;  // greedy probes whose uphill steps calibrate T0
+constexpr int kPolishMemory = 5;  // L-BFGS pairs kept
+constexpr int kLineSearchTrials = 8;
 
 }  // namespace
 
@@ -43,6 +45,8 @@ void SaOptions::validate() const {
     reject("probability_one_group", probability_one_group,
            "must be >= 0, and with probability_one_knot (also >= 0) sum to at most 1");
   }
+  if (!(polish_share >= 0.0 && polish_share < 1.0)) reject("polish_share", polish_share, "must be in [0, 1)");
+  if (polish_iterations < 0) reject("polish_iterations", polish_iterations, "must be >= 0");
 }
 
 SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, SaOptions options)
@@ -91,6 +95,118 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
     }
   }
   sigma_ = reference_step_ * options_.step_fraction;
+  if (options_.polish_share > 0.0 && options_.polish_iterations > 0 && problem.model().has_jacobians()) {
+    derivatives_ = std::make_unique<OcpDerivatives>(problem);
+    gradient_ = candidate_gradient_ = direction_ = Eigen::MatrixXd::Zero(nu_, horizon_);
+    memory_s_ = memory_y_ = Eigen::MatrixXd::Zero(nu_ * horizon_, kPolishMemory);
+    memory_rho_ = memory_alpha_ = Eigen::VectorXd::Zero(kPolishMemory);
+  }
+}
+
+int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadline, TimePoint stop,
+                                     Duration full_rollout, Solution* out, long* rollouts) noexcept {
+  // Projected L-BFGS (Nocedal & Wright, Numerical Optimization, 2nd ed., Alg. 7.4) with an Armijo
+  // backtracking search on the true cost; projection by OcpProblem::project. Each step is kept only
+  // if it lowers the cost, so the polish never returns a worse plan than the annealer's best.
+  const Eigen::Index n = static_cast<Eigen::Index>(nu_) * horizon_;
+  const auto flat = [n](Eigen::MatrixXd& m) { return Eigen::Map<Eigen::VectorXd>(m.data(), n); };
+  // A gradient costs several rollouts (the step's Jets). Before the first one, one stage's Jacobian
+  // is timed and scaled by the horizon. The cost varies with the state (the slow-motion substeps,
+  // Newton's splits), hence the 1.5x on the slowest gradient seen.
+  if (longest_gradient_ == Duration::zero()) {
+    if (deadline.now() + 2 * full_rollout >= stop) return 0;
+    const auto probe_start = deadline.now();
+    derivatives_->linearize_stage(problem, 0, problem.initial_state(), out->inputs.col(0), candidate_states_.col(1));
+    longest_gradient_ = horizon_ * (deadline.now() - probe_start);
+  }
+  const auto gradient_time = [&] { return longest_gradient_ + longest_gradient_ / 2; };
+  // The slowest gradient seen decays by 1/16 per solve, so one stall is forgotten in ~50 solves.
+  longest_gradient_ -= longest_gradient_ / 16;
+  // Worth starting only with room for the gradient and a line search's first two trials.
+  if (deadline.now() + gradient_time() + 2 * full_rollout >= stop) return 0;
+  inputs_ = out->inputs;
+  auto gradient_start = deadline.now();
+  const Deadline give_up = deadline.earlier_by(deadline.at() - stop);
+  double cost = derivatives_->cost_and_gradient(problem, inputs_, states_, gradient_, &give_up);
+  longest_gradient_ = std::max(longest_gradient_, deadline.now() - gradient_start);
+  ++*rollouts;
+  if (!std::isfinite(cost)) return 0;
+  int stored = 0, newest = -1, steps = 0;
+  for (int iteration = 0; iteration < options_.polish_iterations; ++iteration) {
+    if (deadline.now() + 2 * full_rollout >= stop) break;
+    // Two-loop recursion: direction = -H gradient.
+    flat(direction_) = -flat(gradient_);
+    for (int back = 0; back < stored; ++back) {
+      const int j = (newest - back + kPolishMemory) % kPolishMemory;
+      memory_alpha_[j] = memory_rho_[j] * memory_s_.col(j).dot(flat(direction_));
+      flat(direction_) -= memory_alpha_[j] * memory_y_.col(j);
+    }
+    if (stored > 0) {
+      flat(direction_) *= memory_s_.col(newest).dot(memory_y_.col(newest)) / memory_y_.col(newest).squaredNorm();
+    } else {
+      // No curvature yet: a first step of 2 % of the largest input range along the gradient.
+      // In inputs scaled by their ranges the gradient is g_i r_i; a step of 2 % of the largest
+      // scaled input is r_i^2 g_i times 0.02 / max |g_i r_i| in the inputs themselves.
+      const double largest = (gradient_.array().abs().colwise() * reference_step_.array()).maxCoeff();
+      if (!(largest > 0.0)) break;
+      flat(direction_) *= 0.02 / largest;
+      for (int i = 0; i < nu_; ++i) direction_.row(i) *= reference_step_[i] * reference_step_[i];
+    }
+    for (int back = stored - 1; back >= 0; --back) {
+      const int j = (newest - back + kPolishMemory) % kPolishMemory;
+      const double beta = memory_rho_[j] * memory_y_.col(j).dot(flat(direction_));
+      flat(direction_) += (memory_alpha_[j] - beta) * memory_s_.col(j);
+    }
+    if (!(flat(gradient_).dot(flat(direction_)) < 0.0)) {  // not a descent direction: forget the memory
+      stored = 0;
+      continue;
+    }
+    double step = 1.0, candidate_cost = cost;
+    bool accepted = false;
+    for (int trial = 0; trial < kLineSearchTrials; ++trial, step *= 0.3) {
+      candidate_inputs_ = inputs_ + step * direction_;
+      problem.project(candidate_inputs_);
+      candidate_cost = problem.rollout(candidate_inputs_, 0, candidate_states_, candidate_stage_costs_);
+      ++*rollouts;
+      const double decrease = flat(gradient_).dot(flat(candidate_inputs_) - flat(inputs_));
+      if (candidate_cost <= cost + 1e-4 * decrease && candidate_cost < cost) {
+        accepted = true;
+        break;
+      }
+      if (deadline.now() + full_rollout >= stop) break;
+    }
+    if (!accepted) break;
+    ++steps;
+    // The accepted point is kept even when no time is left for its gradient.
+    out->inputs = candidate_inputs_;
+    out->states = candidate_states_;
+    out->cost = candidate_cost;
+    if (deadline.now() + gradient_time() >= stop) break;
+    gradient_start = deadline.now();
+    const double new_cost =
+        derivatives_->cost_and_gradient(problem, candidate_inputs_, candidate_states_, candidate_gradient_, &give_up);
+    longest_gradient_ = std::max(longest_gradient_, deadline.now() - gradient_start);
+    ++*rollouts;
+    if (!std::isfinite(new_cost)) break;
+    // A pair enters the memory only with positive curvature (else H would not stay positive definite).
+    const double curvature = (flat(candidate_inputs_) - flat(inputs_)).dot(flat(candidate_gradient_) - flat(gradient_));
+    const double scale = (flat(candidate_inputs_) - flat(inputs_)).norm() * (flat(candidate_gradient_) - flat(gradient_)).norm();
+    if (curvature > 1e-12 * scale) {
+      newest = (newest + 1) % kPolishMemory;
+      memory_s_.col(newest) = flat(candidate_inputs_) - flat(inputs_);
+      memory_y_.col(newest) = flat(candidate_gradient_) - flat(gradient_);
+      memory_rho_[newest] = 1.0 / curvature;
+      stored = std::min(stored + 1, kPolishMemory);
+    }
+    std::swap(inputs_, candidate_inputs_);
+    std::swap(states_, candidate_states_);
+    std::swap(gradient_, candidate_gradient_);
+    cost = new_cost;
+    out->inputs = inputs_;
+    out->states = states_;
+    out->cost = cost;
+  }
+  return steps;
 }
 
 double SimulatedAnnealingSolver::uniform() noexcept {
@@ -149,7 +265,13 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   // final cost evaluation still fit before the deadline, so the solver returns on time.
   const auto full_rollout = deadline.now() - rollout_start;
   const auto loop_start = deadline.now();
-  const double loop_budget = to_seconds(deadline.at() - 2 * full_rollout - loop_start);
+  // With a polish, the annealing ends early enough to leave it its share of the budget.
+  const bool polishing = derivatives_ != nullptr;
+  const TimePoint anneal_end =
+      polishing && deadline.at() != TimePoint::max()
+          ? loop_start + std::chrono::duration_cast<Duration>((1.0 - options_.polish_share) * (deadline.at() - loop_start))
+          : deadline.at();
+  const double loop_budget = to_seconds(anneal_end - 2 * full_rollout - loop_start);
   ++rollouts;
   summary->initial_cost = current_cost;
   out->inputs = inputs_;
@@ -174,7 +296,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     const auto proposal_start = now;
     // Room for one more proposal, the final evaluation, and one rollout's worth of slack for the
     // scheduler (measured overruns without it: up to 0.2 ms on a 20 ms budget).
-    if (proposal_start + longest_proposal + 2 * full_rollout >= deadline.at()) {
+    if (proposal_start + longest_proposal + 2 * full_rollout >= anneal_end) {
       deadline_hit = true;
       break;
     }
@@ -274,14 +396,21 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     }
   }
   out->cost = best_cost;
+  bool polished = false;
+  if (polishing) {
+    // The polish's own stop leaves room for the final evaluation, as the annealing did.
+    const TimePoint polish_end = deadline.at() == TimePoint::max() ? deadline.at() : deadline.at() - 2 * full_rollout;
+    polished = polish(problem, deadline, polish_end, full_rollout, out, &rollouts) > 0;
+    best_cost = out->cost;
+  }
   summary->iterations = iteration;
   summary->rollouts = rollouts;
   summary->cost = problem.evaluate(out->inputs, candidate_states_);
   if (deadline_hit) {
-    summary->reason = "stopped at the deadline with the best plan seen";
+    summary->reason = polished ? "annealed and polished until the deadline" : "stopped at the deadline with the best plan seen";
     return SolveStatus::kBudgetExhausted;
   }
-  summary->reason = "completed the annealing schedule";
+  summary->reason = polished ? "completed the annealing schedule and the polish" : "completed the annealing schedule";
   return SolveStatus::kConverged;
 }
 

@@ -122,6 +122,8 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                    {"reheat_interval", sa.reheat_interval},
                    {"probability_one_group", sa.probability_one_group},
                    {"probability_one_knot", sa.probability_one_knot},
+                   {"polish_share", sa.polish_share},
+                   {"polish_iterations", sa.polish_iterations},
                    {"seed", sa.seed}}},
                  {"nlopt",
                   {{"algorithm", c.solver.nlopt.algorithm},

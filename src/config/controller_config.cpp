@@ -26,6 +26,8 @@ SaOptions load_sa(const ConfigNode& node) {
   sa.probability_one_group = node.get_double_or("probability_one_group", sa.probability_one_group, Bound::closed(0, 1));
   sa.probability_one_knot = node.get_double_or("probability_one_knot", sa.probability_one_knot, Bound::closed(0, 1));
   sa.seed = static_cast<std::uint64_t>(node.get_int_or("seed", static_cast<int>(sa.seed), 0));
+  sa.polish_share = node.get_double_or("polish_share", sa.polish_share, Bound::closed(0.0, 1.0));
+  sa.polish_iterations = node.get_int_or("polish_iterations", sa.polish_iterations, 0);
   return sa;
 }
 

@@ -37,15 +37,21 @@ bool OcpDerivatives::linearize_stage(const OcpProblem& problem, int k, const Eig
 }
 
 double OcpDerivatives::cost_and_gradient(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
-                                         Eigen::Ref<Eigen::MatrixXd> states,
-                                         Eigen::Ref<Eigen::MatrixXd> gradient) noexcept {
+                                         Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::MatrixXd> gradient,
+                                         const Deadline* stop) noexcept {
   gradient.setZero();
   const double lambda = problem.weights().wear;
   states.col(0) = problem.initial_state();
   double cost = 0.0;
   for (int k = 0; k < horizon_; ++k) {
+    const TimePoint stage_start = stop != nullptr ? stop->now() : TimePoint{};
     if (!linearize_stage(problem, k, states.col(k), inputs.col(k), states.col(k + 1))) {
       return std::numeric_limits<double>::infinity();
+    }
+    // Give up before a stage that, costing what this one did, would end past `stop`.
+    if (stop != nullptr && k + 1 < horizon_) {
+      const TimePoint now = stop->now();
+      if (now + (now - stage_start) >= stop->at()) return std::numeric_limits<double>::quiet_NaN();
     }
   }
   // Backward: costate_ = dJ/dx_{k+1} of the stages after k, then of stage k's own tracking term.

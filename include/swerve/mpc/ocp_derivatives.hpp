@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "swerve/mpc/ocp_problem.hpp"
+#include "swerve/solvers/deadline.hpp"
 
 namespace swerve {
 
@@ -29,9 +30,13 @@ class OcpDerivatives {
 
   // Single shooting: rolls `inputs` (nu x N) out from the problem's initial state, linearising every
   // stage; writes the states (nx x N+1) and dJ/du (nu x N). Returns the total cost (the same number
-  // OcpProblem::rollout gives), +inf when the model fails (gradient then zero).
+  // OcpProblem::rollout gives), +inf when the model fails (gradient then zero). With `stop`, it
+  // gives up between stages, returning NaN, before one that would end past stop if it cost what
+  // the last one did (a gradient's cost varies with the state, so a caller on a deadline cannot
+  // always foresee it).
   double cost_and_gradient(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
-                           Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::MatrixXd> gradient) noexcept;
+                           Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::MatrixXd> gradient,
+                           const Deadline* stop = nullptr) noexcept;
 
   // Forward sensitivities of single shooting, after cost_and_gradient or linearize_stage on every
   // stage of one rollout: dx_{k}/du_j (nx x nu) for j < k, by S_{k+1,j} = A_k S_{k,j}, S_{j+1,j} = B_j.

@@ -1,12 +1,16 @@
 // Simulated annealing for the wear-aware OCP (the paper's real-time solver, arXiv 2506.04752),
 // built for a fixed wall-clock budget: move-blocked offsets on top of the best initial guess,
 // proposals kept inside the bounds by projection, incremental rollouts from the first changed
-// step, step sizes adapted to the acceptance rate, and no allocation inside solve().
+// step, step sizes adapted to the acceptance rate, and no allocation inside solve(). The end of the
+// budget may go to a local polish of the best plan (projected L-BFGS on the exact gradient), where
+// the annealer's random steps are slow to settle.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
+#include "swerve/mpc/ocp_derivatives.hpp"
 #include "swerve/solvers/solver.hpp"
 
 namespace swerve {
@@ -23,6 +27,11 @@ struct SaOptions {
   double probability_one_group = 0.6;      // move one knot of one input group (one module)
   double probability_one_knot = 0.3;       // move one knot of every input; else the whole sequence
   std::uint64_t seed = 1;
+  // Share of the time budget (or, without a deadline, the proposals' time) kept for the polish:
+  // projected L-BFGS steps on the exact gradient from the best plan, each accepted only if it
+  // lowers the cost. 0: none. Needs a prediction model with Jacobians (else no polish).
+  double polish_share = 0.0;
+  int polish_iterations = 30;              // at most this many polish steps per solve
 
   // Throws ConfigError naming the field and value.
   void validate() const;
@@ -39,6 +48,12 @@ class SimulatedAnnealingSolver final : public Solver {
   SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                        SolveSummary* summary) noexcept override;
 
+  // The polish (see SaOptions::polish_share) of out->inputs until `stop`; returns its steps and
+  // updates *out (inputs, states, cost) and *rollouts.
+  // `full_rollout` is what one rollout took this solve (the time guard's unit before a gradient
+  // has been timed).
+  int polish(const OcpProblem& problem, Deadline deadline, TimePoint stop, Duration full_rollout, Solution* out,
+             long* rollouts) noexcept;
   double uniform() noexcept;   // [0, 1)
   double gaussian() noexcept;  // N(0, 1)
   // Rebuilds raw inputs = base + interpolated knot offsets on steps [first, last].
@@ -62,6 +77,14 @@ class SimulatedAnnealingSolver final : public Solver {
   Eigen::MatrixXd states_, candidate_states_;            // nx x N+1
   Eigen::VectorXd stage_costs_, candidate_stage_costs_;  // N
   Eigen::VectorXd sigma_, reference_step_;               // nu
+
+  // The polish: exact gradients, and the L-BFGS memory over the flattened inputs (nu N).
+  std::unique_ptr<OcpDerivatives> derivatives_;          // null: the model has no Jacobians
+  Eigen::MatrixXd gradient_, candidate_gradient_;       // nu x N
+  Eigen::MatrixXd direction_;                            // nu x N
+  Eigen::MatrixXd memory_s_, memory_y_;                  // nu N x m
+  Eigen::VectorXd memory_rho_, memory_alpha_;            // m
+  Duration longest_gradient_{0};                         // the slowest gradient seen (kept across solves)
 };
 
 }  // namespace swerve
