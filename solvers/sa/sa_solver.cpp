@@ -120,15 +120,18 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     longest_gradient_ = horizon_ * (deadline.now() - probe_start);
   }
   const auto gradient_time = [&] { return longest_gradient_ + longest_gradient_ / 2; };
-  // The slowest gradient seen decays by 1/16 per solve, so one stall is forgotten in ~50 solves.
-  longest_gradient_ -= longest_gradient_ / 16;
   // Worth starting only with room for the gradient and a line search's first two trials.
   if (deadline.now() + gradient_time() + 2 * full_rollout >= stop) return 0;
   inputs_ = out->inputs;
-  auto gradient_start = deadline.now();
+  // A gradient given up after some stages is charged at its full horizon's pace.
+  const auto record_gradient_time = [&](TimePoint gradient_start) {
+    const int stages = std::max(derivatives_->completed_stages(), 1);
+    longest_gradient_ = std::max(longest_gradient_, (deadline.now() - gradient_start) * horizon_ / stages);
+  };
   const Deadline give_up = deadline.earlier_by(deadline.at() - stop);
+  auto gradient_start = deadline.now();
   double cost = derivatives_->cost_and_gradient(problem, inputs_, states_, gradient_, &give_up);
-  longest_gradient_ = std::max(longest_gradient_, deadline.now() - gradient_start);
+  record_gradient_time(gradient_start);
   ++*rollouts;
   if (!std::isfinite(cost)) return 0;
   int stored = 0, newest = -1, steps = 0;
@@ -185,7 +188,7 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     gradient_start = deadline.now();
     const double new_cost =
         derivatives_->cost_and_gradient(problem, candidate_inputs_, candidate_states_, candidate_gradient_, &give_up);
-    longest_gradient_ = std::max(longest_gradient_, deadline.now() - gradient_start);
+    record_gradient_time(gradient_start);
     ++*rollouts;
     if (!std::isfinite(new_cost)) break;
     // A pair enters the memory only with positive curvature (else H would not stay positive definite).
@@ -265,10 +268,18 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   // final cost evaluation still fit before the deadline, so the solver returns on time.
   const auto full_rollout = deadline.now() - rollout_start;
   const auto loop_start = deadline.now();
-  // With a polish, the annealing ends early enough to leave it its share of the budget.
-  const bool polishing = derivatives_ != nullptr;
+  // With a polish, the annealing ends early enough to leave it its share of the budget, unless a
+  // gradient as last timed (with the polish's 1.5x allowance) would not fit in that share.
+  // The slowest gradient seen decays by 1/16 per solve, so one stall is forgotten in ~50 solves.
+  longest_gradient_ -= longest_gradient_ / 16;
+  const bool timed = deadline.at() != TimePoint::max();
+  const Duration polish_window =
+      timed ? std::chrono::duration_cast<Duration>(options_.polish_share * (deadline.at() - loop_start)) : Duration::max();
+  const bool polishing = derivatives_ != nullptr &&
+                         (!timed || longest_gradient_ == Duration::zero() ||
+                          longest_gradient_ + longest_gradient_ / 2 + 2 * full_rollout <= polish_window);
   const TimePoint anneal_end =
-      polishing && deadline.at() != TimePoint::max()
+      polishing && timed
           ? loop_start + std::chrono::duration_cast<Duration>((1.0 - options_.polish_share) * (deadline.at() - loop_start))
           : deadline.at();
   const double loop_budget = to_seconds(anneal_end - 2 * full_rollout - loop_start);

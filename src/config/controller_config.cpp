@@ -26,7 +26,7 @@ SaOptions load_sa(const ConfigNode& node) {
   sa.probability_one_group = node.get_double_or("probability_one_group", sa.probability_one_group, Bound::closed(0, 1));
   sa.probability_one_knot = node.get_double_or("probability_one_knot", sa.probability_one_knot, Bound::closed(0, 1));
   sa.seed = static_cast<std::uint64_t>(node.get_int_or("seed", static_cast<int>(sa.seed), 0));
-  sa.polish_share = node.get_double_or("polish_share", sa.polish_share, Bound::closed(0.0, 1.0));
+  sa.polish_share = node.get_double_or("polish_share", sa.polish_share, Bound::right_open(0.0, 1.0));
   sa.polish_iterations = node.get_int_or("polish_iterations", sa.polish_iterations, 0);
   return sa;
 }
@@ -38,7 +38,7 @@ BaselineOptions load_baseline(const ConfigNode& node, BaselineOptions b) {
   b.terminal_scale = node.get_double_or("terminal_scale", b.terminal_scale, Bound::non_negative());
   b.gauss_newton_iterations = node.get_int_or("gauss_newton_iterations", b.gauss_newton_iterations, 1, 100);
   b.cosine_scaling = node.get_bool_or("cosine_scaling", b.cosine_scaling);
-  b.flip_hysteresis = node.get_double_or("flip_hysteresis", b.flip_hysteresis, Bound::closed(0.0, kPi / 2));
+  b.flip_hysteresis = node.get_double_or("flip_hysteresis", b.flip_hysteresis, Bound::right_open(0.0, kPi / 2));
   b.steer_speed_threshold = node.get_double_or("steer_speed_threshold", b.steer_speed_threshold, Bound::non_negative());
   return b;
 }

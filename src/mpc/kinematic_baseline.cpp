@@ -43,8 +43,9 @@ void BaselineOptions::validate() const {
   }
   if (!std::isfinite(terminal_scale) || terminal_scale < 0) reject("terminal_scale", terminal_scale, "must be >= 0");
   if (gauss_newton_iterations < 1) reject("gauss_newton_iterations", gauss_newton_iterations, "must be >= 1");
-  if (!std::isfinite(flip_hysteresis) || flip_hysteresis < 0 || flip_hysteresis > kPi / 2) {
-    reject("flip_hysteresis", flip_hysteresis, "must be in [0, pi/2]");
+  // The same rule as KinematicsOptions.flip_hysteresis: at pi/2 a module would never flip.
+  if (!std::isfinite(flip_hysteresis) || flip_hysteresis < 0 || flip_hysteresis >= kPi / 2) {
+    reject("flip_hysteresis", flip_hysteresis, "must be in [0, pi/2)");
   }
   measurement_filter.validate();
   if (!std::isfinite(steer_speed_threshold) || steer_speed_threshold < 0) {
@@ -68,7 +69,7 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
   module_states_ = ModuleStates(modules_);
   planned_angles_ = planned_speeds_ = Eigen::MatrixXd::Zero(modules_, horizon_);
   steer_from_ = Eigen::MatrixXi::Constant(modules_, horizon_, -1);
-  angles_ = turns_ = Eigen::VectorXd::Zero(modules_);
+  angles_ = turns_ = other_turns_ = Eigen::VectorXd::Zero(modules_);
   signs_ = Eigen::VectorXi::Ones(modules_);
   now_ = Eigen::VectorXd::Zero(6 + modules_);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
@@ -211,33 +212,49 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
   for (int k = 0; k < horizon_; ++k) {
     // The 180 deg flip: a module keeps its drive direction while the steering error stays below
     // 90 deg - hysteresis and takes the other one above 90 deg + hysteresis (widened at low planned
-    // speed, below). Inside that band the two choices need about a quarter turn either way round,
-    // and modules choosing on their own (by noise) would turn opposite ways with their wheels
-    // driving, and fight. So the modules in the band all turn the same way round: the one of least
-    // turn for them, plus the turns of the decided modules they would turn against (each weighted
-    // by its planned speed). A tie (a clean start exactly 90 deg off) keeps every drive direction.
+    // speed, below); never past an end stop. Inside that band the two choices need about a quarter
+    // turn either way round, and modules choosing on their own (by noise) would turn opposite ways
+    // with their wheels driving, and fight. So the modules in the band all turn the same way round:
+    // the one of least turn for them (a flip charged 2 x hysteresis more, so a lone module still
+    // flips only past 90 deg + hysteresis), plus the turns of the decided modules they would turn
+    // against, each weighted by its planned speed. A tie keeps every drive direction.
+    const auto turn_to = [&](int i, double target) {
+      return end_stops ? target - angles_[i] : wrap_angle(target - angles_[i]);
+    };
+    const auto reachable = [&](double target) {
+      return !end_stops || (target >= limits.min_steering_angle && target <= limits.max_steering_angle);
+    };
+    constexpr double kUnavailable = 1e6;  // the cost of a way round a module cannot turn
     double cost_positive = 0.0, cost_negative = 0.0;
     for (int i = 0; i < modules_; ++i) {
       const int j = steer_from_(i, k);
-      turns_[i] = 0.0;
+      turns_[i] = other_turns_[i] = 0.0;
       if (j < 0) continue;
       const double forward = planned_angles_(i, j);
-      double same = wrap_angle((signs_[i] > 0 ? forward : wrap_angle(forward + kPi)) - angles_[i]);
+      const double reverse = wrap_angle(forward + kPi);
+      const double kept_target = signs_[i] > 0 ? forward : reverse;
+      const double flipped_target = signs_[i] > 0 ? reverse : forward;
+      const double same = turn_to(i, kept_target), other = turn_to(i, flipped_target);
+      const bool can_keep = reachable(kept_target), can_flip = reachable(flipped_target);
       const double weight = planned_speeds_(i, j);
       // A direction planned at speed v is uncertain by about atan(threshold / v) (the threshold is
       // the speed noise makes of the feedback): the band widens by that much before a flip.
-      if (std::abs(same) > kPi / 2 + band + std::atan2(threshold, weight)) {
+      double decided = same;
+      if (!can_keep || (can_flip && std::abs(same) > kPi / 2 + band + std::atan2(threshold, weight))) {
         signs_[i] = -signs_[i];
-        same = same > 0.0 ? same - kPi : same + kPi;
-      } else if (std::abs(same) >= kPi / 2 - band) {
+        decided = other;
+      } else if (can_flip && std::abs(same) >= kPi / 2 - band && same != 0.0) {
         turns_[i] = same;  // in the band: decided below
+        other_turns_[i] = other;
         const double kept = weight * std::abs(same);
-        const double flipped = weight * (kPi - std::abs(same));
-        cost_positive += same > 0.0 ? kept : flipped;
-        cost_negative += same > 0.0 ? flipped : kept;
+        const double flipped = weight * (std::abs(other) + 2.0 * band);
+        const double positive = std::min(same > 0.0 ? kept : kUnavailable, other > 0.0 ? flipped : kUnavailable);
+        const double negative = std::min(same < 0.0 ? kept : kUnavailable, other < 0.0 ? flipped : kUnavailable);
+        cost_positive += positive;
+        cost_negative += negative;
         continue;
       }
-      (same > 0.0 ? cost_negative : cost_positive) += weight * std::abs(same);
+      (decided > 0.0 ? cost_negative : cost_positive) += weight * std::abs(decided);
     }
     const int common_turn = cost_positive < cost_negative ? 1 : (cost_negative < cost_positive ? -1 : 0);
     for (int i = 0; i < modules_; ++i) {
@@ -245,7 +262,11 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
       double angle = angles_[i];
       double target = angle;
       if (j >= 0) {
-        if (turns_[i] != 0.0 && common_turn != 0 && (turns_[i] > 0.0) != (common_turn > 0)) signs_[i] = -signs_[i];
+        const bool in_band = turns_[i] != 0.0;
+        if (in_band && common_turn != 0 && (turns_[i] > 0.0) != (common_turn > 0) &&
+            (other_turns_[i] > 0.0) == (common_turn > 0)) {
+          signs_[i] = -signs_[i];
+        }
         const double forward = planned_angles_(i, j);
         const double reverse = wrap_angle(forward + kPi);
         target = signs_[i] > 0 ? forward : reverse;

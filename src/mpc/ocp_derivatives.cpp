@@ -43,11 +43,13 @@ double OcpDerivatives::cost_and_gradient(const OcpProblem& problem, const Eigen:
   const double lambda = problem.weights().wear;
   states.col(0) = problem.initial_state();
   double cost = 0.0;
+  completed_stages_ = 0;
   for (int k = 0; k < horizon_; ++k) {
     const TimePoint stage_start = stop != nullptr ? stop->now() : TimePoint{};
     if (!linearize_stage(problem, k, states.col(k), inputs.col(k), states.col(k + 1))) {
       return std::numeric_limits<double>::infinity();
     }
+    completed_stages_ = k + 1;
     // Give up before a stage that, costing what this one did, would end past `stop`.
     if (stop != nullptr && k + 1 < horizon_) {
       const TimePoint now = stop->now();

@@ -277,6 +277,27 @@ TEST(KinematicBaseline, ModulesInTheFlipBandAllTurnTheSameWayRound) {
   }
 }
 
+// The flip band keeps its hysteresis: modules 95 deg off their planned direction are in the band,
+// where flipping would turn them 85 deg instead of 95; they still keep their drive direction (a
+// flip is charged 2 x hysteresis), so a noisy direction near 90 deg cannot toggle it every cycle.
+TEST(KinematicBaseline, ModulesJustPastNinetyDegreesInTheFlipBandKeepTheirDriveDirection) {
+  const ModuleLayout layout = small_robot().layout;
+  const auto reference = testing::line_reference(0.5);
+  const BaselineOptions options;
+  ASSERT_GT(options.flip_hysteresis, 0.06);
+  KinematicBaseline baseline(layout, reference, options);
+  Eigen::MatrixXd poses, twists;
+  met_reference(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, -0.5, 0.0), options.horizon, options.dt, &poses, &twists);
+  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, -0.5, 0.0), poses, twists));
+  Eigen::MatrixXd inputs(2 * layout.size(), options.horizon);
+  baseline.module_inputs(Eigen::Vector4d::Constant(0.05), inputs);  // -90 deg planned: 95 deg to turn
+  for (int i = 0; i < layout.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << "module " << i);
+    EXPECT_LT(inputs(2 * i, 0), 0.0);      // turning clockwise, the long way
+    EXPECT_GT(inputs(2 * i + 1, 0), 0.0);  // and still driving forwards
+  }
+}
+
 TEST(KinematicBaseline, SafeStopsWithFiniteCommandsOnANaNState) {
   const VehicleParams params = small_robot();
   const auto reference = testing::line_reference(0.5);
@@ -336,6 +357,8 @@ TEST(KinematicBaseline, RejectsInvalidOptionsNamingTheField) {
   expect_named(o, "gauss_newton_iterations");
   o = {};
   o.flip_hysteresis = 2.0;
+  expect_named(o, "flip_hysteresis");
+  o.flip_hysteresis = kPi / 2;  // as in KinematicsOptions: [0, pi/2)
   expect_named(o, "flip_hysteresis");
   o = {};
   o.steer_speed_threshold = -0.1;

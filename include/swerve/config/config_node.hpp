@@ -57,6 +57,7 @@ struct Bound {
   static Bound at_least(double lo) { return {lo, 1e308, false, false}; }
   static Bound closed(double lo, double hi) { return {lo, hi, false, false}; }
   static Bound half_open(double lo, double hi) { return {lo, hi, true, false}; }  // (lo, hi]
+  static Bound right_open(double lo, double hi) { return {lo, hi, false, true}; }  // [lo, hi)
 
   bool contains(double value) const;
   std::string describe() const;  // e.g. "must be > 0", "must be in [0, 1]"

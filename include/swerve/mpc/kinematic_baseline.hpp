@@ -77,7 +77,7 @@ class KinematicBaseline final : public TrackingController {
   Eigen::MatrixXd inputs_;                            // 2n x N
   Eigen::MatrixXd planned_angles_, planned_speeds_;   // n x N: inverse kinematics of the twist plan
   Eigen::MatrixXi steer_from_;                        // n x N: the step each module's steering aims at
-  Eigen::VectorXd angles_, turns_;                    // n: steering angles along the plan; turns in the flip band
+  Eigen::VectorXd angles_, turns_, other_turns_;      // n: steering angles along the plan; kept and flipped turns in the flip band
   Eigen::VectorXi signs_;                             // n: drive directions along the plan
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
   using Vector6 = Eigen::Matrix<double, 6, 1>;

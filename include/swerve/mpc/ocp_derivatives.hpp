@@ -37,6 +37,8 @@ class OcpDerivatives {
   double cost_and_gradient(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
                            Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::MatrixXd> gradient,
                            const Deadline* stop = nullptr) noexcept;
+  // Stages the last cost_and_gradient linearised (N unless it gave up or the model failed).
+  int completed_stages() const noexcept { return completed_stages_; }
 
   // Forward sensitivities of single shooting, after cost_and_gradient or linearize_stage on every
   // stage of one rollout: dx_{k}/du_j (nx x nu) for j < k, by S_{k+1,j} = A_k S_{k,j}, S_{j+1,j} = B_j.
@@ -52,6 +54,7 @@ class OcpDerivatives {
 
  private:
   int horizon_, nx_, nu_;
+  int completed_stages_ = 0;
   std::vector<Eigen::MatrixXd> a_, b_;
   std::vector<Eigen::VectorXd> wear_gradient_;
   Eigen::VectorXd wear_;

@@ -27,11 +27,12 @@ struct SaOptions {
   double probability_one_group = 0.6;      // move one knot of one input group (one module)
   double probability_one_knot = 0.3;       // move one knot of every input; else the whole sequence
   std::uint64_t seed = 1;
-  // Share of the time budget (or, without a deadline, the proposals' time) kept for the polish:
-  // projected L-BFGS steps on the exact gradient from the best plan, each accepted only if it
-  // lowers the cost. 0: none. Needs a prediction model with Jacobians (else no polish).
+  // Share of the time budget kept for the polish: projected L-BFGS steps on the exact gradient from
+  // the best plan, each accepted only if it lowers the cost. The annealing leaves it that share
+  // only while a gradient (as last timed) fits in it. 0: none. Needs a prediction model with
+  // Jacobians (else no polish). Without a deadline, the polish follows the whole annealing schedule.
   double polish_share = 0.0;
-  int polish_iterations = 30;              // at most this many polish steps per solve
+  int polish_iterations = 30;              // at most this many polish steps (accepted or tried) per solve
 
   // Throws ConfigError naming the field and value.
   void validate() const;
