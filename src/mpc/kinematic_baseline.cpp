@@ -275,7 +275,7 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
           target = signs_[i] > 0 ? forward : reverse;
         }
       }
-      const double error = end_stops ? target - angle : wrap_angle(target - angle);
+      const double error = turn_to(i, target);
       const double rate = std::clamp(error / dt, -limits.max_steering_rate, limits.max_steering_rate);
       angle = end_stops ? angle + dt * rate : wrap_angle(angle + dt * rate);
       // At speed the wheel runs the planned speed in the chosen direction; below the threshold it

@@ -33,6 +33,17 @@ ModuleArray<ModuleCommand> uniform_commands(double angle, double surface_speed, 
   return commands;
 }
 
+// An observer on the square robot with these gains.
+LatencyCompensator observer_with(double pose_gain, double steering_gain) {
+  MeasurementFilterOptions filter;
+  filter.pose_gain = pose_gain;
+  filter.steering_gain = steering_gain;
+  return LatencyCompensator(square_robot(), kDt, filter);
+}
+
+// The wheel speed (m/s) of period k in the delayed-drive tests: it changes every period.
+double drive_speed(int k) { return 0.5 + 0.3 * std::sin(0.7 * k); }
+
 Eigen::VectorXd state(double x, double y, double psi, double angle) {
   Eigen::VectorXd s = Eigen::VectorXd::Zero(10);
   s << x, y, psi, 0.0, 0.0, 0.0, angle, angle, angle, angle;
@@ -132,10 +143,7 @@ TEST(LatencyCompensator, RejectsANonPositivePeriodNamingIt) {
 // A standing vehicle measured with white noise: the estimate's error is an AR(1) process
 // e' = (1 - g) e + g n, whose variance is sigma^2 g / (2 - g) (with g = 1: the sensor's own).
 TEST(LatencyCompensator, TheObserverShrinksWhiteNoiseToSqrtOfGainOverTwoMinusGain) {
-  MeasurementFilterOptions filter;
-  filter.pose_gain = 0.3;
-  filter.steering_gain = 0.5;
-  LatencyCompensator observer(square_robot(), kDt, filter);
+  LatencyCompensator observer = observer_with(0.3, 0.5);
   const Eigen::VectorXd truth = state(1.0, 2.0, 0.3, 0.4);
   const double sigma = 0.01;
   std::mt19937 random(7);
@@ -163,11 +171,7 @@ TEST(LatencyCompensator, TheObserverShrinksWhiteNoiseToSqrtOfGainOverTwoMinusGai
 // lag. Using a neighbouring period's command would leave an error of the order of a speed change
 // times dt.
 TEST(LatencyCompensator, TheObserverTracksDelayedMeasurementsOfACommandedMotionWithoutLag) {
-  MeasurementFilterOptions filter;
-  filter.pose_gain = 0.2;
-  filter.steering_gain = 0.2;
-  LatencyCompensator observer(square_robot(), kDt, filter);
-  const auto speed = [](int k) { return 0.5 + 0.3 * std::sin(0.7 * k); };
+  LatencyCompensator observer = observer_with(0.2, 0.2);
   const auto rate = [](int k) { return 2.0 * std::cos(0.9 * k); };
   // Truth at t_k = k dt, integrated by hand. Body heading pi/2, modules at pi/2: the wheels drive
   // along body +y = world -x, and the steering angle stays at pi/2 while driving (rate 0).
@@ -176,7 +180,7 @@ TEST(LatencyCompensator, TheObserverTracksDelayedMeasurementsOfACommandedMotionW
   for (int k = 0; k < drive + sweep; ++k) {
     Eigen::VectorXd next = truth.back();
     if (k < drive) {
-      next[0] -= kDt * speed(k);
+      next[0] -= kDt * drive_speed(k);
     } else {
       for (int i = 6; i < 10; ++i) next[i] = wrap_angle(next[i] + kDt * rate(k));
     }
@@ -194,7 +198,7 @@ TEST(LatencyCompensator, TheObserverTracksDelayedMeasurementsOfACommandedMotionW
         ASSERT_NEAR(now[i], truth[static_cast<std::size_t>(k)][i], 1e-9) << "period " << k << ", state " << i;
       }
     }
-    observer.record(k < drive ? uniform_commands(kPi / 2, speed(k), 0.0) : uniform_commands(0.0, 0.0, rate(k)));
+    observer.record(k < drive ? uniform_commands(kPi / 2, drive_speed(k), 0.0) : uniform_commands(0.0, 0.0, rate(k)));
   }
 }
 
@@ -203,17 +207,13 @@ TEST(LatencyCompensator, TheObserverTracksDelayedMeasurementsOfACommandedMotionW
 // predicted with the wrong period's command would add a lag bias on top, one that took the
 // measurements as they are would keep sigma.
 TEST(LatencyCompensator, TheObserverFiltersNoiseOnDelayedMeasurementsOfAMovingVehicle) {
-  MeasurementFilterOptions filter;
-  filter.pose_gain = 0.3;
-  filter.steering_gain = 0.3;
-  LatencyCompensator observer(square_robot(), kDt, filter);
-  const auto speed = [](int k) { return 0.5 + 0.3 * std::sin(0.7 * k); };
+  LatencyCompensator observer = observer_with(0.3, 0.3);
   const double sigma = 0.01;
   std::mt19937 random(11);
   std::normal_distribution<double> noise(0.0, sigma);
   const int periods = 20000, warm_up = 100;
   std::vector<double> x(periods + 1, 0.0);  // truth along world -x (heading and modules at pi/2)
-  for (int k = 0; k < periods; ++k) x[static_cast<std::size_t>(k + 1)] = x[static_cast<std::size_t>(k)] - kDt * speed(k);
+  for (int k = 0; k < periods; ++k) x[static_cast<std::size_t>(k + 1)] = x[static_cast<std::size_t>(k)] - kDt * drive_speed(k);
   Eigen::VectorXd now(10);
   double squared_x = 0.0, squared_steering = 0.0;
   for (int k = 0; k < periods; ++k) {
@@ -226,7 +226,7 @@ TEST(LatencyCompensator, TheObserverFiltersNoiseOnDelayedMeasurementsOfAMovingVe
       squared_x += std::pow(now[0] - x[static_cast<std::size_t>(k)], 2);
       squared_steering += std::pow(now[6] - kPi / 2, 2);
     }
-    observer.record(uniform_commands(kPi / 2, speed(k), 0.0));
+    observer.record(uniform_commands(kPi / 2, drive_speed(k), 0.0));
   }
   const double expected = sigma * std::sqrt(0.3 / 1.7);
   EXPECT_NEAR(std::sqrt(squared_x / (periods - warm_up)), expected, 0.07 * expected);
@@ -234,10 +234,7 @@ TEST(LatencyCompensator, TheObserverFiltersNoiseOnDelayedMeasurementsOfAMovingVe
 }
 
 TEST(LatencyCompensator, AJumpBeyondTheResetBoundRestartsTheEstimateAndARepeatAddsNothing) {
-  MeasurementFilterOptions filter;
-  filter.pose_gain = 0.3;
-  filter.steering_gain = 0.3;
-  LatencyCompensator observer(square_robot(), kDt, filter);
+  LatencyCompensator observer = observer_with(0.3, 0.3);
   Eigen::VectorXd now(10);
   int k = 0;
   const auto measure = [&](const Eigen::VectorXd& measured) {
