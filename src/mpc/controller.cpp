@@ -370,9 +370,13 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   }
   bool baseline_usable = false;
   {  // the baseline plan is both an initial guess and the second fallback
-    baseline_usable =
-        baseline_.plan_twists(now_.head<3>(), now_.segment<3>(3), problem_->reference_poses(),
-                              problem_->reference_twists());
+    // Its acceleration limit starts from the twist commanded last cycle (see plan_twists). With
+    // module-rate decisions that twist is not at hand, and the measured one stands in.
+    const Eigen::Vector3d measured_twist = now_.segment<3>(StateIndex::kVx);
+    const Eigen::Vector3d last_command =
+        twist_model_ != nullptr ? Eigen::Vector3d(applied_decision_.head<3>()) : measured_twist;
+    baseline_usable = baseline_.plan_twists(now_.head<3>(), measured_twist, last_command, problem_->reference_poses(),
+                                            problem_->reference_twists());
     if (baseline_usable) {
       baseline_.module_inputs(now_.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
       baseline_.commit_first_step();

@@ -82,13 +82,15 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
 void KinematicBaseline::reset() noexcept {
   drive_sign_.setOnes();
   twists_.setZero();
+  twist_committed_ = false;
   latency_.reset();
 }
 
 bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
+                                    const Eigen::Vector3d& last_command,
                                     const Eigen::Ref<const Eigen::MatrixXd>& reference_poses,
                                     const Eigen::Ref<const Eigen::MatrixXd>& reference_twists) noexcept {
-  if (!pose_world.allFinite() || !twist_body.allFinite() || !reference_poses.allFinite() ||
+  if (!pose_world.allFinite() || !twist_body.allFinite() || !last_command.allFinite() || !reference_poses.allFinite() ||
       !reference_twists.allFinite()) {
     return false;
   }
@@ -158,12 +160,12 @@ bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eig
     if (!twists_.allFinite()) return false;
   }
   // Drive limits: the largest twist of the same direction that no module speed exceeds, reached
-  // from the current twist no faster than the drive acceleration limit allows any module (the
+  // from the last command no faster than the drive acceleration limit allows any module (the
   // plant's drives cannot do more, and a plan that ignores it overshoots).
   const ModuleLayout& layout = kinematics_.layout();
   const double max_speed = layout.limits().max_drive_speed;
   const double max_change = layout.limits().max_drive_acceleration * dt;
-  Eigen::Vector3d previous = twist_body;
+  Eigen::Vector3d previous = last_command;
   for (int k = 0; k < horizon_; ++k) {
     Eigen::Vector3d limited;
     if (kinematics_.desaturate_twist(twists_.col(k), max_speed, DesaturationPriority::kProportional, &limited) ==
@@ -300,6 +302,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
     output_.source = CommandSource::kSafeStop;
     output_.reason = "measured state rejected (wrong size, NaN/inf or implausible)";
+    twist_committed_ = false;
     latency_.record(output_.modules);
     return output_;
   }
@@ -312,10 +315,13 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     reference_poses_.col(k) = sample.pose_world;
     reference_twists_.col(k) = sample.twist_body;
   }
-  if (!plan_twists(now_.head<3>(), now_.segment<3>(3), reference_poses_, reference_twists_)) {
+  const Eigen::Vector3d measured_twist = now_.segment<3>(3);
+  if (!plan_twists(now_.head<3>(), measured_twist, twist_committed_ ? committed_twist_ : measured_twist, reference_poses_,
+                   reference_twists_)) {
     fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
     output_.source = CommandSource::kSafeStop;
     output_.reason = "the kinematic plan failed";
+    twist_committed_ = false;
     latency_.record(output_.modules);
     return output_;
   }

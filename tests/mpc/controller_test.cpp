@@ -39,22 +39,27 @@ struct FakeScript {
   FakeMode mode = FakeMode::kGood;
   double overrun_s = 0.0;  // kOverrun: how far past the deadline it returns
   int calls = 0;
+  double plan_base = 0.0;  // body twist: the forward speed its last plan started from (see planned_value)
   testing::ManualClock clock;  // the controller's clock: only a scripted overrun moves it
 };
 
 // The plan it returns when it works, readable off the commands: with body-twist inputs, step k
-// drives straight ahead at 0.01 (k + 1) m/s, i.e. every wheel at 0.1 (k + 1) rad/s with the steering
-// held at 0; with module-rate inputs, every module steers at 0.01 (k + 1) rad/s, wheels at rest.
+// drives straight ahead 0.01 (k + 1) m/s faster than the last command (the plan_base; 0 from rest),
+// i.e. every wheel 0.1 (k + 1) rad/s faster, with the steering held at 0 (a plan that ignored the
+// last command would break the step bound once the fallback's commands have ramped up); with
+// module-rate inputs, every module steers at 0.01 (k + 1) rad/s, wheels at rest.
 double planned_value(int step) { return 0.01 * (step + 1); }
 
 double command_marker(const ModuleCommand& command, InputParameterization parameterization) {
   return parameterization == InputParameterization::kBodyTwist ? command.wheel_speed * 0.1 : command.steering_rate;
 }
 
-// Every module's command carries plan column `column`.
-void expect_plan_column(const ControlOutput& out, int column, InputParameterization parameterization) {
+// Every module's command carries plan column `column` (planned from `plan_base`).
+void expect_plan_column(const ControlOutput& out, int column, InputParameterization parameterization,
+                        double plan_base = 0.0) {
   for (int i = 0; i < out.modules.size(); ++i) {
-    EXPECT_NEAR(command_marker(out.modules[i], parameterization), planned_value(column), 1e-12) << "module " << i;
+    EXPECT_NEAR(command_marker(out.modules[i], parameterization), plan_base + planned_value(column), 1e-12)
+        << "module " << i;
     if (parameterization == InputParameterization::kBodyTwist) {
       EXPECT_EQ(out.modules[i].steering_rate, 0.0) << "module " << i;
     } else {
@@ -89,9 +94,10 @@ class FakeSolver final : public Solver {
     }
     out->inputs.setZero();
     const bool twist = problem.input_size() == 3;
+    script_->plan_base = twist ? problem.previous_input()[0] : 0.0;
     for (int k = 0; k < problem.horizon(); ++k) {
       if (twist) {
-        out->inputs(0, k) = planned_value(k);
+        out->inputs(0, k) = script_->plan_base + planned_value(k);
       } else {
         for (int i = 0; i < problem.input_size(); i += 2) out->inputs(i, k) = planned_value(k);
       }
@@ -173,7 +179,7 @@ void expect_fallback_chain(FakeMode failure, SolveStatus expected_status, const 
     const ControlOutput& recovered = controller.step(state, t);
     EXPECT_EQ(recovered.source, CommandSource::kOptimizer) << reason_of(recovered);
     EXPECT_TRUE(all_finite(recovered));
-    expect_plan_column(recovered, 0, parameterization);
+    expect_plan_column(recovered, 0, parameterization, script.plan_base);
   }
 }
 
@@ -300,7 +306,7 @@ TEST(Controller, NeverCommandsNaNForANaNOrImplausibleMeasuredState) {
     const ControlOutput& recovered = controller.step(at_rest(), t);
     EXPECT_EQ(recovered.source, CommandSource::kOptimizer) << reason_of(recovered);
     EXPECT_TRUE(all_finite(recovered));
-    expect_plan_column(recovered, 0, parameterization);
+    expect_plan_column(recovered, 0, parameterization, script.plan_base);
   }
 }
 
@@ -688,13 +694,14 @@ TEST(Controller, AFrozenMeasurementIsFlaggedWithinItsCyclesAndEndsInASafeStop) {
   EXPECT_EQ(reason_of(second), "measurement stale: identical for stale_measurement.frozen_cycles cycles while moving");
   // A safe stop brakes: every wheel slower than the 5 rad/s of cruising.
   for (int i = 0; i < second.modules.size(); ++i) EXPECT_LT(std::abs(second.modules[i].wheel_speed), 5.0);
-  // Fresh measurements again: controlled at once. (The baseline's command: the fake plan's slow
-  // first step is out of reach of the measured 0.5 m/s within one step's drive limit.)
+  // Fresh measurements again: controlled at once, by a plan that starts from the measured 0.5 m/s
+  // (the safe stop's braking command is not the input the plan continues).
   t += options.dt;
   state[0] += 0.01;
   const ControlOutput& back = controller.step(state, t);
   EXPECT_FALSE(back.measurement_stale);
-  EXPECT_EQ(back.source, CommandSource::kBaseline) << reason_of(back);
+  EXPECT_EQ(back.source, CommandSource::kOptimizer) << reason_of(back);
+  EXPECT_DOUBLE_EQ(script.plan_base, 0.5);
 }
 
 TEST(Controller, ARepeatedMeasurementAtRestWithNoMotionCommandedIsNotStale) {

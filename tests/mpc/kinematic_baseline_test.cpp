@@ -77,7 +77,7 @@ TEST(KinematicBaseline, PlansTheReferenceTwistWhenTheReferenceIsAlreadyMet) {
       const Eigen::Vector3d pose(1.0, -2.0, 0.7);
       Eigen::MatrixXd poses, twists;
       met_reference(pose, twist, options.horizon, options.dt, &poses, &twists);
-      ASSERT_TRUE(baseline.plan_twists(pose, twist, poses, twists));
+      ASSERT_TRUE(baseline.plan_twists(pose, twist, twist, poses, twists));
       const Eigen::MatrixXd& plan = baseline.twist_plan();
       double worst = 0.0;
       for (int k = 0; k < options.horizon; ++k) worst = std::max(worst, (plan.col(k) - twist).norm());
@@ -139,7 +139,7 @@ TEST(KinematicBaseline, RiccatiPlanEqualsTheDenseNormalEquationsOptimum) {
                   &twists);
     const Eigen::Vector3d pose(0.0, 0.0, 0.1), twist(0.25, 0.0, 0.1);
     KinematicBaseline baseline(layout, reference, options);
-    ASSERT_TRUE(baseline.plan_twists(pose, twist, poses, twists));
+    ASSERT_TRUE(baseline.plan_twists(pose, twist, twist, poses, twists));
     const Eigen::MatrixXd expected = dense_plan(options, pose, twist, poses, twists);
     // Both solve a well-conditioned SPD system (condition ~1e3): agreement to 1e-9 m/s is rounding.
     EXPECT_LT((baseline.twist_plan() - expected).cwiseAbs().maxCoeff(), 1e-9)
@@ -162,7 +162,7 @@ TEST(KinematicBaseline, PlanRespectsTheDriveAccelerationLimit) {
   for (const Eigen::Vector3d& start : {Eigen::Vector3d::Zero().eval(), Eigen::Vector3d(-0.6, 0.4, -1.5)}) {
     SCOPED_TRACE(::testing::Message() << "from twist " << start.transpose());
     KinematicBaseline baseline(layout, reference, options);
-    ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), start, poses, twists));
+    ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), start, start, poses, twists));
     const Eigen::MatrixXd& plan = baseline.twist_plan();
     Eigen::Vector3d previous = start;
     double largest_change = 0.0;
@@ -180,6 +180,31 @@ TEST(KinematicBaseline, PlanRespectsTheDriveAccelerationLimit) {
   }
 }
 
+TEST(KinematicBaseline, RampsFromItsLastCommandNotFromTheLaggingMeasuredTwist) {
+  // Drives that follow their commands through a lag always measure behind them. Here they have not
+  // moved at all yet: the measured state stays at rest, aligned with a line reference that runs
+  // away at 0.5 m/s. The command must still climb by the full drive acceleration each cycle
+  // (0.1 m/s per 0.05 s step): restarted from the measured twist, it stayed at 0.1 m/s for ever
+  // (the 8-module carrier reached ~40 % of its drive acceleration that way).
+  const ModuleLayout layout = small_robot().layout;
+  const double max_change = layout.limits().max_drive_acceleration * 0.05;
+  const auto reference = testing::line_reference(0.5, 100.0);
+  KinematicBaseline baseline(layout, reference, BaselineOptions{});
+  const Eigen::VectorXd at_rest = Eigen::VectorXd::Zero(6 + layout.size());
+  for (int k = 0; k < 4; ++k) {
+    const ControlOutput& out = baseline.step(at_rest, 0.05 * k);
+    ASSERT_EQ(out.source, CommandSource::kOptimizer);
+    for (int i = 0; i < layout.size(); ++i) {
+      EXPECT_NEAR(out.modules[i].wheel_speed * layout.wheel_radius(), (k + 1) * max_change, 1e-9)
+          << "cycle " << k << ", module " << i;
+    }
+  }
+  // A reset forgets the last command: the ramp starts again from the measurement.
+  baseline.reset();
+  const ControlOutput& out = baseline.step(at_rest, 0.2);
+  EXPECT_NEAR(out.modules[0].wheel_speed * layout.wheel_radius(), max_change, 1e-9);
+}
+
 TEST(KinematicBaseline, ModuleInputsNeverExceedTheSteeringRateLimit) {
   const ModuleLayout layout = small_robot().layout;
   const double max_rate = layout.limits().max_steering_rate;  // 3 rad/s
@@ -190,7 +215,8 @@ TEST(KinematicBaseline, ModuleInputsNeverExceedTheSteeringRateLimit) {
   Eigen::MatrixXd poses, twists;
   met_reference(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.2, 0.6, 1.5), options.horizon, options.dt, &poses,
                 &twists);
-  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.2, 0.6, 1.5), poses, twists));
+  const Eigen::Vector3d start_twist(0.2, 0.6, 1.5);
+  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), start_twist, start_twist, poses, twists));
   Eigen::MatrixXd inputs(2 * layout.size(), options.horizon);
   // Steering far from where the plan needs it (so the unlimited rate would be large).
   const Eigen::Vector4d angles(3.0, -2.0, 1.2, -0.4);
@@ -222,7 +248,7 @@ TEST(KinematicBaseline, AModulePlannedSlowerThanTheSteerSpeedThresholdHoldsItsSt
     // At rest at the origin, heading +x; the reference stands still `offset` to the left.
     const Eigen::MatrixXd poses = Eigen::Vector3d(0.0, offset, 0.0).replicate(1, options.horizon);
     const Eigen::MatrixXd twists = Eigen::MatrixXd::Zero(3, options.horizon);
-    ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), poses, twists));
+    ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), poses, twists));
     double fastest = 0.0;  // m/s, the fastest module speed of the plan (v + r x p)
     for (int k = 0; k < options.horizon; ++k) {
       for (const Eigen::Vector2d& p : layout.positions_body()) {
@@ -261,13 +287,15 @@ TEST(KinematicBaseline, ModulesInTheFlipBandAllTurnTheSameWayRound) {
   Eigen::MatrixXd inputs(2 * layout.size(), options.horizon);
   // Driving along +x with module 1 turned round by pi: it drives reversed (a clear flip).
   met_reference(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.5, 0.0, 0.0), options.horizon, options.dt, &poses, &twists);
-  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.5, 0.0, 0.0), poses, twists));
+  const Eigen::Vector3d forward(0.5, 0.0, 0.0);
+  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), forward, forward, poses, twists));
   baseline.module_inputs(Eigen::Vector4d(0.0, kPi, 0.0, 0.0), inputs);
   ASSERT_LT(inputs(3, 0), 0.0);  // module 1's wheel runs backwards
   baseline.commit_first_step();
   // Now a crab to -y from headings at 0 (module 1 at -0.05 rad): every module is about 90 deg off.
   met_reference(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, -0.5, 0.0), options.horizon, options.dt, &poses, &twists);
-  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, -0.5, 0.0), poses, twists));
+  const Eigen::Vector3d crab(0.0, -0.5, 0.0);
+  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), crab, crab, poses, twists));
   baseline.module_inputs(Eigen::Vector4d(0.0, -0.05, 0.0, 0.0), inputs);
   for (int i = 0; i < layout.size(); ++i) {
     SCOPED_TRACE(::testing::Message() << "module " << i);
@@ -288,7 +316,8 @@ TEST(KinematicBaseline, ModulesJustPastNinetyDegreesInTheFlipBandKeepTheirDriveD
   KinematicBaseline baseline(layout, reference, options);
   Eigen::MatrixXd poses, twists;
   met_reference(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, -0.5, 0.0), options.horizon, options.dt, &poses, &twists);
-  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, -0.5, 0.0), poses, twists));
+  const Eigen::Vector3d start_twist(0.0, -0.5, 0.0);
+  ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), start_twist, start_twist, poses, twists));
   Eigen::MatrixXd inputs(2 * layout.size(), options.horizon);
   baseline.module_inputs(Eigen::Vector4d::Constant(0.05), inputs);  // -90 deg planned: 95 deg to turn
   for (int i = 0; i < layout.size(); ++i) {
