@@ -56,6 +56,11 @@ void load_weights(const ConfigNode& node, ControllerOptions* o) {
       node.get_double_or("wheel_speed_smoothness", o->wheel_speed_smoothness, Bound::non_negative());
   o->twist_smoothness = node.get_double_or("twist_smoothness", o->twist_smoothness, Bound::non_negative());
   o->heading_weight_from_geometry = node.get_bool_or("heading_from_geometry", o->heading_weight_from_geometry);
+  o->heading_lever = node.get_double_or("heading_lever", o->heading_lever, Bound::positive());
+  if (node.has("heading_lever") && !o->heading_weight_from_geometry) {
+    node.fail_at("heading_lever", "= " + std::to_string(o->heading_lever) +
+                                      ": used only with heading_from_geometry: true, which is not set here");
+  }
 }
 
 }  // namespace

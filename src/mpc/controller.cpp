@@ -30,8 +30,8 @@ CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout)
   CostWeights w;
   w.pose = o.pose_weight;
   if (o.heading_weight_from_geometry) {
-    const double radius = outermost_module_radius(layout);
-    w.pose.z() = 0.5 * (o.pose_weight.x() + o.pose_weight.y()) * radius * radius;
+    const double lever = o.heading_lever * outermost_module_radius(layout);
+    w.pose.z() = 0.5 * (o.pose_weight.x() + o.pose_weight.y()) * lever * lever;
   }
   w.twist = o.twist_weight;
   w.terminal_scale = o.terminal_scale;
@@ -126,6 +126,7 @@ void ControllerOptions::validate() const {
   }
   require_non_negative("terminal_scale", terminal_scale);
   require_non_negative("wear_weight", wear_weight);
+  if (!std::isfinite(heading_lever) || heading_lever <= 0.0) reject("heading_lever", heading_lever, "must be finite and > 0");
   require_non_negative("steering_rate_effort", steering_rate_effort);
   require_non_negative("wheel_speed_effort", wheel_speed_effort);
   require_non_negative("steering_rate_smoothness", steering_rate_smoothness);

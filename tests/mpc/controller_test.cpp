@@ -1018,6 +1018,26 @@ TEST(Controller, TheHeadingWeightFromGeometryIsThePositionWeightTimesTheOutermos
   const Controller scaled = make_fake_controller(&script, options);
   EXPECT_NEAR(scaled.problem().weights().pose.z(), 10.0 * (0.3 * 0.3 + 0.25 * 0.25), 1e-12);
   EXPECT_DOUBLE_EQ(scaled.problem().weights().pose.x(), 10.0);
+  // heading_lever 2: the displacement at twice that radius, four times the weight.
+  options.heading_lever = 2.0;
+  const Controller levered = make_fake_controller(&script, options);
+  EXPECT_NEAR(levered.problem().weights().pose.z(), 10.0 * 4.0 * (0.3 * 0.3 + 0.25 * 0.25), 1e-12);
+}
+
+TEST(Controller, RejectsAHeadingLeverThatIsNotPositiveNamingTheField) {
+  FakeScript script;
+  for (const double lever : {0.0, -1.0, kNaN, std::numeric_limits<double>::infinity()}) {
+    SCOPED_TRACE(lever);
+    ControllerOptions options = fast_options();
+    options.heading_weight_from_geometry = true;
+    options.heading_lever = lever;
+    try {
+      make_fake_controller(&script, options);
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("heading_lever"), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace

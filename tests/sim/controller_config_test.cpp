@@ -77,6 +77,22 @@ TEST(ControllerConfig, ReadsTheTrackingToleranceAndTheGeometryHeadingWeight) {
   EXPECT_FALSE(load("").mpc.tracking_tolerance.enabled());
 }
 
+TEST(ControllerConfig, ReadsTheHeadingLever) {
+  EXPECT_DOUBLE_EQ(load("  weights: {heading_from_geometry: true, heading_lever: 2.5}\n").mpc.heading_lever, 2.5);
+  EXPECT_DOUBLE_EQ(load("").mpc.heading_lever, 1.0);
+}
+
+TEST(ControllerConfig, RejectsABadHeadingLeverOrOneWithoutTheGeometryHeadingWeight) {
+  for (const char* block : {"  weights: {heading_from_geometry: true, heading_lever: 0}\n",
+                            "  weights: {heading_from_geometry: true, heading_lever: -2}\n",
+                            "  weights: {heading_from_geometry: true, heading_lever: .nan}\n",
+                            "  weights: {heading_from_geometry: true, heading_lever: two}\n",
+                            "  weights: {heading_lever: 2}\n",
+                            "  weights: {heading_from_geometry: false, heading_lever: 2}\n"}) {
+    expect_rejected(block, "controller.weights.heading_lever");
+  }
+}
+
 TEST(ControllerConfig, RejectsABadTrackingToleranceNamingTheFileKeyPathAndValue) {
   const struct {
     const char* block;

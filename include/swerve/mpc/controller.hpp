@@ -57,10 +57,13 @@ struct ControllerOptions {
   // does not become a run of deadline misses. At most half the budget.
   double deadline_margin = 0.05;
   Eigen::Vector3d pose_weight{10.0, 10.0, 5.0};
-  // When true the heading weight is the position weight times R^2, R the distance of the outermost
-  // module from the body origin: a heading error then costs what the displacement it causes at
-  // that module costs, so one config serves a 2-module robot and a 5-axle carrier (issue 15).
+  // When true the heading weight is the position weight times (heading_lever R)^2, R the distance
+  // of the outermost module from the body origin: a heading error then costs what the displacement
+  // it causes at heading_lever R costs, so one config serves a 2-module robot and a 5-axle carrier
+  // (issue 15). heading_lever 1 weighs it at the outermost module; the default config's 2 corrects
+  // heading as fast as the kinematic baseline does (see configs/controllers/default.yaml).
   bool heading_weight_from_geometry = false;
+  double heading_lever = 1.0;        // > 0; used only with heading_weight_from_geometry
   Eigen::Vector3d twist_weight{0.0, 0.0, 0.0};
   double terminal_scale = 10.0;
   double wear_weight = 1.0;          // lambda; 0 gives the dynamic controller without wear
