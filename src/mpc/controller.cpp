@@ -6,6 +6,8 @@
 #include "swerve/config/config_error.hpp"
 #include "swerve/mpc/safe_stop.hpp"
 
+#include "drive_response.hpp"
+
 namespace swerve {
 namespace {
 
@@ -170,6 +172,17 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   module_bounds_ = input_bounds(layout_, options_.dt);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
   now_ = Eigen::VectorXd::Zero(6 + modules_);
+  prediction_state_ = Eigen::VectorXd::Zero(problem_->state_size());
+  // The prediction carries wheel speeds (PredictionOptions::drive_lag): the controller estimates
+  // them from the commands it sent, through the same first-order lag.
+  if (problem_->state_size() > 6 + modules_) {
+    drive_time_constant_ = vehicle.actuators.drive_time_constant;
+    if (vehicle.plant.actuator_saturation) {
+      max_wheel_acceleration_ = layout_.limits().max_drive_acceleration / layout_.wheel_radius();
+    }
+    wheel_speeds_ = Eigen::VectorXd::Zero(modules_);
+    sent_wheel_speeds_ = Eigen::VectorXd::Zero(modules_);
+  }
 }
 
 void Controller::reset() noexcept {
@@ -178,6 +191,7 @@ void Controller::reset() noexcept {
   applied_input_.setZero();
   applied_decision_.setZero();
   previous_input_known_ = false;
+  wheel_speeds_known_ = false;
   baseline_.reset();
   monitor_.reset();
   latency_.reset();
@@ -196,22 +210,40 @@ void Controller::apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& mo
   }
 }
 
+double Controller::rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept {
+  const Eigen::Vector3d twist = measured.segment<3>(StateIndex::kVx);
+  const Eigen::Vector2d& p = layout_.position_body(module);
+  const double angle = measured[StateIndex::steering(module)];
+  const double contact_speed =
+      std::cos(angle) * (twist.x() - twist.z() * p.y()) + std::sin(angle) * (twist.y() + twist.z() * p.x());
+  return contact_speed / layout_.wheel_radius();
+}
+
+void Controller::estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
+  if (wheel_speeds_known_) {
+    // One period after the last commands were sent, through the drives' lag and clamp.
+    const detail::DriveLag lag{drive_time_constant_, max_wheel_acceleration_};
+    for (int i = 0; i < modules_; ++i) {
+      double mean = 0.0;
+      detail::drive_response(wheel_speeds_[i], sent_wheel_speeds_[i], lag, options_.dt, &wheel_speeds_[i], &mean);
+    }
+  } else {
+    // No commands of ours to follow (start, reset, a rejected measurement): rolling with the body.
+    for (int i = 0; i < modules_; ++i) wheel_speeds_[i] = rolling_wheel_speed(measured, i);
+  }
+  wheel_speeds_estimated_ = true;
+}
+
 void Controller::assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
   // Without a command of our own yet (start, reset, after a safe stop), the input the step bounds
   // and the smoothness cost start from is the one that keeps the vehicle doing what it does now:
   // its measured twist, or each wheel rolling at its contact speed with the steering at rest.
-  const Eigen::Vector3d twist = measured.segment<3>(StateIndex::kVx);
-  const double radius = layout_.wheel_radius();
   for (int i = 0; i < modules_; ++i) {
-    const Eigen::Vector2d& p = layout_.position_body(i);
-    const double angle = measured[StateIndex::steering(i)];
-    const double contact_speed =
-        std::cos(angle) * (twist.x() - twist.z() * p.y()) + std::sin(angle) * (twist.y() + twist.z() * p.x());
     applied_input_[InputIndex::steering_rate(i)] = 0.0;
-    applied_input_[InputIndex::wheel_speed(i)] = contact_speed / radius;
+    applied_input_[InputIndex::wheel_speed(i)] = rolling_wheel_speed(measured, i);
   }
   if (twist_model_ != nullptr) {
-    applied_decision_ = twist;
+    applied_decision_ = measured.segment<3>(StateIndex::kVx);
   } else {
     applied_decision_ = applied_input_;
   }
@@ -310,6 +342,10 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
 
 const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   latency_.record(output_.modules);
+  if (wheel_speeds_.size() > 0) {
+    for (int i = 0; i < modules_; ++i) sent_wheel_speeds_[i] = output_.modules[i].wheel_speed;
+    wheel_speeds_known_ = wheel_speeds_estimated_;
+  }
   const TimePoint end = clock().now();
   output_.step_time_s = to_seconds(end - step_start);
   if (solved_) {
@@ -333,6 +369,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
   const Deadline deadline(step_deadline - solve_margin(), clock());
   solved_ = false;
+  wheel_speeds_estimated_ = false;
   output_.solve = SolveSummary{};
   output_.measurement_stale = false;
   // The previous plan moves on by one cycle whatever happens now.
@@ -362,7 +399,12 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   // after the observer's filtering when it is on.
   latency_.estimate(measured, measured_at, t, now_);
   // Update the problem in place: state, last applied input, reference window.
-  problem_->set_initial_state(now_);
+  prediction_state_.head(6 + modules_) = now_;
+  if (wheel_speeds_.size() > 0) {
+    estimate_wheel_speeds(now_);
+    prediction_state_.tail(modules_) = wheel_speeds_;
+  }
+  problem_->set_initial_state(prediction_state_);
   if (!previous_input_known_) assume_previous_input(now_);
   problem_->set_previous_input(applied_decision_);
   for (int k = 1; k <= options_.horizon; ++k) {

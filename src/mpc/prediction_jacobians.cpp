@@ -13,7 +13,7 @@ namespace detail {
 
 struct PredictionJets {
   PredictionJets(const VehicleParams& params, const PredictionOptions& options) : step(params, options) {
-    const int nx = step.model().state_size();
+    const int nx = step.state_size();
     const int nu = step.model().input_size();
     x = ModelJetVector::Zero(nx);
     u = ModelJetVector::Zero(nu);
@@ -33,7 +33,7 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   values_ = std::make_unique<detail::PredictionStep<double>>(params, options_);
   jets_ = std::make_unique<detail::PredictionJets>(params, options_);
   modules_ = values_->model().modules();
-  state_size_ = values_->model().state_size();
+  state_size_ = values_->state_size();
   input_size_ = values_->model().input_size();
   data_ = std::make_unique<Data>(create_data());
 }

@@ -1008,6 +1008,39 @@ TEST(Controller, TheTubeWidensToTheBaselinePlansOwnPredictedError) {
   EXPECT_LT(tube(0, options.horizon - 1), tube(0, 0));
 }
 
+TEST(Controller, WithDriveLagThePredictionStartsFromTheWheelSpeedsItsCommandsHaveReached) {
+  // The plant's drives lag (tau 50 ms) and clamp at 2 m/s^2 / 0.1 m = 20 rad/s^2. The controller's
+  // prediction carries the wheel speeds: at the start they roll with the body (at rest: 0); a
+  // period later they are where the drive law takes them from there under the commands sent.
+  VehicleParams vehicle = small_robot();
+  vehicle.plant.actuator_lag = true;
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.prediction.drive_lag = true;
+  Controller controller(vehicle, testing::line_reference(0.5), options,
+                        [&script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, &script); });
+  controller.set_clock(script.clock);
+  ASSERT_EQ(controller.problem().state_size(), 6 + 2 * 4);
+  const ControlOutput& first = controller.step(at_rest(), 0.0);
+  ASSERT_EQ(first.source, CommandSource::kOptimizer) << reason_of(first);
+  EXPECT_EQ(controller.problem().initial_state().tail(4).cwiseAbs().maxCoeff(), 0.0);
+  double sent[4];
+  for (int i = 0; i < 4; ++i) sent[i] = first.modules[i].wheel_speed;
+  ASSERT_GT(sent[0], 0.0);
+  controller.step(at_rest(), options.dt);
+  const double alpha = vehicle.layout.limits().max_drive_acceleration / vehicle.layout.wheel_radius();
+  for (int i = 0; i < 4; ++i) {
+    // omega_dot = clamp((c - omega) / tau, +-alpha) by explicit Euler at 1 us, from 0.
+    double omega = 0.0;
+    for (int k = 0; k < 50000; ++k) omega += 1e-6 * std::clamp((sent[i] - omega) / 0.05, -alpha, alpha);
+    EXPECT_NEAR(controller.problem().initial_state()[10 + i], omega, 1e-5) << "module " << i;
+  }
+  // A reset forgets the commands: rolling with the body again.
+  controller.reset();
+  controller.step(at_rest(), 2 * options.dt);
+  EXPECT_EQ(controller.problem().initial_state().tail(4).cwiseAbs().maxCoeff(), 0.0);
+}
+
 TEST(Controller, TheHeadingWeightFromGeometryIsThePositionWeightTimesTheOutermostModuleRadiusSquared) {
   // small_robot: modules at (+-0.3, +-0.25), R^2 = 0.09 + 0.0625.
   FakeScript script;

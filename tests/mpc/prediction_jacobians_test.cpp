@@ -150,6 +150,23 @@ TEST_F(PredictionJacobians, MatchOnTheTenModulePaperVehicleLayout) {
                          "twist, 10 modules");
 }
 
+TEST_F(PredictionJacobians, MatchWithTheWheelSpeedsAsLaggedStates) {
+  // drive_lag: the state carries the wheel speeds (x[10..13]). Wheels behind their commands by
+  // amounts that put the drives' clamp on, off, and in between over the step.
+  PredictionOptions options;
+  options.drive_lag = true;
+  const TwistPredictionModel lagged(params, options);
+  ASSERT_EQ(lagged.state_size(), StateIndex::prefix_size(4) + 4);
+  for (int trial = 0; trial < 4; ++trial) {
+    const Eigen::Vector3d twist(uniform(0.3, 0.8), uniform(-0.2, 0.2), uniform(-0.3, 0.3));
+    Eigen::VectorXd x(lagged.state_size());
+    x << moving_state(params, twist, uniform(0.0, 0.05), uniform(-3.0, 3.0)), Eigen::VectorXd::Zero(4);
+    for (int i = 0; i < 4; ++i) x[StateIndex::prefix_size(4) + i] = twist.x() / 0.1 + uniform(-3.0, 3.0);
+    const Eigen::Vector3d command = twist + Eigen::Vector3d(uniform(-0.1, 0.1), uniform(-0.1, 0.1), uniform(-0.1, 0.1));
+    expect_jacobians_match(lagged, x, command, 1e-5, "twist, lagged drives");
+  }
+}
+
 TEST_F(PredictionJacobians, RejectWrongSizesAndNonFiniteInput) {
   const int nx = twist_model.state_size();
   Eigen::VectorXd x = moving_state(params, Eigen::Vector3d(0.5, 0.0, 0.0), 0.0, 0.0), x_next(nx), gradient(nx + 3);

@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <random>
 #include <thread>
@@ -145,6 +146,66 @@ TEST(VehiclePredictionModel, StageWearOfASmallCorrectionAtCruiseIsNearerThePlant
     EXPECT_LT(w.predicted, 4.0 * w.plant);
     EXPECT_GT(w.predicted, 0.8 * w.plant);
   }
+}
+
+// The wheel speed a drive reaches from `start` under `command` over `dt`: the plant's drive law
+// omega_dot = clamp((command - omega) / tau, +-alpha), integrated by explicit Euler at 1 us.
+double drive_by_euler(double start, double command, double tau, double alpha, double dt) {
+  constexpr double kH = 1e-6;
+  double omega = start;
+  for (int k = 0; k < static_cast<int>(std::lround(dt / kH)); ++k) {
+    omega += kH * std::clamp((command - omega) / tau, -alpha, alpha);
+  }
+  return omega;
+}
+
+TEST(VehiclePredictionModel, WithDriveLagTheWheelSpeedsFollowTheirCommandsThroughTheDrivesLagAndClamp) {
+  // drive_lag: the wheel speeds are states (x[10..13]). tau = 50 ms, clamp 2 m/s^2 / 0.1 m =
+  // 20 rad/s^2, so it holds while the wheel is more than 1 rad/s off: commands 0.5 and -0.5 rad/s
+  // off stay under it, 3 rad/s off stays clamped all step, 1.5 rad/s off leaves it after 25 ms.
+  const VehicleParams params = small_agv(true);
+  PredictionOptions options;
+  options.drive_lag = true;
+  const VehiclePredictionModel model(params, options);
+  ASSERT_EQ(model.state_size(), 14);
+  Eigen::VectorXd x(14), x_next(14), u = Eigen::VectorXd::Zero(8);
+  x << moving_with(params, Eigen::Vector3d(0.5, 0.0, 0.0)), Eigen::VectorXd::Constant(4, 5.0);
+  const double offsets[] = {0.5, -0.5, 3.0, 1.5};
+  for (int i = 0; i < 4; ++i) u[InputIndex::wheel_speed(i)] = 5.0 + offsets[i];
+  double wear = 0.0;
+  ASSERT_TRUE(model.step(x, u, 0.05, x_next, &wear));
+  const double alpha = params.layout.limits().max_drive_acceleration / params.layout.wheel_radius();
+  for (int i = 0; i < 4; ++i) {
+    const double expected = drive_by_euler(5.0, 5.0 + offsets[i], params.actuators.drive_time_constant, alpha, 0.05);
+    EXPECT_NEAR(x_next[10 + i], expected, 1e-5) << "module " << i << ", command " << offsets[i] << " rad/s off";
+  }
+  // Lagging wheels drive the body less than the commands would: it speeds up less than with the
+  // drives at their commands at once.
+  const VehiclePredictionModel instant(params);
+  Eigen::VectorXd instant_next(10);
+  ASSERT_TRUE(instant.step(x.head(10), u, 0.05, instant_next, &wear));
+  EXPECT_LT(x_next[StateIndex::kVx], instant_next[StateIndex::kVx] - 1e-3);
+  // A state without the wheel speeds is refused.
+  EXPECT_FALSE(model.step(x.head(10), u, 0.05, instant_next, &wear));
+}
+
+TEST(VehiclePredictionModel, WithDriveLagWheelsAtTheirCommandsPredictWhatInstantDrivesPredict) {
+  // Nothing for the lag to do: the body, steering and wear are those of the model without it.
+  const VehicleParams params = small_agv(true);
+  PredictionOptions options;
+  options.drive_lag = true;
+  const VehiclePredictionModel lagged(params, options), instant(params);
+  Eigen::VectorXd x(14), x_next(14), instant_next(10), u(8);
+  const Eigen::Vector3d twist(0.6, 0.05, 0.2);
+  x.head(10) = moving_with(params, twist);
+  instant.module_inputs(x.head(10), twist, 0.05, u);
+  for (int i = 0; i < 4; ++i) x[10 + i] = u[InputIndex::wheel_speed(i)];
+  double lagged_wear = 0.0, instant_wear = 0.0;
+  ASSERT_TRUE(lagged.step(x, u, 0.05, x_next, &lagged_wear));
+  ASSERT_TRUE(instant.step(x.head(10), u, 0.05, instant_next, &instant_wear));
+  EXPECT_LT((x_next.head(10) - instant_next).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_NEAR(lagged_wear, instant_wear, 1e-12);
+  EXPECT_LT((x_next.tail(4) - x.tail(4)).cwiseAbs().maxCoeff(), 1e-12);
 }
 
 // From rest, wheels that spin up while their modules still turn slip far past the tyre's force

@@ -77,6 +77,12 @@ TEST(ControllerConfig, ReadsTheTrackingToleranceAndTheGeometryHeadingWeight) {
   EXPECT_FALSE(load("").mpc.tracking_tolerance.enabled());
 }
 
+TEST(ControllerConfig, ReadsTheDriveLagSwitchOfThePrediction) {
+  EXPECT_TRUE(load("  prediction: {drive_lag: true}\n").mpc.prediction.drive_lag);
+  EXPECT_FALSE(load("").mpc.prediction.drive_lag);
+  expect_rejected("  prediction: {drive_lag: sometimes}\n", "controller.prediction.drive_lag");
+}
+
 TEST(ControllerConfig, ReadsTheHeadingLever) {
   EXPECT_DOUBLE_EQ(load("  weights: {heading_from_geometry: true, heading_lever: 2.5}\n").mpc.heading_lever, 2.5);
   EXPECT_DOUBLE_EQ(load("").mpc.heading_lever, 1.0);

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -109,6 +110,11 @@ class Controller final : public TrackingController {
   void apply_decision(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
                       const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
   void assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
+  // rad/s: module `module`'s wheel rolling with the measured body twist at its measured angle.
+  double rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept;
+  // The drives' wheel speeds now (prediction with drive_lag): the commands sent last cycle followed
+  // through the drive lag over one period, or rolling with the body when there were none.
+  void estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                            const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
@@ -146,6 +152,13 @@ class Controller final : public TrackingController {
   Eigen::VectorXd baseline_stage_costs_;  // N
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
+  Eigen::VectorXd prediction_state_; // nx: now_, then (drive_lag) the estimated wheel speeds
+  Eigen::VectorXd wheel_speeds_;     // n (empty without drive_lag): estimated at this step's t
+  Eigen::VectorXd sent_wheel_speeds_;  // n: the wheel speeds commanded last cycle
+  double drive_time_constant_ = 0.0;  // s: the drives' lag (drive_lag)
+  double max_wheel_acceleration_ = std::numeric_limits<double>::infinity();  // rad/s^2: their clamp
+  bool wheel_speeds_known_ = false;  // whether wheel_speeds_ continues from commands of ours
+  bool wheel_speeds_estimated_ = false;  // this step estimated them (else the chain restarts)
   double overshoot_s_ = 0.0;         // decaying maximum of step end - solver deadline (s)
   TimePoint solve_deadline_{};       // this step's, when a solve ran
   bool solved_ = false;              // whether this step ran the solver

@@ -45,6 +45,10 @@ struct PredictionOptions {
   int substeps = 1;              // per controller step (both methods)
   int slow_substeps = 5;         // semi-implicit, when body and commanded wheels are under 0.25 m/s
   int max_newton_iterations = 8; // semi-implicit only
+  // The wheel speeds as states that follow their commands through the drives' first-order lag
+  // (when the vehicle's plant has one: plant.actuator_lag), so the state is (pose, twist, steering
+  // angles, wheel speeds). Off: the drives reach their commands at once.
+  bool drive_lag = false;
   void validate() const;         // throws ConfigError
 };
 
