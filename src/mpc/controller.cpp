@@ -219,18 +219,21 @@ double Controller::rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& 
   return contact_speed / layout_.wheel_radius();
 }
 
-void Controller::estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
-  if (wheel_speeds_known_) {
-    // One period after the last commands were sent, through the drives' lag and clamp.
+void Controller::estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {
+  const double elapsed = t - wheel_speeds_time_;
+  if (wheel_speeds_known_ && elapsed > 0.0 && elapsed <= 4.0 * options_.dt) {
+    // The time since the last commands were sent, through the drives' lag and clamp.
     const detail::DriveLag lag{drive_time_constant_, max_wheel_acceleration_};
     for (int i = 0; i < modules_; ++i) {
       double mean = 0.0;
-      detail::drive_response(wheel_speeds_[i], sent_wheel_speeds_[i], lag, options_.dt, &wheel_speeds_[i], &mean);
+      detail::drive_response(wheel_speeds_[i], sent_wheel_speeds_[i], lag, elapsed, &wheel_speeds_[i], &mean);
     }
   } else {
-    // No commands of ours to follow (start, reset, a rejected measurement): rolling with the body.
+    // No commands of ours to follow (start, reset, a rejected or stale measurement, time that went
+    // back or jumped by more than four periods): rolling with the body.
     for (int i = 0; i < modules_; ++i) wheel_speeds_[i] = rolling_wheel_speed(measured, i);
   }
+  wheel_speeds_time_ = t;
   wheel_speeds_estimated_ = true;
 }
 
@@ -401,7 +404,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   // Update the problem in place: state, last applied input, reference window.
   prediction_state_.head(6 + modules_) = now_;
   if (wheel_speeds_.size() > 0) {
-    estimate_wheel_speeds(now_);
+    estimate_wheel_speeds(now_, t);
     prediction_state_.tail(modules_) = wheel_speeds_;
   }
   problem_->set_initial_state(prediction_state_);

@@ -165,7 +165,20 @@ bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eig
   const ModuleLayout& layout = kinematics_.layout();
   const double max_speed = layout.limits().max_drive_speed;
   const double max_change = layout.limits().max_drive_acceleration * dt;
+  // The ramp starts from the last command, but never further ahead of the measured twist than
+  // kRampLead periods of drive acceleration at any module: lagging drives stay within that (a drive
+  // following a ramp trails it by its time constant times the acceleration, 2 periods for the
+  // carriers' 0.1 s), and a vehicle that is blocked or slips does not wind the command up.
+  constexpr double kRampLead = 4.0;
   Eigen::Vector3d previous = last_command;
+  {
+    const Eigen::Vector3d lead = last_command - twist_body;
+    double largest = 0.0;
+    for (const Eigen::Vector2d& p : layout.positions_body()) {
+      largest = std::max(largest, Eigen::Vector2d(lead.x() - lead.z() * p.y(), lead.y() + lead.z() * p.x()).norm());
+    }
+    if (largest > kRampLead * max_change) previous = twist_body + (kRampLead * max_change / largest) * lead;
+  }
   for (int k = 0; k < horizon_; ++k) {
     Eigen::Vector3d limited;
     if (kinematics_.desaturate_twist(twists_.col(k), max_speed, DesaturationPriority::kProportional, &limited) ==

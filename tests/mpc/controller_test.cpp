@@ -1026,8 +1026,8 @@ TEST(Controller, TheTubeWidensToTheBaselinePlansOwnPredictedError) {
 
 TEST(Controller, WithDriveLagThePredictionStartsFromTheWheelSpeedsItsCommandsHaveReached) {
   // The plant's drives lag (tau 50 ms) and clamp at 2 m/s^2 / 0.1 m = 20 rad/s^2. The controller's
-  // prediction carries the wheel speeds: at the start they roll with the body (at rest: 0); a
-  // period later they are where the drive law takes them from there under the commands sent.
+  // prediction carries the wheel speeds: at the start they roll with the body; later they are
+  // where the drive law takes them under the commands sent, over the time that actually passed.
   VehicleParams vehicle = small_robot();
   vehicle.plant.actuator_lag = true;
   FakeScript script;
@@ -1037,24 +1037,47 @@ TEST(Controller, WithDriveLagThePredictionStartsFromTheWheelSpeedsItsCommandsHav
                         [&script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, &script); });
   controller.set_clock(script.clock);
   ASSERT_EQ(controller.problem().state_size(), 6 + 2 * 4);
-  const ControlOutput& first = controller.step(at_rest(), 0.0);
-  ASSERT_EQ(first.source, CommandSource::kOptimizer) << reason_of(first);
-  EXPECT_EQ(controller.problem().initial_state().tail(4).cwiseAbs().maxCoeff(), 0.0);
-  double sent[4];
-  for (int i = 0; i < 4; ++i) sent[i] = first.modules[i].wheel_speed;
-  ASSERT_GT(sent[0], 0.0);
-  controller.step(at_rest(), options.dt);
+  const auto wheel_state = [&controller](int i) { return controller.problem().initial_state()[10 + i]; };
   const double alpha = vehicle.layout.limits().max_drive_acceleration / vehicle.layout.wheel_radius();
+  // omega_dot = clamp((command - omega) / tau, +-alpha) by explicit Euler at 1 us.
+  const auto drive = [alpha](double omega, double command, double duration) {
+    for (int k = 0; k < static_cast<int>(std::lround(duration / 1e-6)); ++k) {
+      omega += 1e-6 * std::clamp((command - omega) / 0.05, -alpha, alpha);
+    }
+    return omega;
+  };
+  // Cruising at 0.5 m/s, wheels straight ahead: they roll at 0.5 / 0.1 = 5 rad/s.
+  Eigen::VectorXd state = cruising();
+  double sent[4], reached[4];
+  const ControlOutput& first = controller.step(state, 0.0);
+  ASSERT_EQ(first.source, CommandSource::kOptimizer) << reason_of(first);
   for (int i = 0; i < 4; ++i) {
-    // omega_dot = clamp((c - omega) / tau, +-alpha) by explicit Euler at 1 us, from 0.
-    double omega = 0.0;
-    for (int k = 0; k < 50000; ++k) omega += 1e-6 * std::clamp((sent[i] - omega) / 0.05, -alpha, alpha);
-    EXPECT_NEAR(controller.problem().initial_state()[10 + i], omega, 1e-5) << "module " << i;
+    EXPECT_NEAR(wheel_state(i), 5.0, 1e-12) << "module " << i;
+    sent[i] = first.modules[i].wheel_speed;
   }
-  // A reset forgets the commands: rolling with the body again.
+  ASSERT_GT(std::abs(sent[0] - 5.0), 0.05);  // the command is not the rolling speed
+  // One period later.
+  state[0] += 0.025;
+  const ControlOutput& second = controller.step(state, options.dt);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(wheel_state(i), drive(5.0, sent[i], options.dt), 1e-5) << "module " << i;
+    reached[i] = wheel_state(i);
+    sent[i] = second.modules[i].wheel_speed;
+  }
+  // A period skipped: the next step comes two periods on.
+  state[0] += 0.05;
+  controller.step(state, 3 * options.dt);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(wheel_state(i), drive(reached[i], sent[i], 2 * options.dt), 1e-5) << "module " << i;
+  }
+  // Time that jumps by more than four periods, and a reset, restart from the rolling speeds.
+  controller.step(state, 10 * options.dt);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(wheel_state(i), 5.0, 1e-12) << "module " << i;
+  controller.step(state, 11 * options.dt);
+  ASSERT_GT(std::abs(wheel_state(0) - 5.0), 1e-3);
   controller.reset();
-  controller.step(at_rest(), 2 * options.dt);
-  EXPECT_EQ(controller.problem().initial_state().tail(4).cwiseAbs().maxCoeff(), 0.0);
+  controller.step(state, 12 * options.dt);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(wheel_state(i), 5.0, 1e-12) << "module " << i;
 }
 
 TEST(Controller, TheHeadingWeightFromGeometryIsThePositionWeightTimesTheOutermostModuleRadiusSquared) {

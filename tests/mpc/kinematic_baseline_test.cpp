@@ -183,12 +183,12 @@ TEST(KinematicBaseline, PlanRespectsTheDriveAccelerationLimit) {
 TEST(KinematicBaseline, RampsFromItsLastCommandNotFromTheLaggingMeasuredTwist) {
   // Drives that follow their commands through a lag always measure behind them. Here they have not
   // moved at all yet: the measured state stays at rest, aligned with a line reference that runs
-  // away at 0.5 m/s. The command must still climb by the full drive acceleration each cycle
+  // away at 1.5 m/s. The command must still climb by the full drive acceleration each cycle
   // (0.1 m/s per 0.05 s step): restarted from the measured twist, it stayed at 0.1 m/s for ever
   // (the 8-module carrier reached ~40 % of its drive acceleration that way).
   const ModuleLayout layout = small_robot().layout;
   const double max_change = layout.limits().max_drive_acceleration * 0.05;
-  const auto reference = testing::line_reference(0.5, 100.0);
+  const auto reference = testing::line_reference(1.5, 100.0);
   KinematicBaseline baseline(layout, reference, BaselineOptions{});
   const Eigen::VectorXd at_rest = Eigen::VectorXd::Zero(6 + layout.size());
   for (int k = 0; k < 4; ++k) {
@@ -199,9 +199,16 @@ TEST(KinematicBaseline, RampsFromItsLastCommandNotFromTheLaggingMeasuredTwist) {
           << "cycle " << k << ", module " << i;
     }
   }
+  // A vehicle that stays blocked does not wind the command up: it climbs no further than four
+  // periods of drive acceleration ahead of the measurement, plus this period's step.
+  for (int k = 4; k < 10; ++k) {
+    const ControlOutput& out = baseline.step(at_rest, 0.05 * k);
+    EXPECT_NEAR(out.modules[0].wheel_speed * layout.wheel_radius(), std::min(k + 1, 5) * max_change, 1e-9)
+        << "cycle " << k;
+  }
   // A reset forgets the last command: the ramp starts again from the measurement.
   baseline.reset();
-  const ControlOutput& out = baseline.step(at_rest, 0.2);
+  const ControlOutput& out = baseline.step(at_rest, 0.5);
   EXPECT_NEAR(out.modules[0].wheel_speed * layout.wheel_radius(), max_change, 1e-9);
 }
 

@@ -112,9 +112,9 @@ class Controller final : public TrackingController {
   void assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   // rad/s: module `module`'s wheel rolling with the measured body twist at its measured angle.
   double rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept;
-  // The drives' wheel speeds now (prediction with drive_lag): the commands sent last cycle followed
-  // through the drive lag over one period, or rolling with the body when there were none.
-  void estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
+  // The drives' wheel speeds at t (prediction with drive_lag): the commands sent last cycle followed
+  // through the drive lag since then, or rolling with the body when there were none.
+  void estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept;
   void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                            const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
@@ -157,6 +157,7 @@ class Controller final : public TrackingController {
   Eigen::VectorXd sent_wheel_speeds_;  // n: the wheel speeds commanded last cycle
   double drive_time_constant_ = 0.0;  // s: the drives' lag (drive_lag)
   double max_wheel_acceleration_ = std::numeric_limits<double>::infinity();  // rad/s^2: their clamp
+  double wheel_speeds_time_ = 0.0;   // s: the t wheel_speeds_ were estimated for
   bool wheel_speeds_known_ = false;  // whether wheel_speeds_ continues from commands of ours
   bool wheel_speeds_estimated_ = false;  // this step estimated them (else the chain restarts)
   double overshoot_s_ = 0.0;         // decaying maximum of step end - solver deadline (s)
