@@ -4,9 +4,8 @@
 #include <sstream>
 
 #include "swerve/config/config_error.hpp"
+#include "swerve/models/drive_response.hpp"
 #include "swerve/mpc/safe_stop.hpp"
-
-#include "drive_response.hpp"
 
 namespace swerve {
 namespace {
@@ -223,10 +222,10 @@ void Controller::estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& 
   const double elapsed = t - wheel_speeds_time_;
   if (wheel_speeds_known_ && elapsed > 0.0 && elapsed <= 4.0 * options_.dt) {
     // The time since the last commands were sent, through the drives' lag and clamp.
-    const detail::DriveLag lag{drive_time_constant_, max_wheel_acceleration_};
+    const DriveLag lag{drive_time_constant_, max_wheel_acceleration_};
     for (int i = 0; i < modules_; ++i) {
       double mean = 0.0;
-      detail::drive_response(wheel_speeds_[i], sent_wheel_speeds_[i], lag, elapsed, &wheel_speeds_[i], &mean);
+      drive_response(wheel_speeds_[i], sent_wheel_speeds_[i], lag, elapsed, &wheel_speeds_[i], &mean);
     }
   } else {
     // No commands of ours to follow (start, reset, a rejected or stale measurement, time that went

@@ -21,11 +21,11 @@
 #include "swerve/kinematics/kinematics.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/kinematics/se2.hpp"
+#include "swerve/models/drive_response.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/jet.hpp"
 #include "swerve/models/vehicle_model.hpp"
 #include "swerve/mpc/vehicle_prediction_model.hpp"
-#include "drive_response.hpp"
 
 namespace swerve::detail {
 

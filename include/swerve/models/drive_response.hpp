@@ -1,7 +1,8 @@
 // A drive's wheel speed over one step: the plant's first-order lag towards the command with its
-// acceleration clamp (models/vehicle_model_impl.hpp: omega_dot = clamp((c - omega) / tau, +-alpha)),
-// solved in closed form. Shared by the prediction step (drive_lag) and the controller's estimate
-// of the wheel speeds its commands have reached. Internal to the library.
+// acceleration clamp (VehicleModel with actuator lag and saturation: omega_dot = clamp((c - omega)
+// / tau, +-alpha)), solved in closed form. The MPC's prediction (PredictionOptions::drive_lag) and
+// the controller's estimate of the wheel speeds its commands have reached use it;
+// tests/models/drive_response_test.cpp holds it to the vehicle model's own law.
 #pragma once
 
 #include <cmath>
@@ -9,11 +10,11 @@
 
 #include "swerve/scalar.hpp"
 
-namespace swerve::detail {
+namespace swerve {
 
 struct DriveLag {
-  double time_constant = 0.0;                                   // tau, s (> 0)
-  double max_acceleration = std::numeric_limits<double>::infinity();  // alpha, rad/s^2 (> 0)
+  double time_constant = 0.0;                                         // tau, s (> 0)
+  double max_acceleration = std::numeric_limits<double>::infinity();  // alpha, rad/s^2 (> 0); inf: no clamp
 };
 
 // From `start`, commanded `command` over `h`: the wheel speed at the end (*end) and its mean over
@@ -52,4 +53,4 @@ void drive_response(const T& start, const T& command, const DriveLag& lag, doubl
   *mean = command - mean_error;
 }
 
-}  // namespace swerve::detail
+}  // namespace swerve
