@@ -170,27 +170,26 @@ bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eig
   // following a ramp trails it by its time constant times the acceleration, 2 periods for the
   // carriers' 0.1 s), and a vehicle that is blocked or slips does not wind the command up.
   constexpr double kRampLead = 4.0;
-  Eigen::Vector3d previous = last_command;
-  {
-    const Eigen::Vector3d lead = last_command - twist_body;
-    double largest = 0.0;
-    for (const Eigen::Vector2d& p : layout.positions_body()) {
-      largest = std::max(largest, Eigen::Vector2d(lead.x() - lead.z() * p.y(), lead.y() + lead.z() * p.x()).norm());
+  // `to`, or the twist towards it from `from` whose change moves no module's velocity by more than
+  // `most`: the same proportional scaling as the drive-speed limit, applied to the change.
+  const auto limit_change = [this](const Eigen::Vector3d& from, const Eigen::Vector3d& to, double most) {
+    const Eigen::Vector3d change = to - from;
+    Eigen::Vector3d limited;
+    if (kinematics_.desaturate_twist(change, most, DesaturationPriority::kProportional, &limited) !=
+            KinematicsStatus::kOk ||
+        limited == change) {
+      return to;
     }
-    if (largest > kRampLead * max_change) previous = twist_body + (kRampLead * max_change / largest) * lead;
-  }
+    return Eigen::Vector3d(from + limited);
+  };
+  Eigen::Vector3d previous = limit_change(twist_body, last_command, kRampLead * max_change);
   for (int k = 0; k < horizon_; ++k) {
     Eigen::Vector3d limited;
     if (kinematics_.desaturate_twist(twists_.col(k), max_speed, DesaturationPriority::kProportional, &limited) ==
         KinematicsStatus::kOk) {
       twists_.col(k) = limited;
     }
-    const Eigen::Vector3d change = twists_.col(k) - previous;
-    double largest = 0.0;
-    for (const Eigen::Vector2d& p : layout.positions_body()) {
-      largest = std::max(largest, Eigen::Vector2d(change.x() - change.z() * p.y(), change.y() + change.z() * p.x()).norm());
-    }
-    if (largest > max_change) twists_.col(k) = previous + (max_change / largest) * change;
+    twists_.col(k) = limit_change(previous, twists_.col(k), max_change);
     previous = twists_.col(k);
   }
   return true;

@@ -77,6 +77,14 @@ TEST(SimulatedAnnealing, ThePolishBringsAShortAnnealClosToTheClosedFormOptimum) 
   EXPECT_GE(gap[1], -1e-9);
 }
 
+// Options of the polish deadline tests: only the clock stops the solve, and the polish has 70 % of it.
+SaOptions clock_bound_polish_options() {
+  SaOptions options;
+  options.max_iterations = 100000000;
+  options.polish_share = 0.7;
+  return options;
+}
+
 // The polish keeps the deadline. On a clock charging 2 us per model step and 40 or 80 us per step
 // with Jacobians (a gradient of 40 steps: 1.6 or 3.2 ms, i.e. 20 or 40 rollouts), 5 ms solves with
 // 3.5 ms for the polish return by their deadline: the first gradient's time is foreseen from one
@@ -88,10 +96,7 @@ TEST(SimulatedAnnealing, ThePolishHonoursTheDeadline) {
     testing::WorkClock clock;
     const testing::ClockedModel clocked(model, &clock, 2e-6, jacobian_cost);
     const OcpProblem problem = make_lq_problem(clocked, 40);
-    SaOptions options;
-    options.max_iterations = 100000000;
-    options.polish_share = 0.7;
-    SimulatedAnnealingSolver solver(problem, options);
+    SimulatedAnnealingSolver solver(problem, clock_bound_polish_options());
     Solution solution;
     solution.resize(6, 3, 40);
     for (int solve = 0; solve < 3; ++solve) {
@@ -121,10 +126,7 @@ TEST(SimulatedAnnealing, ThePolishGivesUpAGradientThatTurnsOutSlowerThanForeseen
   const testing::ClockedModel dear(model, &clock, 2e-6, 400e-6);
   const OcpProblem cheap_problem = make_lq_problem(cheap, 40);
   const std::unique_ptr<OcpProblem> dear_problem = testing::problem_on(dear, cheap_problem);
-  SaOptions options;
-  options.max_iterations = 100000000;
-  options.polish_share = 0.7;
-  SimulatedAnnealingSolver solver(cheap_problem, options);
+  SimulatedAnnealingSolver solver(cheap_problem, clock_bound_polish_options());
   Solution solution;
   solution.resize(6, 3, 40);
   SolveSummary summary;
