@@ -99,6 +99,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                   {"twist", {o.twist_weight.x(), o.twist_weight.y(), o.twist_weight.z()}},
                   {"terminal_scale", o.terminal_scale},
                   {"wear", o.wear_weight},
+                  {"wear_reference_mass", o.wear_reference_mass},
                   {"steering_rate_effort", o.steering_rate_effort},
                   {"wheel_speed_effort", o.wheel_speed_effort},
                   {"steering_rate_smoothness", o.steering_rate_smoothness},

@@ -26,7 +26,7 @@ double outermost_module_radius(const ModuleLayout& layout) {
   return radius;
 }
 
-CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout) {
+CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout, double vehicle_mass) {
   const int modules = layout.size();
   CostWeights w;
   w.pose = o.pose_weight;
@@ -36,7 +36,7 @@ CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout)
   }
   w.twist = o.twist_weight;
   w.terminal_scale = o.terminal_scale;
-  w.wear = o.wear_weight;
+  w.wear = o.wear_reference_mass > 0.0 ? o.wear_weight * o.wear_reference_mass / vehicle_mass : o.wear_weight;
   w.tube_penalty = o.tracking_tolerance.penalty;
   if (o.parameterization == InputParameterization::kBodyTwist) {
     w.effort = Eigen::VectorXd::Zero(3);
@@ -127,6 +127,7 @@ void ControllerOptions::validate() const {
   }
   require_non_negative("terminal_scale", terminal_scale);
   require_non_negative("wear_weight", wear_weight);
+  require_non_negative("wear_reference_mass", wear_reference_mass);
   if (!std::isfinite(heading_lever) || heading_lever <= 0.0) reject("heading_lever", heading_lever, "must be finite and > 0");
   require_non_negative("steering_rate_effort", steering_rate_effort);
   require_non_negative("wheel_speed_effort", wheel_speed_effort);
@@ -155,7 +156,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   } else {
     model_ = std::make_unique<VehiclePredictionModel>(vehicle, options_.prediction);
   }
-  problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, layout_),
+  problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, layout_, vehicle.mass),
                                           twist ? twist_bounds(layout_, options_.dt) : input_bounds(layout_, options_.dt));
   solver_ = make_solver(*problem_);
   if (!solver_) throw ConfigError("Controller.solver: the solver factory returned nothing");

@@ -1090,6 +1090,33 @@ TEST(Controller, TheHeadingWeightFromGeometryIsThePositionWeightTimesTheOutermos
   EXPECT_NEAR(levered.problem().weights().pose.z(), 10.0 * 4.0 * (0.3 * 0.3 + 0.25 * 0.25), 1e-12);
 }
 
+TEST(Controller, TheWearWeightForAReferenceMassIsScaledByThatMassOverTheVehicles) {
+  // small_robot weighs 40 kg: a weight set for an 800 kg vehicle counts 20 times on it.
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.wear_weight = 0.3;
+  EXPECT_DOUBLE_EQ(make_fake_controller(&script, options).problem().weights().wear, 0.3);
+  options.wear_reference_mass = 800.0;
+  EXPECT_NEAR(make_fake_controller(&script, options).problem().weights().wear, 0.3 * 800.0 / 40.0, 1e-12);
+  options.wear_reference_mass = 40.0;
+  EXPECT_NEAR(make_fake_controller(&script, options).problem().weights().wear, 0.3, 1e-12);
+}
+
+TEST(Controller, RejectsAWearReferenceMassThatIsNegativeOrNotFiniteNamingTheField) {
+  FakeScript script;
+  for (const double mass : {-1.0, kNaN, std::numeric_limits<double>::infinity()}) {
+    SCOPED_TRACE(mass);
+    ControllerOptions options = fast_options();
+    options.wear_reference_mass = mass;
+    try {
+      make_fake_controller(&script, options);
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("wear_reference_mass"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Controller, RejectsAHeadingLeverThatIsNotPositiveNamingTheField) {
   FakeScript script;
   for (const double lever : {0.0, -1.0, kNaN, std::numeric_limits<double>::infinity()}) {

@@ -83,6 +83,15 @@ TEST(ControllerConfig, ReadsTheDriveLagSwitchOfThePrediction) {
   expect_rejected("  prediction: {drive_lag: sometimes}\n", "controller.prediction.drive_lag");
 }
 
+TEST(ControllerConfig, ReadsTheWearReferenceMassAndRejectsABadOne) {
+  EXPECT_DOUBLE_EQ(load("  weights: {wear: 0.3, wear_reference_mass: 800}\n").mpc.wear_reference_mass, 800.0);
+  EXPECT_DOUBLE_EQ(load("").mpc.wear_reference_mass, 0.0);
+  for (const char* block : {"  weights: {wear_reference_mass: -800}\n", "  weights: {wear_reference_mass: .nan}\n",
+                            "  weights: {wear_reference_mass: heavy}\n"}) {
+    expect_rejected(block, "controller.weights.wear_reference_mass");
+  }
+}
+
 TEST(ControllerConfig, ReadsTheHeadingLever) {
   EXPECT_DOUBLE_EQ(load("  weights: {heading_from_geometry: true, heading_lever: 2.5}\n").mpc.heading_lever, 2.5);
   EXPECT_DOUBLE_EQ(load("").mpc.heading_lever, 1.0);

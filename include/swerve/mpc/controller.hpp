@@ -68,6 +68,12 @@ struct ControllerOptions {
   Eigen::Vector3d twist_weight{0.0, 0.0, 0.0};
   double terminal_scale = 10.0;
   double wear_weight = 1.0;          // lambda; 0 gives the dynamic controller without wear
+  // When > 0, the wear weight is the one for a vehicle of this mass (kg), and the controller uses
+  // wear_weight * wear_reference_mass / mass on its own vehicle. Frictional-power wear of the same
+  // motion grows with the mass (forces grow with m, and so does each tire's cornering and slip
+  // stiffness, so the slips stay the same), while the tracking cost does not: one wear weight
+  // then buys the same tracking on a 50 kg robot and a 2 t carrier (issue 15). 0: off.
+  double wear_reference_mass = 0.0;
   double steering_rate_effort = 0.01;
   double wheel_speed_effort = 0.0;
   double steering_rate_smoothness = 0.05;
