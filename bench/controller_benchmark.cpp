@@ -12,7 +12,7 @@
 
 #include "models/model_fixtures.hpp"
 #include "swerve/models/integrators.hpp"
-#include "swerve/mpc/controller.hpp"
+#include "swerve/control/controller.hpp"
 #include "swerve/sim/metrics.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "models/model_fixtures.hpp"
-#include "swerve/mpc/vehicle_prediction_model.hpp"
+#include "swerve/ocp/vehicle_prediction_model.hpp"
 
 namespace swerve {
 namespace {

@@ -19,8 +19,8 @@
 #include <vector>
 
 #include "support/swerve_problems.hpp"
-#include "swerve/config/scenario_config.hpp"
-#include "swerve/mpc/controller.hpp"
+#include "swerve/app/scenario_config.hpp"
+#include "swerve/control/controller.hpp"
 #include "swerve/sim/metrics.hpp"
 #include "swerve/sim/simulator.hpp"
 #include "swerve/solvers/solver_factory.hpp"

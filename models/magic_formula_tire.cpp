@@ -4,7 +4,7 @@
 #include <sstream>
 
 #include "magic_formula_tire_impl.hpp"
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 
 namespace swerve {
 namespace {

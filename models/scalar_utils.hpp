@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-#include "swerve/scalar.hpp"
+#include "swerve/core/scalar.hpp"
 
 namespace swerve::detail {
 

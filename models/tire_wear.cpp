@@ -3,7 +3,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 
 namespace swerve {
 

@@ -6,7 +6,7 @@
 #include <sstream>
 
 #include "load_distribution.hpp"
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 
 namespace swerve {
 namespace {

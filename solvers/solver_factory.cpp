@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 
 namespace swerve {
 namespace {

@@ -1,8 +1,8 @@
 // Links the installed SwerveMPC and uses its public API: loads an embedded target config.
 #include <iostream>
 
-#include "swerve/config/config_node.hpp"
-#include "swerve/config/target_config.hpp"
+#include "swerve/app/config_node.hpp"
+#include "swerve/app/target_config.hpp"
 #include "swerve/version.hpp"
 
 int main(int argc, char** argv) {

@@ -9,9 +9,9 @@
 #include <utility>
 #include <vector>
 
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 #include "swerve/kinematics/module_state.hpp"  // wrap_angle
-#include "swerve/mpc/ocp_derivatives.hpp"
+#include "swerve/ocp/ocp_derivatives.hpp"
 
 namespace swerve {
 namespace {

@@ -8,9 +8,9 @@
 #include <limits>
 #include <vector>
 
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 #include "swerve/kinematics/module_state.hpp"
-#include "swerve/mpc/ocp_derivatives.hpp"
+#include "swerve/ocp/ocp_derivatives.hpp"
 #include "swerve/models/vehicle_model.hpp"
 
 namespace swerve {

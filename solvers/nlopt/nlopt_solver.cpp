@@ -6,8 +6,8 @@
 #include <cmath>
 #include <limits>
 
-#include "swerve/config/config_error.hpp"
-#include "swerve/mpc/ocp_derivatives.hpp"
+#include "swerve/core/config_error.hpp"
+#include "swerve/ocp/ocp_derivatives.hpp"
 
 namespace swerve {
 namespace {

@@ -6,8 +6,8 @@
 #include <sstream>
 #include <utility>
 
-#include "swerve/config/config_error.hpp"
-#include "swerve/random.hpp"
+#include "swerve/core/config_error.hpp"
+#include "swerve/core/random.hpp"
 
 namespace swerve {
 namespace {

@@ -1,9 +1,9 @@
 #include "config_kinds.hpp"
 
-#include "swerve/config/controller_config.hpp"
-#include "swerve/config/scenario_config.hpp"
-#include "swerve/config/target_config.hpp"
-#include "swerve/config/vehicle_config.hpp"
+#include "swerve/app/controller_config.hpp"
+#include "swerve/app/scenario_config.hpp"
+#include "swerve/app/target_config.hpp"
+#include "swerve/app/vehicle_config.hpp"
 
 namespace swerve::cli {
 namespace {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "swerve/config/config_node.hpp"
+#include "swerve/app/config_node.hpp"
 
 namespace swerve::cli {
 

@@ -9,7 +9,7 @@
 #include <new>
 
 #include "command_registry.hpp"
-#include "swerve/config/error_text.hpp"
+#include "swerve/core/error_text.hpp"
 #include "swerve/version.hpp"
 
 namespace {

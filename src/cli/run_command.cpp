@@ -16,9 +16,9 @@
 #include <optional>
 
 #include "command_registry.hpp"
-#include "swerve/config/error_text.hpp"
-#include "swerve/config/scenario_config.hpp"
-#include "swerve/sim/run_report.hpp"
+#include "swerve/core/error_text.hpp"
+#include "swerve/app/scenario_config.hpp"
+#include "swerve/app/run_report.hpp"
 #include "swerve/solvers/solver_factory.hpp"
 
 namespace swerve::cli {

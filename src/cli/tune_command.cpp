@@ -1,13 +1,13 @@
 // `swerve-mpc tune`: sizes the wear-aware controller's horizon for an embedded target (see
-// swerve/sim/tuning.hpp) and prints one row per horizon and the largest one that qualifies.
+// swerve/app/tuning.hpp) and prints one row per horizon and the largest one that qualifies.
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
 #include <memory>
 
 #include "command_registry.hpp"
-#include "swerve/config/vehicle_config.hpp"
-#include "swerve/sim/tuning.hpp"
+#include "swerve/app/vehicle_config.hpp"
+#include "swerve/app/tuning.hpp"
 
 namespace swerve::cli {
 namespace {

@@ -62,18 +62,6 @@ void KinematicsOptions::validate() const {
   }
 }
 
-KinematicsOptions load_kinematics_options(const config::ConfigNode& node) {
-  using config::Bound;
-  KinematicsOptions options;
-  options.hold_speed_threshold =
-      node.get_double_or("hold_speed_threshold", options.hold_speed_threshold, Bound::positive());
-  options.flip_hysteresis = node.get_double_or("flip_hysteresis", options.flip_hysteresis,
-                                               Bound{0.0, kPi / 2.0, false, true});
-  options.whole_robot_flip = node.get_bool_or("whole_robot_flip", options.whole_robot_flip);
-  options.cosine_scaling = node.get_bool_or("cosine_scaling", options.cosine_scaling);
-  options.validate();
-  return options;
-}
 
 Kinematics::Kinematics(ModuleLayout layout, KinematicsOptions options)
     : layout_(std::move(layout)), options_(options), size_(layout_.size()) {

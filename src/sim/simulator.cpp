@@ -3,8 +3,8 @@
 #include <cmath>
 #include <sstream>
 
-#include "swerve/config/config_error.hpp"
-#include "swerve/random.hpp"
+#include "swerve/core/config_error.hpp"
+#include "swerve/core/random.hpp"
 
 namespace swerve {
 namespace {

@@ -10,8 +10,8 @@
 
 #include "config_kinds.hpp"
 #include "fuzz_support.hpp"
-#include "swerve/config/config_error.hpp"
-#include "swerve/config/config_node.hpp"
+#include "swerve/core/config_error.hpp"
+#include "swerve/app/config_node.hpp"
 
 namespace {
 

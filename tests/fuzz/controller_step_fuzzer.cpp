@@ -10,10 +10,10 @@
 #include <string>
 
 #include "fuzz_support.hpp"
-#include "swerve/config/vehicle_config.hpp"
-#include "swerve/mpc/controller.hpp"
-#include "swerve/mpc/reference.hpp"
-#include "swerve/solvers/deadline.hpp"
+#include "swerve/app/vehicle_config.hpp"
+#include "swerve/control/controller.hpp"
+#include "swerve/control/reference.hpp"
+#include "swerve/ocp/deadline.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 
 namespace {

@@ -2,6 +2,7 @@
 // against an independent dense solve, round trips for 2..8 modules, module optimisation
 // (flip, hysteresis, cosine scaling), desaturation, singularity hold, second order against finite
 // differences, and bad input.
+#include "swerve/app/kinematics_config.hpp"
 #include "swerve/kinematics/kinematics.hpp"
 
 #include <gtest/gtest.h>

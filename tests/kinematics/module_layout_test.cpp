@@ -1,4 +1,5 @@
 // ModuleLayout: builder geometry by hand, validation messages naming module and value, YAML loading.
+#include "swerve/app/kinematics_config.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/kinematics/module_state.hpp"
 

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <vector>
 
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 #include "swerve/models/jet.hpp"
 
 namespace swerve {

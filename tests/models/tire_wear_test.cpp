@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "model_fixtures.hpp"
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 #include "swerve/models/vehicle_model.hpp"
 
 namespace swerve {

@@ -1,6 +1,6 @@
 // Loading `vehicle:` sections: every shipped configs/vehicles/*.yaml, the values of one by hand,
 // defaults, and errors that name the file, the key path and the value.
-#include "swerve/config/vehicle_config.hpp"
+#include "swerve/app/vehicle_config.hpp"
 
 #include <gtest/gtest.h>
 

@@ -8,7 +8,7 @@
 #include <functional>
 
 #include "model_fixtures.hpp"
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 
 namespace swerve {
 namespace {

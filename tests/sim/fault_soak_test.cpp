@@ -17,8 +17,8 @@
 
 #include "support/allocation_counter.hpp"  // the one .cpp of sim_tests that includes it
 #include "support/fake_clocks.hpp"
-#include "swerve/config/vehicle_config.hpp"
-#include "swerve/mpc/controller.hpp"
+#include "swerve/app/vehicle_config.hpp"
+#include "swerve/control/controller.hpp"
 #include "swerve/sim/simulator.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 

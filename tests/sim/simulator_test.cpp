@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "models/model_fixtures.hpp"
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 #include "swerve/models/integrators.hpp"
 
 namespace swerve {

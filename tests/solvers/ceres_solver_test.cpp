@@ -16,8 +16,8 @@
 #include "support/linear_models.hpp"
 #include "support/swerve_problems.hpp"
 #include "support/time_scale.hpp"
-#include "swerve/config/config_error.hpp"
-#include "swerve/mpc/twist_prediction_model.hpp"
+#include "swerve/core/config_error.hpp"
+#include "swerve/ocp/twist_prediction_model.hpp"
 
 namespace swerve {
 namespace {

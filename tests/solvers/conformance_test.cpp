@@ -15,7 +15,7 @@
 #include "support/linear_models.hpp"
 #include "support/swerve_problems.hpp"
 #include "support/time_scale.hpp"
-#include "swerve/mpc/twist_prediction_model.hpp"
+#include "swerve/ocp/twist_prediction_model.hpp"
 #include "swerve/sim/metrics.hpp"
 #include "swerve/solvers/solver_factory.hpp"
 

@@ -9,7 +9,7 @@
 #include "support/fake_clocks.hpp"
 #include "support/swerve_problems.hpp"
 #include "support/time_scale.hpp"
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 
 namespace swerve {
 namespace {

@@ -12,7 +12,7 @@
 
 #include "support/fake_clocks.hpp"
 #include "support/linear_models.hpp"
-#include "swerve/config/config_error.hpp"
+#include "swerve/core/config_error.hpp"
 
 namespace swerve {
 namespace {

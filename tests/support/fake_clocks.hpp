@@ -8,9 +8,9 @@
 
 #include <memory>
 
-#include "swerve/mpc/ocp_problem.hpp"
-#include "swerve/mpc/prediction_model.hpp"
-#include "swerve/solvers/deadline.hpp"
+#include "swerve/ocp/ocp_problem.hpp"
+#include "swerve/ocp/prediction_model.hpp"
+#include "swerve/ocp/deadline.hpp"
 
 namespace swerve::testing {
 

@@ -4,7 +4,7 @@
 
 #include <Eigen/Dense>
 
-#include "swerve/mpc/ocp_problem.hpp"
+#include "swerve/ocp/ocp_problem.hpp"
 
 namespace swerve::testing {
 

@@ -11,8 +11,8 @@
 #include <random>
 
 #include "models/model_fixtures.hpp"
-#include "swerve/mpc/ocp_problem.hpp"
-#include "swerve/mpc/twist_prediction_model.hpp"
+#include "swerve/ocp/ocp_problem.hpp"
+#include "swerve/ocp/twist_prediction_model.hpp"
 
 namespace swerve::testing {
 

@@ -10,7 +10,6 @@
 
 #include <Eigen/Core>
 
-#include "swerve/config/config_node.hpp"
 #include "swerve/kinematics/module_heading_memory.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/kinematics/module_state.hpp"
@@ -35,10 +34,6 @@ struct KinematicsOptions {
   // Throws ConfigError naming the field and value.
   void validate() const;
 };
-
-// Reads an optional `kinematics:` map (keys as the field names; every key optional with the
-// defaults above).
-KinematicsOptions load_kinematics_options(const config::ConfigNode& kinematics_node);
 
 // What desaturate_twist keeps when the twist asks more than the drive limit allows.
 enum class DesaturationPriority {

@@ -8,11 +8,12 @@
 #include <string>
 #include <vector>
 
-#include "swerve/config/config_node.hpp"
+#include "swerve/core/config_error.hpp"  // thrown by every validation in this layer
 
 namespace swerve {
 
 inline constexpr double kPi = 3.14159265358979323846;
+inline constexpr double kMinModuleSeparation = 1e-3;  // m; closer than this two modules are one point
 
 struct ModuleLimits {
   double max_drive_speed = 2.0;           // m/s at the contact patch (wheel speed x radius)
@@ -65,10 +66,5 @@ class ModuleLayout {
   double wheel_radius_;
   ModuleLimits limits_;
 };
-
-// Reads the module geometry of a `vehicle:` section: `wheel_radius`, `modules` (a list of
-// {position: [x, y]}) and the optional `limits` map (keys as in ModuleLimits, without `max_`/`min_`
-// prefixes: drive_speed, drive_acceleration, steering_rate, steering_angle: [min, max]).
-ModuleLayout load_module_layout(const config::ConfigNode& vehicle_node);
 
 }  // namespace swerve

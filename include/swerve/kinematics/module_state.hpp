@@ -7,7 +7,7 @@
 #include <cmath>
 #include <string>
 
-#include "swerve/dcheck.hpp"
+#include "swerve/core/dcheck.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 
 namespace swerve {
@@ -102,5 +102,12 @@ using ModuleStates = ModuleArray<ModuleState>;
 using ModulePositions = ModuleArray<ModulePosition>;
 using ModuleAccelerations = ModuleArray<ModuleAcceleration>;
 using ModuleWeights = ModuleArray<double>;
+
+// One module's command for its low-level drives (the paper's hierarchical design).
+struct ModuleCommand {
+  double steering_angle = 0.0;  // rad, body frame: the angle the steering should reach this cycle
+  double steering_rate = 0.0;   // rad/s
+  double wheel_speed = 0.0;     // rad/s of the wheel (signed)
+};
 
 }  // namespace swerve

@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "swerve/kinematics/module_state.hpp"
-#include "swerve/scalar.hpp"
+#include "swerve/core/scalar.hpp"
 
 namespace swerve {
 

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <limits>
 
-#include "swerve/scalar.hpp"
+#include "swerve/core/scalar.hpp"
 
 namespace swerve {
 

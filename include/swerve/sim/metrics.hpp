@@ -7,7 +7,7 @@
 
 #include <vector>
 
-#include "swerve/mpc/tracking_controller.hpp"
+#include "swerve/control/tracking_controller.hpp"
 #include "swerve/sim/simulator.hpp"
 
 namespace swerve {

@@ -13,7 +13,7 @@
 
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/vehicle_model.hpp"
-#include "swerve/mpc/tracking_controller.hpp"
+#include "swerve/kinematics/module_state.hpp"
 
 namespace swerve {
 

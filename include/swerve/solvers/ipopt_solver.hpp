@@ -20,7 +20,7 @@
 #include <memory>
 #include <string>
 
-#include "swerve/solvers/solver.hpp"
+#include "swerve/ocp/solver.hpp"
 
 namespace swerve {
 

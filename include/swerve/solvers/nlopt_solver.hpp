@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "swerve/solvers/solver.hpp"
+#include "swerve/ocp/solver.hpp"
 
 namespace swerve {
 

@@ -10,8 +10,8 @@
 #include <memory>
 #include <vector>
 
-#include "swerve/mpc/ocp_derivatives.hpp"
-#include "swerve/solvers/solver.hpp"
+#include "swerve/ocp/ocp_derivatives.hpp"
+#include "swerve/ocp/solver.hpp"
 
 namespace swerve {
 

@@ -11,7 +11,7 @@
 #include "swerve/solvers/ipopt_solver.hpp"
 #include "swerve/solvers/nlopt_solver.hpp"
 #include "swerve/solvers/sa_solver.hpp"
-#include "swerve/solvers/solver.hpp"
+#include "swerve/ocp/solver.hpp"
 
 namespace swerve {
 

@@ -1,0 +1,175 @@
+// The wear-aware receding-horizon controller: each step() updates the optimal control problem in
+// place from the measured state and the reference, solves it from the shifted previous plan and
+// the kinematic baseline's plan before a wall-clock deadline, and returns module commands. On a
+// failed, late or invalid solve it falls back (previous plan while it is fresh, then the baseline,
+// then a safe stop) and says why. step() is noexcept; with the SA backend (and in every fallback,
+// the kinematic baseline included) it allocates nothing after construction. Ipopt, NLopt and Ceres
+// allocate inside their libraries on every solve (measured at 4 modules, N = 20: Ipopt ~15 000,
+// Ceres ~2 000, NLopt 13 allocations per step): choose SA where a hard no-allocation rule holds.
+#pragma once
+
+#include <functional>
+#include <limits>
+#include <memory>
+#include <string>
+
+#include "swerve/models/vehicle_params.hpp"
+#include "swerve/control/kinematic_baseline.hpp"
+#include "swerve/control/latency_compensator.hpp"
+#include "swerve/control/measurement_monitor.hpp"
+#include "swerve/ocp/ocp_problem.hpp"
+#include "swerve/control/reference.hpp"
+#include "swerve/control/tracking_controller.hpp"
+#include "swerve/ocp/twist_prediction_model.hpp"
+#include "swerve/ocp/vehicle_prediction_model.hpp"
+
+namespace swerve {
+
+// What the optimiser searches over. kBodyTwist (default): a body twist per step, turned into module
+// commands by TwistPredictionModel, so every candidate is kinematically consistent. kModuleRates:
+// the paper's inputs, a steering rate and a wheel speed per module (2n per step).
+enum class InputParameterization { kBodyTwist, kModuleRates };
+const char* to_string(InputParameterization parameterization) noexcept;  // "body_twist", "module_rates"
+
+// Tracking-tolerance mode (issue 15): the tracking error the user accepts. The controller then
+// minimises wear inside a tube around the reference whose half-width at each step of the horizon
+// is the tolerance, or the kinematic baseline's own predicted error there where that is larger (a
+// hard start the baseline cannot track either): never planned worse than the baseline, never
+// worse than the tolerance where the baseline manages it. The tube is an exterior penalty
+// (`penalty`, OcpProblem) for every backend; a solved plan that still leaves it by more than a
+// quarter of the tolerance is not sent: the baseline's commands are (CommandSource::kTrackingFirst).
+// Both bounds 0: off (the wear weight alone trades tracking for wear).
+struct TrackingTolerance {
+  double position = 0.0;  // m
+  double heading = 0.0;   // rad
+  double penalty = 1e5;   // per m^2 and rad^2 of excess
+  bool enabled() const noexcept { return position > 0.0 || heading > 0.0; }
+  void validate() const;  // throws ConfigError naming the field and value
+};
+
+struct ControllerOptions {
+  int horizon = 20;                  // N (paper-notes assumption 7)
+  double dt = 0.05;                  // s
+  double solve_budget = 0.02;        // s of wall clock for the whole step(): baseline plan, problem update, solve
+  double overrun_grace = 0.002;      // s past the deadline before an answer counts as late
+  // Share of solve_budget kept free at the end of each step, for the work after the solve and for
+  // an operating-system stall. The controller widens the margin to 1.5x the largest overshoot past
+  // the solver's deadline it has measured (that memory halving every 100 steps), so one stall
+  // does not become a run of deadline misses. At most half the budget.
+  double deadline_margin = 0.05;
+  Eigen::Vector3d pose_weight{10.0, 10.0, 5.0};
+  // When true the heading weight is the position weight times (heading_lever R)^2, R the distance
+  // of the outermost module from the body origin: a heading error then costs what the displacement
+  // it causes at heading_lever R costs, so one config serves a 2-module robot and a 5-axle carrier
+  // (issue 15). heading_lever 1 weighs it at the outermost module; the default config's 2 corrects
+  // heading as fast as the kinematic baseline does (see configs/controllers/default.yaml).
+  bool heading_weight_from_geometry = false;
+  double heading_lever = 1.0;        // > 0; used only with heading_weight_from_geometry
+  Eigen::Vector3d twist_weight{0.0, 0.0, 0.0};
+  double terminal_scale = 10.0;
+  double wear_weight = 1.0;          // lambda; 0 gives the dynamic controller without wear
+  // When > 0, the wear weight is the one for a vehicle of this mass (kg), and the controller uses
+  // wear_weight * wear_reference_mass / mass on its own vehicle. Frictional-power wear of the same
+  // motion grows with the mass (forces grow with m, and so does each tire's cornering and slip
+  // stiffness, so the slips stay the same), while the tracking cost does not: one wear weight
+  // then buys the same tracking on a 50 kg robot and a 2 t carrier (issue 15). 0: off.
+  double wear_reference_mass = 0.0;
+  double steering_rate_effort = 0.01;
+  double wheel_speed_effort = 0.0;
+  double steering_rate_smoothness = 0.05;
+  double wheel_speed_smoothness = 0.01;
+  PredictionOptions prediction;
+  InputParameterization parameterization = InputParameterization::kBodyTwist;
+  double twist_smoothness = 1.0;     // S on the change of the body twist per step (kBodyTwist)
+  bool baseline_guess = true;        // also start the solver from the kinematic baseline's plan
+  int max_plan_age = 5;              // cycles a previous plan may stand in for a failed solve
+  StalenessOptions stale_measurement;  // when a measurement is too old or frozen to act on
+  TrackingTolerance tracking_tolerance;  // off by default
+  MeasurementFilterOptions measurement_filter;  // off by default (gains 1)
+  void validate() const;             // throws ConfigError naming the field and value
+};
+
+class Controller final : public TrackingController {
+ public:
+  using SolverFactory = std::function<std::unique_ptr<Solver>(const OcpProblem&)>;
+
+  // Throws ConfigError for invalid options or parameters. The baseline options' horizon and dt
+  // are overridden by the controller's so both plan over the same window.
+  Controller(const VehicleParams& vehicle, std::shared_ptr<const Reference> reference, ControllerOptions options,
+             const SolverFactory& make_solver, BaselineOptions baseline_options = BaselineOptions{},
+             std::string name = "wear_mpc");
+
+  const char* name() const noexcept override { return name_.c_str(); }
+  using TrackingController::step;
+  const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
+                            double measured_at) noexcept override;
+  void reset() noexcept override;
+
+  const OcpProblem& problem() const noexcept { return *problem_; }
+  const Solution& plan() const noexcept { return plan_; }
+  const ControllerOptions& options() const noexcept { return options_; }
+  const Solver& solver() const noexcept { return *solver_; }
+
+ private:
+  // Sends decision column `column` of `plan` (twist or module rates) from `state` (a measured or
+  // predicted state, read for its steering angles).
+  void apply_decision(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
+                      const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
+  void assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
+  // rad/s: module `module`'s wheel rolling with the measured body twist at its measured angle.
+  double rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept;
+  // The drives' wheel speeds at t (prediction with drive_lag): the commands sent last cycle followed
+  // through the drive lag since then, or rolling with the body when there were none.
+  void estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept;
+  void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
+                           const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
+  void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
+  // Tracking tolerance: the tube for this cycle (the baseline plan rolled out when usable).
+  void set_tube(bool baseline_usable) noexcept;
+  void send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
+  void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
+  bool motion_commanded() const noexcept;
+  const ControlOutput& finish(TimePoint step_start) noexcept;
+  // The time kept free at the end of this step: the solver's deadline is the budget less it
+  // (see deadline_margin).
+  Duration solve_margin() const noexcept;
+
+  std::string name_;
+  ControllerOptions options_;
+  ModuleLayout layout_;
+  std::unique_ptr<PredictionModel> model_;
+  const TwistPredictionModel* twist_model_ = nullptr;  // model_ when parameterised by the body twist
+  std::unique_ptr<OcpProblem> problem_;
+  std::unique_ptr<Solver> solver_;
+  std::shared_ptr<const Reference> reference_;
+  KinematicBaseline baseline_;
+  int modules_;
+  Solution solution_, plan_;
+  int plan_age_ = 0;
+  Eigen::MatrixXd baseline_inputs_;  // 2n x N
+  Eigen::MatrixXd baseline_guess_;   // nu x N: the baseline plan in the optimiser's inputs
+  Eigen::VectorXd applied_decision_; // nu: the decision applied last cycle
+  Eigen::VectorXd applied_input_;    // 2n: the module inputs sent last cycle
+  Eigen::VectorXd fallback_input_;   // 2n
+  InputBounds module_bounds_;        // the drives' limits on module inputs
+  bool previous_input_known_ = false;  // false until a command of ours reaches the drives
+  MeasurementMonitor monitor_;
+  Eigen::MatrixXd baseline_states_;       // nx x N+1: the baseline plan rolled out (tracking tolerance)
+  Eigen::VectorXd baseline_stage_costs_;  // N
+  LatencyCompensator latency_;       // rolls a delayed measurement forward to t
+  Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
+  Eigen::VectorXd prediction_state_; // nx: now_, then (drive_lag) the estimated wheel speeds
+  Eigen::VectorXd wheel_speeds_;     // n (empty without drive_lag): estimated at this step's t
+  Eigen::VectorXd sent_wheel_speeds_;  // n: the wheel speeds commanded last cycle
+  double drive_time_constant_ = 0.0;  // s: the drives' lag (drive_lag)
+  double max_wheel_acceleration_ = std::numeric_limits<double>::infinity();  // rad/s^2: their clamp
+  double wheel_speeds_time_ = 0.0;   // s: the t wheel_speeds_ were estimated for
+  bool wheel_speeds_known_ = false;  // whether wheel_speeds_ continues from commands of ours
+  bool wheel_speeds_estimated_ = false;  // this step estimated them (else the chain restarts)
+  double overshoot_s_ = 0.0;         // decaying maximum of step end - solver deadline (s)
+  TimePoint solve_deadline_{};       // this step's, when a solve ran
+  bool solved_ = false;              // whether this step ran the solver
+  ControlOutput output_;
+};
+
+}  // namespace swerve

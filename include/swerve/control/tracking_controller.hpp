@@ -1,0 +1,51 @@
+// What every controller of SwerveMPC returns each cycle, and the interface the simulator and a
+// vehicle's control loop call: `step(measured_state, t)`, noexcept, allocation-free.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "swerve/kinematics/module_state.hpp"
+#include "swerve/ocp/solver.hpp"
+
+namespace swerve {
+
+// Where the applied commands came from, worst last. kTrackingFirst: the solve succeeded, but its
+// plan left the tracking tolerance, so the kinematic baseline's commands were sent instead.
+enum class CommandSource { kOptimizer, kTrackingFirst, kPreviousPlan, kBaseline, kSafeStop };
+const char* to_string(CommandSource source) noexcept;  // "optimizer", "tracking_first", "previous_plan", ...
+
+struct ControlOutput {
+  ModuleArray<ModuleCommand> modules;
+  CommandSource source = CommandSource::kSafeStop;
+  const char* reason = "";     // static text
+  SolveSummary solve;          // of this cycle's solve (status kNotRun when none ran)
+  double step_time_s = -1.0;   // the whole step(), on the controller's clock (< 0 before the first)
+  bool measurement_stale = false;  // the measurement was judged stale this cycle (see Controller)
+};
+
+class TrackingController {
+ public:
+  virtual ~TrackingController() = default;
+  virtual const char* name() const noexcept = 0;
+  // `measured_state`: pose_world (x, y, psi), v_body (vx, vy, r), steering angles delta_1..n, taken
+  // at `measured_at` (s, the same time base as t; a measurement older than the controller accepts
+  // is stale).
+  virtual const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
+                                    double measured_at) noexcept = 0;
+  // A measurement taken now.
+  const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t) noexcept {
+    return step(measured_state, t, t);
+  }
+  // Forget plans and remembered inputs (a new run from a new state).
+  virtual void reset() noexcept = 0;
+
+  // The clock step() is timed and its deadline kept on: the steady clock unless a test or a
+  // simulated-time host injects another. Not owned; it must outlive the controller.
+  void set_clock(const Clock& clock) noexcept { clock_ = &clock; }
+  const Clock& clock() const noexcept { return *clock_; }
+
+ private:
+  const Clock* clock_ = &steady_clock();
+};
+
+}  // namespace swerve

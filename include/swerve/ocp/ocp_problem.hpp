@@ -1,0 +1,125 @@
+// The wear-aware optimal control problem of one controller cycle: horizon, step, prediction model,
+// current state, reference window, cost weights and input bounds. Built once, updated in place
+// every cycle (no allocation), and consumed by every solver backend; it knows nothing of YAML.
+//
+// Cost (paper-notes assumption 6), for inputs u_0..u_{N-1} and predicted states x_1..x_N:
+//   sum_k  |pose(x_{k+1}) - pose_ref,k+1|^2_Q  (Q_N = terminal_scale * Q at k+1 = N)
+//        + |twist(x_{k+1}) - twist_ref,k+1|^2_Qv
+//        + lambda * wear_k                      (tire wear accumulated over step k)
+//        + |u_k|^2_R + |u_k - u_{k-1}|^2_S      (u_{-1}: the input applied last cycle)
+//        + mu (max(0, |e_xy,k+1| - b_k)^2 + max(0, |e_psi,k+1| - c_k)^2)   (the tracking tube)
+// Heading errors are wrapped to (-pi, pi]. The tube (issue 15's tracking tolerance) is an exterior
+// penalty on the position and heading errors beyond per-stage bounds b_k, c_k (+inf: no tube,
+// the default); mu = weights.tube_penalty is stiff, so inside the tube the wear term rules and
+// outside it the tracking does.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "swerve/ocp/prediction_model.hpp"
+
+namespace swerve {
+
+struct CostWeights {
+  Eigen::Vector3d pose{10.0, 10.0, 5.0};  // Q on x, y, psi
+  Eigen::Vector3d twist{0.0, 0.0, 0.0};   // Qv on vx, vy, r
+  double terminal_scale = 10.0;           // Q_N = terminal_scale * Q
+  double wear = 0.0;                      // lambda
+  Eigen::VectorXd effort;                 // R, one per input (empty: zeros)
+  Eigen::VectorXd rate;                   // S, one per input (empty: zeros)
+  double tube_penalty = 1e5;              // mu, per m^2 and per rad^2 of error beyond the tube
+};
+
+// Box bounds on every input and a bound on its change per step (|u_k - u_{k-1}| <= max_step;
+// +inf for none). Empty vectors mean unbounded.
+struct InputBounds {
+  Eigen::VectorXd lower, upper, max_step;
+};
+
+// The parts of one evaluated cost.
+struct CostBreakdown {
+  double tracking = 0.0, wear = 0.0, effort = 0.0, rate = 0.0;
+  double total() const { return tracking + wear + effort + rate; }
+};
+
+class OcpProblem {
+ public:
+  // Validates sizes and values; throws ConfigError naming the field and value.
+  OcpProblem(const PredictionModel& model, int horizon, double dt, CostWeights weights, InputBounds bounds);
+
+  int horizon() const noexcept { return horizon_; }
+  double dt() const noexcept { return dt_; }
+  int state_size() const noexcept { return nx_; }
+  int input_size() const noexcept { return nu_; }
+  const PredictionModel& model() const noexcept { return *model_; }
+  const CostWeights& weights() const noexcept { return weights_; }
+  const InputBounds& bounds() const noexcept { return bounds_; }
+
+  // Per-cycle updates: noexcept, no allocation; false (and nothing changed) on non-finite input
+  // or a wrong size.
+  bool set_initial_state(const Eigen::Ref<const Eigen::VectorXd>& x0) noexcept;
+  bool set_previous_input(const Eigen::Ref<const Eigen::VectorXd>& u_previous) noexcept;
+  // Reference for x_k, k = 1..N (column k-1): pose (x, y, psi) and body twist (vx, vy, r).
+  bool set_reference(int k, const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body) noexcept;
+  // Changes only the wear weight (the lambda sweep and the no-wear comparison use this).
+  bool set_wear_weight(double lambda) noexcept;
+  // The tracking tube at x_k, k = 1..N: the position error (m) and heading error (rad) beyond which
+  // the tube penalty applies; false (nothing changed) unless both are > 0 (+inf: no tube there).
+  bool set_tube(int k, double position_bound, double heading_bound) noexcept;
+  void clear_tube() noexcept;  // no tube at any stage
+  // The position error (m) and the wrapped heading error's magnitude (rad) of state `x` against
+  // the reference at x_k, k = 1..N.
+  Eigen::Vector2d tracking_error(int k, const Eigen::Ref<const Eigen::VectorXd>& x) const noexcept;
+  // The largest excess over the tube of a rolled-out plan (states nx x N+1): position (m) and
+  // heading (rad), each >= 0.
+  Eigen::Vector2d tube_excess(const Eigen::Ref<const Eigen::MatrixXd>& states) const noexcept;
+  const Eigen::Matrix<double, 2, Eigen::Dynamic>& tube() const noexcept { return tube_; }
+
+  const Eigen::VectorXd& initial_state() const noexcept { return x0_; }
+  const Eigen::VectorXd& previous_input() const noexcept { return u_previous_; }
+  const Eigen::Matrix<double, 3, Eigen::Dynamic>& reference_poses() const noexcept { return reference_pose_; }
+  const Eigen::Matrix<double, 3, Eigen::Dynamic>& reference_twists() const noexcept { return reference_twist_; }
+
+  // Makes an input sequence (nu x N) feasible in place: clamps each input to its box, then to its
+  // step bound from the previous (already feasible) input. Returns the first step it changed
+  // (N if none). noexcept, no allocation.
+  int project(Eigen::Ref<Eigen::MatrixXd> inputs) const noexcept;
+  bool is_feasible(const Eigen::Ref<const Eigen::MatrixXd>& inputs, double tolerance = 1e-9) const noexcept;
+
+  // Rolls out a (feasible) input sequence from step `first_step`, reusing states(:, 0..first_step)
+  // and stage_costs(0..first_step-1) computed earlier for the same prefix; writes states
+  // (nx x N+1) and per-stage costs (N). Returns the total cost, or +inf when the model failed.
+  double rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step, Eigen::Ref<Eigen::MatrixXd> states,
+                 Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept;
+
+  // Cost of stage k without its wear term: tracking at x_{k+1}, effort on u_k and rate on
+  // u_k - u_{k-1} (u_{-1}: previous_input()). Its gradient is written (not added) to d_x_next (nx),
+  // d_u and d_u_before (nu); the heading error is wrapped, so its derivative is 1. Used by the
+  // gradient backends with the wear term's derivative from the model. noexcept, no allocation.
+  double stage_cost_without_wear(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next,
+                                 const Eigen::Ref<const Eigen::VectorXd>& u,
+                                 const Eigen::Ref<const Eigen::VectorXd>& u_before, Eigen::Ref<Eigen::VectorXd> d_x_next,
+                                 Eigen::Ref<Eigen::VectorXd> d_u, Eigen::Ref<Eigen::VectorXd> d_u_before) const noexcept;
+
+  // One full evaluation with the cost split into its parts (for reports, not the hot loop).
+  CostBreakdown evaluate(const Eigen::Ref<const Eigen::MatrixXd>& inputs, Eigen::Ref<Eigen::MatrixXd> states) const noexcept;
+
+ private:
+  // u_{k-1}: the previous cycle's input for k = 0.
+  Eigen::Ref<const Eigen::VectorXd> input_before(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int k) const noexcept;
+  double stage_cost(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next, const Eigen::Ref<const Eigen::VectorXd>& u,
+                    const Eigen::Ref<const Eigen::VectorXd>& u_before, double wear, CostBreakdown* parts) const noexcept;
+
+  const PredictionModel* model_;
+  int horizon_, nx_, nu_;
+  double dt_;
+  CostWeights weights_;
+  InputBounds bounds_;
+  Eigen::VectorXd x0_;                                    // nx
+  Eigen::VectorXd u_previous_;                            // nu
+  Eigen::Matrix<double, 3, Eigen::Dynamic> reference_pose_;   // 3 x N
+  Eigen::Matrix<double, 3, Eigen::Dynamic> reference_twist_;  // 3 x N
+  Eigen::Matrix<double, 2, Eigen::Dynamic> tube_;             // 2 x N: position, heading bounds
+};
+
+}  // namespace swerve

@@ -1,0 +1,97 @@
+// The one interface every optimiser backend implements: solve an OcpProblem from initial guesses
+// before a wall-clock deadline, always returning the best feasible input sequence found and a
+// status. The base class does the parts every backend shares (input checks, timing, the final
+// NaN check), so backends only implement do_solve (non-virtual interface, as in Drake).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "swerve/ocp/ocp_problem.hpp"
+#include "swerve/ocp/deadline.hpp"
+
+namespace swerve {
+
+enum class SolveStatus { kNotRun, kConverged, kBudgetExhausted, kInfeasible, kNumericalError, kInvalidInput };
+
+// "converged", "budget_exhausted", ...: the same word in YAML, CSV and summary.json.
+const char* to_string(SolveStatus status) noexcept;
+// A usable plan came back (converged or stopped by its budget with a feasible answer).
+inline bool has_solution(SolveStatus status) noexcept {
+  return status == SolveStatus::kConverged || status == SolveStatus::kBudgetExhausted;
+}
+
+struct SolveSummary {
+  SolveStatus status = SolveStatus::kNotRun;
+  const char* reason = "solve() not called";  // static text: never allocated on the real-time path
+  int iterations = -1;
+  long rollouts = -1;
+  CostBreakdown cost;           // of the returned plan
+  double initial_cost = -1.0;   // of the best initial guess
+  double solve_time_s = -1.0;   // on the deadline's clock
+  // Multiple shooting (Ipopt): the largest dynamics defect |x_{k+1} - F(x_k, u_k)| of the
+  // optimiser's final iterate; 0 for single-shooting backends, whose plans are rollouts.
+  double max_defect = 0.0;
+};
+
+// A plan over the horizon: inputs (nu x N) and the states they predict (nx x N+1).
+struct Solution {
+  Eigen::MatrixXd inputs;
+  Eigen::MatrixXd states;
+  double cost = 0.0;
+  bool valid = false;
+
+  void resize(int state_size, int input_size, int horizon);
+  // Receding horizon: drop the first step and repeat the last (the warm start of the next cycle).
+  void shift() noexcept;
+};
+
+// Up to kMaxGuesses input sequences (nu x N) the solver starts from; it returns nothing worse than
+// the best of them (after projection onto the bounds).
+struct InitialGuesses {
+  static constexpr int kMaxGuesses = 4;
+  const Eigen::MatrixXd* sequences[kMaxGuesses] = {nullptr, nullptr, nullptr, nullptr};
+  int count = 0;
+  bool add(const Eigen::MatrixXd* sequence) noexcept {
+    if (sequence == nullptr || count >= kMaxGuesses) return false;
+    sequences[count++] = sequence;
+    return true;
+  }
+};
+
+// What one rollout with every stage's exact Jacobians costs against a plain rollout (measured: 4-7x
+// on the swerve problems); the gradient backends budget their first evaluation with it.
+inline constexpr int kJacobianRolloutCost = 8;
+
+// The start every backend shares: the cheapest usable guess (right size, finite), projected onto
+// the bounds, or zero inputs projected when no guess is usable. Writes the start's inputs and
+// rollout states (candidate_*: scratch of the same sizes), adds the rollouts done to *rollouts and
+// returns the start's cost (+inf when the model failed). noexcept, no allocation.
+double cheapest_start(const OcpProblem& problem, const InitialGuesses& guesses, Eigen::MatrixXd& inputs,
+                      Eigen::MatrixXd& states, Eigen::MatrixXd& candidate_inputs, Eigen::MatrixXd& candidate_states,
+                      Eigen::VectorXd& stage_costs, long* rollouts) noexcept;
+
+class Solver {
+ public:
+  virtual ~Solver() = default;
+  virtual const char* name() const noexcept = 0;
+
+  // noexcept: every failure is a status. `out` must have been resized for the problem (the
+  // controller does this at construction); a problem of another shape than the one the solver was
+  // built for is refused with kInvalidInput. Guesses of the wrong size or with NaN are skipped;
+  // with no usable guess the solver starts from zero inputs projected onto the bounds.
+  SolveStatus solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
+                    SolveSummary* summary) noexcept;
+
+ protected:
+  // Every backend is built for one problem shape (its buffers are sized for it).
+  explicit Solver(const OcpProblem& shape) noexcept
+      : state_size_(shape.state_size()), input_size_(shape.input_size()), horizon_(shape.horizon()) {}
+
+ private:
+  virtual SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
+                               Solution* out, SolveSummary* summary) noexcept = 0;
+
+  int state_size_, input_size_, horizon_;
+};
+
+}  // namespace swerve

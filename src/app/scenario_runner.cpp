@@ -1,0 +1,112 @@
+#include "swerve/app/scenario_runner.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace swerve {
+
+ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverrides& overrides) {
+  ScenarioConfig s = scenario;
+  if (!overrides.controllers.empty()) {
+    std::vector<ScenarioController> chosen;
+    for (const std::string& name : overrides.controllers) {
+      // A repeated name would run the controller twice, but summary.json keys runs by name.
+      if (std::any_of(chosen.begin(), chosen.end(), [&](const ScenarioController& c) { return c.name == name; })) {
+        throw OverrideError("--controllers: '" + printable_value(name) + "' is given twice");
+      }
+      const auto it = std::find_if(s.controllers.begin(), s.controllers.end(),
+                                   [&](const ScenarioController& c) { return c.name == name; });
+      if (it == s.controllers.end()) {
+        std::string known;
+        for (const ScenarioController& c : s.controllers) known += (known.empty() ? "" : ", ") + c.name;
+        throw OverrideError(printable_value(scenario.file, std::string::npos) + ": --controllers: '" +
+                            printable_value(name) + "' is not a controller of this scenario (" + known + ")");
+      }
+      chosen.push_back(*it);
+    }
+    s.controllers = std::move(chosen);
+  }
+  if (overrides.seed) s.simulator.seed = *overrides.seed;
+  if (overrides.backend) {  // checked even when no controller would use it: a typo must not pass
+    SolverConfig probe;
+    probe.backend = *overrides.backend;
+    try {
+      probe.validate();
+    } catch (const ConfigError& error) {
+      throw OverrideError(std::string("--backend: ") + error.what());
+    }
+  }
+  if (overrides.tracking_tolerance) {  // checked even when no controller would use it, as --backend
+    try {
+      overrides.tracking_tolerance->validate();
+    } catch (const ConfigError& error) {
+      throw OverrideError(std::string("--tolerance: ") + error.what());
+    }
+  }
+  for (ScenarioController& c : s.controllers) {
+    if (c.config.kind != ControllerKind::kWearMpc) continue;
+    if (overrides.backend) c.config.solver.backend = *overrides.backend;
+    // A sweep moves the wear-aware controllers' lambda, never a configured lambda = 0 comparison.
+    if (overrides.wear_weight && c.config.mpc.wear_weight > 0.0) c.config.mpc.wear_weight = *overrides.wear_weight;
+    if (overrides.tracking_tolerance) c.config.mpc.tracking_tolerance = *overrides.tracking_tolerance;
+  }
+  return s;
+}
+
+ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioController& controller,
+                             const ProgressCallback& progress, std::size_t index, const Clock* clock) {
+  ControllerRun run;
+  run.name = controller.name;
+  run.kind = controller.config.kind;
+  const bool mpc = run.kind == ControllerKind::kWearMpc;
+  run.backend = mpc ? controller.config.solver.backend : "";
+  run.wear_weight = mpc ? controller.config.mpc.wear_weight : 0.0;
+  run.solve_budget = controller.config.solve_budget();
+
+  std::unique_ptr<TrackingController> tracker =
+      make_controller(controller.config, scenario.vehicle, scenario.reference);
+  if (clock != nullptr) tracker->set_clock(*clock);
+  Simulator plant(scenario.vehicle, scenario.simulator);
+  plant.reset(scenario.initial_state);
+  const double period = scenario.simulator.control_period;
+  const int steps = scenario.steps();
+  const int n = plant.modules();
+  run.log.reserve(static_cast<std::size_t>(steps));
+  for (int k = 0; k < steps; ++k) {
+    const double t = k * period;
+    // The measurement carries its timestamp, so a delayed one is known to be old.
+    const ControlOutput& output = tracker->step(plant.measurement(), t, t - plant.measurement_age());
+    StepRecord record;
+    record.t = t;
+    record.pose_world = plant.state().head<3>();
+    record.twist_body = plant.state().segment<3>(StateIndex::kVx);
+    record.reference_pose_world = scenario.reference->sample(t).pose_world;
+    record.modules = plant.module_samples();
+    record.commands.assign(output.modules.begin(), output.modules.begin() + n);
+    record.source = output.source;
+    record.solve_status = output.solve.status;
+    record.solve_time_s = output.solve.status == SolveStatus::kNotRun ? -1.0 : output.solve.solve_time_s;
+    record.solve_iterations = output.solve.iterations;
+    record.step_time_s = output.step_time_s;
+    run.log.push_back(std::move(record));
+    if (!plant.advance(output.modules)) {
+      run.failure = "the plant diverged at t = " + std::to_string(plant.time()) + " s";
+      break;
+    }
+    if (progress) progress(index, k + 1, steps);
+  }
+  run.completed = run.failure.empty();
+  run.metrics = compute_metrics(run.log, plant.module_wear(), plant.frictional_energy(), period, run.solve_budget);
+  return run;
+}
+
+std::vector<ControllerRun> run_scenario(const ScenarioConfig& scenario, const ProgressCallback& progress,
+                                        const Clock* clock) {
+  std::vector<ControllerRun> runs;
+  for (std::size_t i = 0; i < scenario.controllers.size(); ++i) {
+    runs.push_back(run_controller(scenario, scenario.controllers[i], progress, i, clock));
+  }
+  return runs;
+}
+
+}  // namespace swerve

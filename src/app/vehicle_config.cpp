@@ -1,0 +1,101 @@
+#include "swerve/app/vehicle_config.hpp"
+
+#include "swerve/app/kinematics_config.hpp"
+
+namespace swerve {
+namespace {
+
+using config::Bound;
+using config::ConfigNode;
+
+MagicFormulaCoefficients load_channel(const ConfigNode& node) {
+  MagicFormulaCoefficients k;
+  k.b = node.get_double("B", Bound::positive());
+  k.c = node.get_double("C", Bound{0.0, 2.0, true, true});
+  k.e = node.get_double_or("E", 0.0, Bound{-1e308, 1.0, false, false});
+  return k;
+}
+
+MagicFormulaParams load_tire(const ConfigNode& node) {
+  MagicFormulaParams tire;
+  tire.mu = node.get_double("mu", Bound::positive());
+  tire.longitudinal = load_channel(node.child("longitudinal"));
+  tire.lateral = load_channel(node.child("lateral"));
+  const std::string method =
+      node.get_choice_or("combined_slip", {"none", "ellipse_cap", "normalized_slip"}, "normalized_slip");
+  tire.combined_slip = method == "none"          ? CombinedSlipMethod::kNone
+                       : method == "ellipse_cap" ? CombinedSlipMethod::kEllipseCap
+                                                 : CombinedSlipMethod::kNormalizedSlip;
+  tire.slip_speed_epsilon = node.get_double_or("slip_speed_epsilon", tire.slip_speed_epsilon, Bound::positive());
+  tire.smooth_slip = node.get_bool_or("smooth_slip", tire.smooth_slip);
+  return tire;
+}
+
+WearParams load_wear(const ConfigNode& node) {
+  WearParams wear;
+  const std::string model = node.get_choice_or("model", {"frictional_power", "archard"}, "frictional_power");
+  wear.model = model == "archard" ? WearModelKind::kArchard : WearModelKind::kFrictionalPower;
+  wear.coefficient = node.get_double_or("coefficient", wear.coefficient, Bound::positive());
+  wear.smoothing = node.get_double_or("smoothing", wear.smoothing, Bound::non_negative());
+  return wear;
+}
+
+Eigen::Vector2d get_point(const ConfigNode& node, const std::string& key) {
+  const std::vector<double> xy = node.get_doubles(key, 2);
+  return {xy[0], xy[1]};
+}
+
+}  // namespace
+
+VehicleParams load_vehicle_config(const ConfigNode& node) {
+  VehicleParams params(load_module_layout(node));
+  params.name = node.get_string("name");
+  (void)node.get_string_or("description", "");
+  params.mass = node.get_double("mass", Bound::positive());
+  params.yaw_inertia = node.get_double("yaw_inertia", Bound::positive());
+  if (node.has("center_of_mass")) params.center_of_mass_body = get_point(node, "center_of_mass");
+  if (node.has("cog_height")) params.cog_height = node.get_double("cog_height", Bound::positive());
+  params.gravity = node.get_double_or("gravity", params.gravity, Bound::positive());
+  if (const auto casters = node.optional_child("casters")) {
+    for (std::size_t j = 0; j < casters->size(); ++j) {
+      const ConfigNode caster = casters->at(j);
+      CasterParams c;
+      c.position_body = get_point(caster, "position");
+      c.rolling_resistance = caster.get_double_or("rolling_resistance", c.rolling_resistance, Bound::non_negative());
+      params.casters.push_back(c);
+    }
+  }
+  if (const auto actuators = node.optional_child("actuators")) {
+    params.actuators.steering_time_constant = actuators->get_double_or(
+        "steering_time_constant", params.actuators.steering_time_constant, Bound::positive());
+    params.actuators.drive_time_constant =
+        actuators->get_double_or("drive_time_constant", params.actuators.drive_time_constant, Bound::positive());
+  }
+  params.tire = load_tire(node.child("tire"));
+  if (const auto wear = node.optional_child("wear")) params.wear = load_wear(*wear);
+  if (const auto plant = node.optional_child("plant")) {
+    params.plant.actuator_lag = plant->get_bool_or("actuator_lag", params.plant.actuator_lag);
+    params.plant.actuator_saturation = plant->get_bool_or("actuator_saturation", params.plant.actuator_saturation);
+    params.plant.relaxation_length =
+        plant->get_double_or("relaxation_length", params.plant.relaxation_length, Bound::non_negative());
+    params.plant.load_transfer = plant->get_bool_or("load_transfer", params.plant.load_transfer);
+    if (params.plant.load_transfer && !params.cog_height) {
+      plant->fail_at("load_transfer", "= true: needs vehicle.cog_height");
+    }
+  }
+  try {
+    params.validate();
+  } catch (const ConfigError& error) {
+    node.fail(error.what());  // keep the file and path in front of the physical rule
+  }
+  return params;
+}
+
+VehicleParams load_vehicle_config_file(const std::string& file_path) {
+  const ConfigNode root = ConfigNode::load_file(file_path);
+  VehicleParams params = load_vehicle_config(root.child("vehicle"));
+  root.expect_all_read();
+  return params;
+}
+
+}  // namespace swerve

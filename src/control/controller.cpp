@@ -1,0 +1,479 @@
+#include "swerve/control/controller.hpp"
+
+#include <cmath>
+#include <sstream>
+
+#include "swerve/core/config_error.hpp"
+#include "swerve/models/drive_response.hpp"
+#include "swerve/control/safe_stop.hpp"
+
+namespace swerve {
+namespace {
+
+template <typename Value>
+[[noreturn]] void reject(const std::string& field, const Value& value, const char* rule) {
+  throw_invalid_field("ControllerOptions", field, value, rule);
+}
+
+void require_non_negative(const char* field, double value) {
+  if (!std::isfinite(value) || value < 0.0) reject(field, value, "must be finite and >= 0");
+}
+
+// The outermost module's distance from the body origin (m).
+double outermost_module_radius(const ModuleLayout& layout) {
+  double radius = 0.0;
+  for (const Eigen::Vector2d& p : layout.positions_body()) radius = std::max(radius, p.norm());
+  return radius;
+}
+
+CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout, double vehicle_mass) {
+  const int modules = layout.size();
+  CostWeights w;
+  w.pose = o.pose_weight;
+  if (o.heading_weight_from_geometry) {
+    const double lever = o.heading_lever * outermost_module_radius(layout);
+    w.pose.z() = 0.5 * (o.pose_weight.x() + o.pose_weight.y()) * lever * lever;
+  }
+  w.twist = o.twist_weight;
+  w.terminal_scale = o.terminal_scale;
+  w.wear = o.wear_reference_mass > 0.0 ? o.wear_weight * o.wear_reference_mass / vehicle_mass : o.wear_weight;
+  w.tube_penalty = o.tracking_tolerance.penalty;
+  if (o.parameterization == InputParameterization::kBodyTwist) {
+    w.effort = Eigen::VectorXd::Zero(3);
+    w.rate = Eigen::VectorXd::Constant(3, o.twist_smoothness);
+    return w;
+  }
+  w.effort = Eigen::VectorXd(2 * modules);
+  w.rate = Eigen::VectorXd(2 * modules);
+  for (int i = 0; i < modules; ++i) {
+    w.effort.segment<2>(2 * i) << o.steering_rate_effort, o.wheel_speed_effort;
+    w.rate.segment<2>(2 * i) << o.steering_rate_smoothness, o.wheel_speed_smoothness;
+  }
+  return w;
+}
+
+// Body twist: translation within the drive speed, rotation within what the outermost module can
+// drive, and no module asked to change its velocity faster than the drive acceleration (per axis).
+InputBounds twist_bounds(const ModuleLayout& layout, double dt) {
+  const ModuleLimits& limits = layout.limits();
+  const double max_radius = outermost_module_radius(layout);
+  InputBounds b;
+  b.upper = Eigen::Vector3d(limits.max_drive_speed, limits.max_drive_speed, limits.max_drive_speed / max_radius);
+  b.lower = -b.upper;
+  const double step = limits.max_drive_acceleration * dt;
+  b.max_step = Eigen::Vector3d(step, step, step / max_radius);
+  return b;
+}
+
+// Steering rate within its limit, wheel speed within the drive limit, wheel acceleration per step.
+InputBounds input_bounds(const ModuleLayout& layout, double dt) {
+  const ModuleLimits& limits = layout.limits();
+  const int n = layout.size();
+  const double max_wheel_speed = limits.max_drive_speed / layout.wheel_radius();
+  const double max_wheel_step = limits.max_drive_acceleration * dt / layout.wheel_radius();
+  InputBounds b;
+  b.lower = b.upper = b.max_step = Eigen::VectorXd(2 * n);
+  for (int i = 0; i < n; ++i) {
+    b.lower.segment<2>(2 * i) << -limits.max_steering_rate, -max_wheel_speed;
+    b.upper.segment<2>(2 * i) << limits.max_steering_rate, max_wheel_speed;
+    b.max_step.segment<2>(2 * i) << std::numeric_limits<double>::infinity(), max_wheel_step;
+  }
+  return b;
+}
+
+// Validated before any member is built from them, so errors name ControllerOptions' own fields.
+ControllerOptions validated(ControllerOptions options) {
+  options.validate();
+  return options;
+}
+
+BaselineOptions aligned(BaselineOptions baseline, const ControllerOptions& options) {
+  baseline.horizon = options.horizon;
+  baseline.dt = options.dt;
+  return baseline;
+}
+
+}  // namespace
+
+const char* to_string(InputParameterization parameterization) noexcept {
+  return parameterization == InputParameterization::kBodyTwist ? "body_twist" : "module_rates";
+}
+
+void TrackingTolerance::validate() const {
+  if (!enabled()) return;
+  if (!std::isfinite(position) || position <= 0.0) {
+    throw_invalid_field("TrackingTolerance", "position", position, "must be finite and > 0 (m)");
+  }
+  if (!std::isfinite(heading) || heading <= 0.0) {
+    throw_invalid_field("TrackingTolerance", "heading", heading, "must be finite and > 0 (rad)");
+  }
+  if (!std::isfinite(penalty) || penalty <= 0.0) {
+    throw_invalid_field("TrackingTolerance", "penalty", penalty, "must be finite and > 0");
+  }
+}
+
+void ControllerOptions::validate() const {
+  if (horizon < 1) reject("horizon", horizon, "must be >= 1");
+  if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
+  if (!std::isfinite(solve_budget) || solve_budget <= 0.0) reject("solve_budget", solve_budget, "must be finite and > 0");
+  require_non_negative("overrun_grace", overrun_grace);
+  measurement_filter.validate();
+  if (!(deadline_margin >= 0.0 && deadline_margin <= 0.5)) {
+    reject("deadline_margin", deadline_margin, "must be in [0, 0.5] (a share of solve_budget)");
+  }
+  for (int i = 0; i < 3; ++i) {
+    require_non_negative("pose_weight", pose_weight[i]);
+    require_non_negative("twist_weight", twist_weight[i]);
+  }
+  require_non_negative("terminal_scale", terminal_scale);
+  require_non_negative("wear_weight", wear_weight);
+  require_non_negative("wear_reference_mass", wear_reference_mass);
+  if (!std::isfinite(heading_lever) || heading_lever <= 0.0) reject("heading_lever", heading_lever, "must be finite and > 0");
+  require_non_negative("steering_rate_effort", steering_rate_effort);
+  require_non_negative("wheel_speed_effort", wheel_speed_effort);
+  require_non_negative("steering_rate_smoothness", steering_rate_smoothness);
+  require_non_negative("wheel_speed_smoothness", wheel_speed_smoothness);
+  require_non_negative("twist_smoothness", twist_smoothness);
+  if (max_plan_age < 0) reject("max_plan_age", max_plan_age, "must be >= 0");
+  stale_measurement.validate();
+  tracking_tolerance.validate();
+  prediction.validate();
+}
+
+Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Reference> reference,
+                       ControllerOptions options, const SolverFactory& make_solver, BaselineOptions baseline_options,
+                       std::string name)
+    : name_(std::move(name)), options_(validated(options)), layout_(vehicle.layout), reference_(std::move(reference)),
+      baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()),
+      monitor_(6 + vehicle.layout.size(), options_.stale_measurement), latency_(vehicle.layout, options_.dt, options_.measurement_filter) {
+  if (!reference_) throw ConfigError("Controller.reference: must not be null");
+  if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
+  const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
+  if (twist) {
+    auto twist_model = std::make_unique<TwistPredictionModel>(vehicle, options_.prediction);
+    twist_model_ = twist_model.get();
+    model_ = std::move(twist_model);
+  } else {
+    model_ = std::make_unique<VehiclePredictionModel>(vehicle, options_.prediction);
+  }
+  problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, layout_, vehicle.mass),
+                                          twist ? twist_bounds(layout_, options_.dt) : input_bounds(layout_, options_.dt));
+  solver_ = make_solver(*problem_);
+  if (!solver_) throw ConfigError("Controller.solver: the solver factory returned nothing");
+  solution_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
+  plan_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
+  baseline_inputs_ = Eigen::MatrixXd::Zero(2 * modules_, options_.horizon);
+  baseline_guess_ = Eigen::MatrixXd::Zero(problem_->input_size(), options_.horizon);
+  baseline_states_ = Eigen::MatrixXd::Zero(problem_->state_size(), options_.horizon + 1);
+  baseline_stage_costs_ = Eigen::VectorXd::Zero(options_.horizon);
+  applied_decision_ = Eigen::VectorXd::Zero(problem_->input_size());
+  applied_input_ = Eigen::VectorXd::Zero(2 * modules_);
+  fallback_input_ = Eigen::VectorXd::Zero(2 * modules_);
+  module_bounds_ = input_bounds(layout_, options_.dt);
+  output_.modules = ModuleArray<ModuleCommand>(modules_);
+  now_ = Eigen::VectorXd::Zero(6 + modules_);
+  prediction_state_ = Eigen::VectorXd::Zero(problem_->state_size());
+  // The prediction carries wheel speeds (PredictionOptions::drive_lag): the controller estimates
+  // them from the commands it sent, through the same first-order lag.
+  if (problem_->state_size() > 6 + modules_) {
+    drive_time_constant_ = vehicle.actuators.drive_time_constant;
+    if (vehicle.plant.actuator_saturation) {
+      max_wheel_acceleration_ = layout_.limits().max_drive_acceleration / layout_.wheel_radius();
+    }
+    wheel_speeds_ = Eigen::VectorXd::Zero(modules_);
+    sent_wheel_speeds_ = Eigen::VectorXd::Zero(modules_);
+  }
+}
+
+void Controller::reset() noexcept {
+  plan_.valid = false;
+  plan_age_ = 0;
+  applied_input_.setZero();
+  applied_decision_.setZero();
+  previous_input_known_ = false;
+  wheel_speeds_known_ = false;
+  baseline_.reset();
+  monitor_.reset();
+  latency_.reset();
+  for (int i = 0; i < modules_; ++i) output_.modules[i] = ModuleCommand{};
+}
+
+void Controller::apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
+                                     const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept {
+  // The inputs are already feasible; the angle target follows the rate over one step.
+  applied_input_ = module_inputs;
+  for (int i = 0; i < modules_; ++i) {
+    ModuleCommand& command = output_.modules[i];
+    command.steering_rate = applied_input_[2 * i];
+    command.wheel_speed = applied_input_[2 * i + 1];
+    command.steering_angle = wrap_angle(steering_angles[i] + options_.dt * command.steering_rate);
+  }
+}
+
+double Controller::rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept {
+  const Eigen::Vector3d twist = measured.segment<3>(StateIndex::kVx);
+  const Eigen::Vector2d& p = layout_.position_body(module);
+  const double angle = measured[StateIndex::steering(module)];
+  const double contact_speed =
+      std::cos(angle) * (twist.x() - twist.z() * p.y()) + std::sin(angle) * (twist.y() + twist.z() * p.x());
+  return contact_speed / layout_.wheel_radius();
+}
+
+void Controller::estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {
+  const double elapsed = t - wheel_speeds_time_;
+  if (wheel_speeds_known_ && elapsed > 0.0 && elapsed <= 4.0 * options_.dt) {
+    // The time since the last commands were sent, through the drives' lag and clamp.
+    const DriveLag lag{drive_time_constant_, max_wheel_acceleration_};
+    for (int i = 0; i < modules_; ++i) {
+      double mean = 0.0;
+      drive_response(wheel_speeds_[i], sent_wheel_speeds_[i], lag, elapsed, &wheel_speeds_[i], &mean);
+    }
+  } else {
+    // No commands of ours to follow (start, reset, a rejected or stale measurement, time that went
+    // back or jumped by more than four periods): rolling with the body.
+    for (int i = 0; i < modules_; ++i) wheel_speeds_[i] = rolling_wheel_speed(measured, i);
+  }
+  wheel_speeds_time_ = t;
+  wheel_speeds_estimated_ = true;
+}
+
+void Controller::assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
+  // Without a command of our own yet (start, reset, after a safe stop), the input the step bounds
+  // and the smoothness cost start from is the one that keeps the vehicle doing what it does now:
+  // its measured twist, or each wheel rolling at its contact speed with the steering at rest.
+  for (int i = 0; i < modules_; ++i) {
+    applied_input_[InputIndex::steering_rate(i)] = 0.0;
+    applied_input_[InputIndex::wheel_speed(i)] = rolling_wheel_speed(measured, i);
+  }
+  if (twist_model_ != nullptr) {
+    applied_decision_ = measured.segment<3>(StateIndex::kVx);
+  } else {
+    applied_decision_ = applied_input_;
+  }
+  // Keep it inside the box so the projection of every guess stays consistent with it.
+  const InputBounds& bounds = problem_->bounds();
+  applied_decision_ = applied_decision_.cwiseMax(bounds.lower).cwiseMin(bounds.upper);
+  previous_input_known_ = true;
+}
+
+void Controller::apply_decision(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
+                                const Eigen::Ref<const Eigen::VectorXd>& state) noexcept {
+  applied_decision_ = plan.col(column);
+  if (twist_model_ != nullptr) {
+    twist_model_->module_inputs(state, applied_decision_.head<3>(), options_.dt, applied_input_);
+    apply_module_inputs(applied_input_, state.segment(StateIndex::kFirstSteering, modules_));
+  } else {
+    apply_module_inputs(applied_decision_, state.segment(StateIndex::kFirstSteering, modules_));
+  }
+}
+
+void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable,
+                           const char* why) noexcept {
+  output_.reason = why;
+  const bool measured_usable = is_plausible_state(measured, layout_);
+  if (plan_.valid && plan_age_ <= options_.max_plan_age && plan_age_ < options_.horizon) {
+    // The previous plan, already shifted plan_age_ times, still covers this cycle; without a usable
+    // measurement its own predicted steering angles stand in.
+    if (measured_usable) {
+      apply_decision(plan_.inputs, 0, measured);
+    } else {
+      apply_decision(plan_.inputs, 0, plan_.states.col(0));
+    }
+    output_.source = CommandSource::kPreviousPlan;
+    return;
+  }
+  if (baseline_usable && measured_usable) {
+    // Within one step's change of the last command, then within the drives' limits, as the
+    // optimiser's plans are. The limits come last and win: the last command can lie outside them
+    // (assumed from a measured twist faster than the drives allow), and a step window around it
+    // then lies outside too (the fuzzer found -78 rad/s commanded on a 20 rad/s drive that way).
+    fallback_input_ = baseline_inputs_.col(0)
+                          .cwiseMax(applied_input_ - module_bounds_.max_step)
+                          .cwiseMin(applied_input_ + module_bounds_.max_step);
+    fallback_input_ = fallback_input_.cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
+    apply_module_inputs(fallback_input_, measured.segment(StateIndex::kFirstSteering, modules_));
+    applied_decision_ = baseline_guess_.col(0);
+    output_.source = CommandSource::kBaseline;
+    return;
+  }
+  safe_stop(measured);
+}
+
+void Controller::set_tube(bool baseline_usable) noexcept {
+  const TrackingTolerance& tolerance = options_.tracking_tolerance;
+  const bool rolled_out =
+      baseline_usable && std::isfinite(problem_->rollout(baseline_guess_, 0, baseline_states_, baseline_stage_costs_));
+  for (int k = 1; k <= options_.horizon; ++k) {
+    Eigen::Vector2d bound(tolerance.position, tolerance.heading);
+    // Where the baseline's own plan is predicted further off, the tube widens to it.
+    if (rolled_out) bound = bound.cwiseMax(problem_->tracking_error(k, baseline_states_.col(k)));
+    problem_->set_tube(k, bound[0], bound[1]);
+  }
+}
+
+void Controller::send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept {
+  // The baseline's own module commands (as the kinematic_baseline controller sends them), within
+  // the drives' limits; the decision the smoothness cost starts from next cycle is its twist.
+  fallback_input_ = baseline_inputs_.col(0).cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
+  apply_module_inputs(fallback_input_, state.segment(StateIndex::kFirstSteering, modules_));
+  applied_decision_ = baseline_guess_.col(0);
+  output_.source = CommandSource::kTrackingFirst;
+  output_.reason = "tracking first: the plan left the tracking tolerance, so the baseline's commands were sent";
+}
+
+bool Controller::motion_commanded() const noexcept {
+  for (int i = 0; i < modules_; ++i) {
+    const ModuleCommand& command = output_.modules[i];
+    if (std::abs(command.wheel_speed) * layout_.wheel_radius() > options_.stale_measurement.moving_speed ||
+        std::abs(command.steering_rate) > options_.stale_measurement.moving_speed) {
+      return true;
+    }
+  }
+  return false;
+}
+
+void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
+  fill_safe_stop(layout_, options_.dt, measured, &output_.modules);
+  for (int i = 0; i < modules_; ++i) {
+    applied_input_[2 * i] = 0.0;
+    applied_input_[2 * i + 1] = output_.modules[i].wheel_speed;
+  }
+  // What the drives do after a safe stop is best read from the next measurement.
+  previous_input_known_ = false;
+  output_.source = CommandSource::kSafeStop;
+}
+
+const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
+  latency_.record(output_.modules);
+  if (wheel_speeds_.size() > 0) {
+    for (int i = 0; i < modules_; ++i) sent_wheel_speeds_[i] = output_.modules[i].wheel_speed;
+    wheel_speeds_known_ = wheel_speeds_estimated_;
+  }
+  const TimePoint end = clock().now();
+  output_.step_time_s = to_seconds(end - step_start);
+  if (solved_) {
+    // Memory of the worst overshoot, halving every 100 steps.
+    constexpr double kDecayPerStep = 0.99309;  // 0.5^(1/100)
+    overshoot_s_ = std::max(to_seconds(end - solve_deadline_), kDecayPerStep * overshoot_s_);
+  }
+  return output_;
+}
+
+Duration Controller::solve_margin() const noexcept {
+  const double margin_s = std::min(0.5 * options_.solve_budget,
+                                   std::max(options_.deadline_margin * options_.solve_budget, 1.5 * overshoot_s_));
+  return to_duration(margin_s);
+}
+
+const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
+                                      double measured_at) noexcept {
+  // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
+  const TimePoint step_start = clock().now();
+  const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
+  const Deadline deadline(step_deadline - solve_margin(), clock());
+  solved_ = false;
+  wheel_speeds_estimated_ = false;
+  output_.solve = SolveSummary{};
+  output_.measurement_stale = false;
+  // The previous plan moves on by one cycle whatever happens now.
+  if (plan_.valid) {
+    plan_.shift();
+    ++plan_age_;
+  }
+  if (!is_plausible_state(measured, layout_) || !std::isfinite(t)) {
+    monitor_.reset();
+    output_.solve.status = SolveStatus::kInvalidInput;
+    output_.solve.reason = "measured state rejected (wrong size, NaN/inf or implausible)";
+    fall_back(measured, false, output_.solve.reason);
+    return finish(step_start);
+  }
+  if (const char* stale = monitor_.check(measured, t, measured_at, motion_commanded())) {
+    // A stale measurement says nothing about where the vehicle is now: neither an old plan nor the
+    // baseline can be trusted on it, so stop safely until fresh measurements return.
+    output_.measurement_stale = true;
+    output_.solve.status = SolveStatus::kInvalidInput;
+    output_.solve.reason = stale;
+    output_.reason = stale;
+    plan_.valid = false;
+    safe_stop(measured);
+    return finish(step_start);
+  }
+  // A measurement taken before t is rolled forward by the commands sent since (Smith predictor),
+  // after the observer's filtering when it is on.
+  latency_.estimate(measured, measured_at, t, now_);
+  // Update the problem in place: state, last applied input, reference window.
+  prediction_state_.head(6 + modules_) = now_;
+  if (wheel_speeds_.size() > 0) {
+    estimate_wheel_speeds(now_, t);
+    prediction_state_.tail(modules_) = wheel_speeds_;
+  }
+  problem_->set_initial_state(prediction_state_);
+  if (!previous_input_known_) assume_previous_input(now_);
+  problem_->set_previous_input(applied_decision_);
+  for (int k = 1; k <= options_.horizon; ++k) {
+    const ReferenceSample sample = reference_->sample(t + k * options_.dt);
+    problem_->set_reference(k, sample.pose_world, sample.twist_body);
+  }
+  bool baseline_usable = false;
+  {  // the baseline plan is both an initial guess and the second fallback
+    // Its acceleration limit starts from the twist commanded last cycle (see plan_twists). With
+    // module-rate decisions that twist is not at hand, and the measured one stands in.
+    const Eigen::Vector3d measured_twist = now_.segment<3>(StateIndex::kVx);
+    const Eigen::Vector3d last_command =
+        twist_model_ != nullptr ? Eigen::Vector3d(applied_decision_.head<3>()) : measured_twist;
+    baseline_usable = baseline_.plan_twists(now_.head<3>(), measured_twist, last_command, problem_->reference_poses(),
+                                            problem_->reference_twists());
+    if (baseline_usable) {
+      baseline_.module_inputs(now_.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
+      baseline_.commit_first_step();
+      if (twist_model_ != nullptr) {
+        baseline_guess_ = baseline_.twist_plan();
+      } else {
+        baseline_guess_ = baseline_inputs_;
+      }
+      problem_->project(baseline_guess_);
+    }
+  }
+  if (options_.tracking_tolerance.enabled()) set_tube(baseline_usable);
+  if (deadline.passed()) {
+    // The plan and the problem update alone used the budget: no time is left to solve.
+    fall_back(now_, baseline_usable, "no time left to solve after the baseline plan and the problem update");
+    return finish(step_start);
+  }
+  InitialGuesses guesses;
+  if (plan_.valid && plan_age_ == 1) guesses.add(&plan_.inputs);
+  if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_guess_);
+
+  solved_ = true;
+  solve_deadline_ = deadline.at();
+  const SolveStatus status = solver_->solve(*problem_, guesses, deadline, &solution_, &output_.solve);
+  const bool late = clock().now() > step_deadline + to_duration(options_.overrun_grace);
+  if (has_solution(status) && solution_.valid && !late && problem_->is_feasible(solution_.inputs, 1e-6)) {
+    plan_.inputs = solution_.inputs;
+    plan_.states = solution_.states;
+    plan_.cost = solution_.cost;
+    plan_.valid = true;
+    plan_age_ = 0;
+    if (options_.tracking_tolerance.enabled() && baseline_usable) {
+      // A quarter of the tolerance of slack: the penalty is exterior, so a kept tube is kept to
+      // within the small excess the penalty's stiffness allows.
+      const Eigen::Vector2d excess = problem_->tube_excess(plan_.states);
+      if (excess[0] > 0.25 * options_.tracking_tolerance.position ||
+          excess[1] > 0.25 * options_.tracking_tolerance.heading) {
+        send_baseline_commands(now_);
+        return finish(step_start);
+      }
+    }
+    apply_decision(plan_.inputs, 0, now_);
+    output_.source = CommandSource::kOptimizer;
+    output_.reason = output_.solve.reason;
+    return finish(step_start);
+  }
+  const char* why = late ? "the step overran its deadline"
+                         : (has_solution(status) ? "the solver returned an infeasible or invalid plan"
+                                                 : "the solver failed");
+  fall_back(now_, baseline_usable, why);
+  return finish(step_start);
+}
+
+}  // namespace swerve

@@ -1,0 +1,359 @@
+#include "swerve/control/kinematic_baseline.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "swerve/core/config_error.hpp"
+#include "swerve/control/safe_stop.hpp"
+
+namespace swerve {
+namespace {
+
+template <typename Value>
+[[noreturn]] void reject(const std::string& field, const Value& value, const char* rule) {
+  throw_invalid_field("BaselineOptions", field, value, rule);
+}
+
+Eigen::Matrix3d planar_rotation(double heading) {
+  const double c = std::cos(heading), s = std::sin(heading);
+  Eigen::Matrix3d m;
+  m << c, -s, 0, s, c, 0, 0, 0, 1;
+  return m;
+}
+
+// Validated before any member is sized from them (a horizon < 1 must throw, not allocate).
+BaselineOptions validated(BaselineOptions options) {
+  options.validate();
+  return options;
+}
+
+}  // namespace
+
+void BaselineOptions::validate() const {
+  if (horizon < 1) reject("horizon", horizon, "must be >= 1");
+  if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(pose_weight[i]) || pose_weight[i] < 0) reject("pose_weight", pose_weight.transpose(), "must be >= 0");
+    if (!std::isfinite(twist_weight[i]) || twist_weight[i] < 0) reject("twist_weight", twist_weight.transpose(), "must be >= 0");
+    if (!std::isfinite(rate_weight[i]) || rate_weight[i] < 0) reject("rate_weight", rate_weight.transpose(), "must be >= 0");
+  }
+  if (!(twist_weight.minCoeff() > 0.0 || rate_weight.minCoeff() > 0.0)) {
+    reject("twist_weight", twist_weight.transpose(), "or rate_weight must be > 0 on every axis (the plan must be unique)");
+  }
+  if (!std::isfinite(terminal_scale) || terminal_scale < 0) reject("terminal_scale", terminal_scale, "must be >= 0");
+  if (gauss_newton_iterations < 1) reject("gauss_newton_iterations", gauss_newton_iterations, "must be >= 1");
+  // The same rule as KinematicsOptions.flip_hysteresis: at pi/2 a module would never flip.
+  if (!std::isfinite(flip_hysteresis) || flip_hysteresis < 0 || flip_hysteresis >= kPi / 2) {
+    reject("flip_hysteresis", flip_hysteresis, "must be in [0, pi/2)");
+  }
+  measurement_filter.validate();
+  if (!std::isfinite(steer_speed_threshold) || steer_speed_threshold < 0) {
+    reject("steer_speed_threshold", steer_speed_threshold, "must be finite and >= 0");
+  }
+}
+
+KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference,
+                                     BaselineOptions options)
+    : options_(validated(options)), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
+      horizon_(options_.horizon), latency_(layout, options_.dt, options_.measurement_filter) {
+  if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
+  drive_sign_ = planned_first_sign_ = Eigen::VectorXi::Ones(modules_);
+  twists_ = Eigen::MatrixXd::Zero(3, horizon_);
+  reference_poses_ = reference_twists_ = Eigen::MatrixXd::Zero(3, horizon_);
+  inputs_ = Eigen::MatrixXd::Zero(2 * modules_, horizon_);
+  weights_ = target_ = Eigen::VectorXd::Zero(3 * horizon_);
+  headings_ = Eigen::VectorXd::Zero(horizon_);
+  feedback_ = Eigen::MatrixXd::Zero(3, 6 * horizon_);
+  feedforward_ = Eigen::MatrixXd::Zero(3, horizon_);
+  module_states_ = ModuleStates(modules_);
+  planned_angles_ = planned_speeds_ = Eigen::MatrixXd::Zero(modules_, horizon_);
+  steer_from_ = Eigen::MatrixXi::Constant(modules_, horizon_, -1);
+  angles_ = turns_ = other_turns_ = Eigen::VectorXd::Zero(modules_);
+  signs_ = Eigen::VectorXi::Ones(modules_);
+  now_ = Eigen::VectorXd::Zero(6 + modules_);
+  output_.modules = ModuleArray<ModuleCommand>(modules_);
+  for (int k = 0; k < horizon_; ++k) {
+    const double scale = k == horizon_ - 1 ? options_.terminal_scale : 1.0;
+    weights_.segment<3>(3 * k) = scale * options_.pose_weight;
+  }
+}
+
+void KinematicBaseline::reset() noexcept {
+  drive_sign_.setOnes();
+  twists_.setZero();
+  twist_committed_ = false;
+  latency_.reset();
+}
+
+bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
+                                    const Eigen::Vector3d& last_command,
+                                    const Eigen::Ref<const Eigen::MatrixXd>& reference_poses,
+                                    const Eigen::Ref<const Eigen::MatrixXd>& reference_twists) noexcept {
+  if (!pose_world.allFinite() || !twist_body.allFinite() || !last_command.allFinite() || !reference_poses.allFinite() ||
+      !reference_twists.allFinite()) {
+    return false;
+  }
+  const double dt = options_.dt;
+  const Eigen::Matrix3d twist_weight = options_.twist_weight.asDiagonal();
+  const Eigen::Matrix3d rate_weight = options_.rate_weight.asDiagonal();
+  for (int iteration = 0; iteration < options_.gauss_newton_iterations; ++iteration) {
+    // Headings for the rotations: the reference's yaw rate first, then the last iterate's. Targets:
+    // reference poses with headings unwrapped next to the predicted heading.
+    double psi = pose_world.z();
+    for (int k = 0; k < horizon_; ++k) {
+      headings_[k] = psi;
+      psi += dt * (iteration == 0 ? reference_twists(2, k) : twists_(2, k));
+      target_.segment<3>(3 * k) = reference_poses.col(k);
+      target_[3 * k + 2] = psi + wrap_angle(reference_poses(2, k) - psi);
+    }
+    // With the headings fixed the problem is linear-quadratic in the twists. Solved by a Riccati
+    // recursion over the augmented state z_k = (pose_k, u_k-1), in O(N) (a dense solve of the
+    // 3N x 3N normal equations cost O(N^3): 13 s per step at N = 1000).
+    //   z_k+1 = A z_k + B_k u_k, A = [I 0; 0 0], B_k = [dt R(psi_k); I]
+    //   stage: |u_k - u_ref,k|^2_R + |u_k - L z_k|^2_S (L z = u_k-1), pose: |E z_k+1 - target_k|^2_Q
+    // Value V_k(z) = z' P z - 2 p' z + c, V_N = the last pose term.
+    Matrix6 value_hessian = Matrix6::Zero();
+    Vector6 value_gradient = Vector6::Zero();
+    const auto add_pose_cost = [&](int k) {
+      value_hessian.topLeftCorner<3, 3>().diagonal() += weights_.segment<3>(3 * k);
+      value_gradient.head<3>() += weights_.segment<3>(3 * k).cwiseProduct(target_.segment<3>(3 * k));
+    };
+    add_pose_cost(horizon_ - 1);
+    for (int k = horizon_ - 1; k >= 0; --k) {
+      Eigen::Matrix<double, 6, 3> b;
+      b.topRows<3>() = dt * planar_rotation(headings_[k]);
+      b.bottomRows<3>().setIdentity();
+      // A' P A keeps P's pose block only; L' S L puts S on the previous-twist block.
+      const Eigen::Matrix<double, 3, 6> pb_transposed = (value_hessian * b).transpose();
+      const Eigen::Matrix3d quu = twist_weight + rate_weight + pb_transposed * b;
+      Eigen::Matrix<double, 3, 6> quz = Eigen::Matrix<double, 3, 6>::Zero();
+      quz.leftCols<3>() = pb_transposed.leftCols<3>();
+      quz.rightCols<3>() = -rate_weight;
+      const Eigen::Vector3d qu = twist_weight * reference_twists.col(k) + b.transpose() * value_gradient;
+      Eigen::LDLT<Eigen::Matrix3d> quu_factor(quu);
+      if (quu_factor.info() != Eigen::Success || !quu_factor.isPositive()) return false;
+      const Eigen::Matrix<double, 3, 6> gain = -quu_factor.solve(quz);
+      const Eigen::Vector3d feedforward = quu_factor.solve(qu);
+      feedback_.block<3, 6>(0, 6 * k) = gain;
+      feedforward_.col(k) = feedforward;
+      // V_k = min_u Q: P = Qzz - Quz' Quu^-1 Quz, p = qz - Quz' Quu^-1 qu.
+      Matrix6 next_hessian = Matrix6::Zero();
+      next_hessian.topLeftCorner<3, 3>() = value_hessian.topLeftCorner<3, 3>();
+      next_hessian.bottomRightCorner<3, 3>() = rate_weight;
+      next_hessian += quz.transpose() * gain;
+      Vector6 next_gradient = Vector6::Zero();
+      next_gradient.head<3>() = value_gradient.head<3>();
+      next_gradient -= quz.transpose() * feedforward;
+      value_hessian = 0.5 * (next_hessian + next_hessian.transpose());
+      value_gradient = next_gradient;
+      if (k > 0) add_pose_cost(k - 1);
+    }
+    Vector6 z;
+    z << pose_world, twist_body;
+    for (int k = 0; k < horizon_; ++k) {
+      const Eigen::Vector3d u = feedforward_.col(k) + feedback_.block<3, 6>(0, 6 * k) * z;
+      twists_.col(k) = u;
+      z.head<3>() += dt * planar_rotation(headings_[k]) * u;
+      z.tail<3>() = u;
+    }
+    if (!twists_.allFinite()) return false;
+  }
+  // Drive limits: the largest twist of the same direction that no module speed exceeds, reached
+  // from the last command no faster than the drive acceleration limit allows any module (the
+  // plant's drives cannot do more, and a plan that ignores it overshoots).
+  const ModuleLayout& layout = kinematics_.layout();
+  const double max_speed = layout.limits().max_drive_speed;
+  const double max_change = layout.limits().max_drive_acceleration * dt;
+  // The ramp starts from the last command, but never further ahead of the measured twist than
+  // kRampLead periods of drive acceleration at any module: lagging drives stay within that (a drive
+  // following a ramp trails it by its time constant times the acceleration, 2 periods for the
+  // carriers' 0.1 s), and a vehicle that is blocked or slips does not wind the command up.
+  constexpr double kRampLead = 4.0;
+  // `to`, or the twist towards it from `from` whose change moves no module's velocity by more than
+  // `most`: the same proportional scaling as the drive-speed limit, applied to the change.
+  const auto limit_change = [this](const Eigen::Vector3d& from, const Eigen::Vector3d& to, double most) {
+    const Eigen::Vector3d change = to - from;
+    Eigen::Vector3d limited;
+    if (kinematics_.desaturate_twist(change, most, DesaturationPriority::kProportional, &limited) !=
+            KinematicsStatus::kOk ||
+        limited == change) {
+      return to;
+    }
+    return Eigen::Vector3d(from + limited);
+  };
+  Eigen::Vector3d previous = limit_change(twist_body, last_command, kRampLead * max_change);
+  for (int k = 0; k < horizon_; ++k) {
+    Eigen::Vector3d limited;
+    if (kinematics_.desaturate_twist(twists_.col(k), max_speed, DesaturationPriority::kProportional, &limited) ==
+        KinematicsStatus::kOk) {
+      twists_.col(k) = limited;
+    }
+    twists_.col(k) = limit_change(previous, twists_.col(k), max_change);
+    previous = twists_.col(k);
+  }
+  return true;
+}
+
+void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& steering_angles,
+                                      Eigen::Ref<Eigen::MatrixXd> inputs) noexcept {
+  const ModuleLimits& limits = kinematics_.layout().limits();
+  const double dt = options_.dt;
+  const double radius = kinematics_.layout().wheel_radius();
+  const bool end_stops = limits.has_steering_end_stops();
+  const double threshold = std::max(options_.steer_speed_threshold, kinematics_.options().hold_speed_threshold);
+  const double band = options_.flip_hysteresis;
+  for (int k = 0; k < horizon_; ++k) {
+    kinematics_.inverse(twists_.col(k), &module_states_);
+    for (int i = 0; i < modules_; ++i) {
+      planned_angles_(i, k) = module_states_[i].angle;
+      planned_speeds_(i, k) = module_states_[i].speed;
+    }
+  }
+  // steer_from_(i, k): the first step j >= k at which module i is planned faster than the threshold,
+  // -1 if none. Below it, a module's planned direction is set by the feedback on the measured pose
+  // (under sensor noise, by the noise): the steering aims at the next direction the plan really
+  // drives in, or holds when there is none (issue 14, item 7).
+  for (int i = 0; i < modules_; ++i) {
+    int next = -1;
+    for (int k = horizon_ - 1; k >= 0; --k) {
+      if (planned_speeds_(i, k) > threshold) next = k;
+      steer_from_(i, k) = next;
+    }
+  }
+  angles_ = steering_angles;
+  signs_ = drive_sign_;
+  for (int k = 0; k < horizon_; ++k) {
+    // The 180 deg flip: a module keeps its drive direction while the steering error stays below
+    // 90 deg - hysteresis and takes the other one above 90 deg + hysteresis (widened at low planned
+    // speed, below); never past an end stop. Inside that band the two choices need about a quarter
+    // turn either way round, and modules choosing on their own (by noise) would turn opposite ways
+    // with their wheels driving, and fight. So the modules in the band all turn the same way round:
+    // the one of least turn for them (a flip charged 2 x hysteresis more, so a lone module still
+    // flips only past 90 deg + hysteresis), plus the turns of the decided modules they would turn
+    // against, each weighted by its planned speed. A tie keeps every drive direction.
+    const auto turn_to = [&](int i, double target) {
+      return end_stops ? target - angles_[i] : wrap_angle(target - angles_[i]);
+    };
+    const auto reachable = [&](double target) {
+      return !end_stops || (target >= limits.min_steering_angle && target <= limits.max_steering_angle);
+    };
+    constexpr double kUnavailable = 1e6;  // the cost of a way round a module cannot turn
+    double cost_positive = 0.0, cost_negative = 0.0;
+    for (int i = 0; i < modules_; ++i) {
+      const int j = steer_from_(i, k);
+      turns_[i] = other_turns_[i] = 0.0;
+      if (j < 0) continue;
+      const double forward = planned_angles_(i, j);
+      const double reverse = wrap_angle(forward + kPi);
+      const double kept_target = signs_[i] > 0 ? forward : reverse;
+      const double flipped_target = signs_[i] > 0 ? reverse : forward;
+      const double same = turn_to(i, kept_target), other = turn_to(i, flipped_target);
+      const bool can_keep = reachable(kept_target), can_flip = reachable(flipped_target);
+      const double weight = planned_speeds_(i, j);
+      // A direction planned at speed v is uncertain by about atan(threshold / v) (the threshold is
+      // the speed noise makes of the feedback): the band widens by that much before a flip.
+      double decided = same;
+      if (!can_keep || (can_flip && std::abs(same) > kPi / 2 + band + std::atan2(threshold, weight))) {
+        signs_[i] = -signs_[i];
+        decided = other;
+      } else if (can_flip && std::abs(same) >= kPi / 2 - band && same != 0.0) {
+        turns_[i] = same;  // in the band: decided below
+        other_turns_[i] = other;
+        const double kept = weight * std::abs(same);
+        const double flipped = weight * (std::abs(other) + 2.0 * band);
+        const double positive = std::min(same > 0.0 ? kept : kUnavailable, other > 0.0 ? flipped : kUnavailable);
+        const double negative = std::min(same < 0.0 ? kept : kUnavailable, other < 0.0 ? flipped : kUnavailable);
+        cost_positive += positive;
+        cost_negative += negative;
+        continue;
+      }
+      (decided > 0.0 ? cost_negative : cost_positive) += weight * std::abs(decided);
+    }
+    const int common_turn = cost_positive < cost_negative ? 1 : (cost_negative < cost_positive ? -1 : 0);
+    for (int i = 0; i < modules_; ++i) {
+      const int j = steer_from_(i, k);
+      double angle = angles_[i];
+      double target = angle;
+      if (j >= 0) {
+        const bool in_band = turns_[i] != 0.0;
+        if (in_band && common_turn != 0 && (turns_[i] > 0.0) != (common_turn > 0) &&
+            (other_turns_[i] > 0.0) == (common_turn > 0)) {
+          signs_[i] = -signs_[i];
+        }
+        const double forward = planned_angles_(i, j);
+        const double reverse = wrap_angle(forward + kPi);
+        target = signs_[i] > 0 ? forward : reverse;
+        if (end_stops && (target < limits.min_steering_angle || target > limits.max_steering_angle)) {
+          signs_[i] = -signs_[i];  // never past an end stop
+          target = signs_[i] > 0 ? forward : reverse;
+        }
+      }
+      const double error = turn_to(i, target);
+      const double rate = std::clamp(error / dt, -limits.max_steering_rate, limits.max_steering_rate);
+      angle = end_stops ? angle + dt * rate : wrap_angle(angle + dt * rate);
+      // At speed the wheel runs the planned speed in the chosen direction; below the threshold it
+      // runs the planned velocity's component along its heading (either sign, no flip needed).
+      double signed_speed = j == k ? signs_[i] * planned_speeds_(i, k)
+                                   : planned_speeds_(i, k) * std::cos(planned_angles_(i, k) - angle);
+      if (options_.cosine_scaling) signed_speed *= std::max(0.0, std::cos(target - angle));
+      inputs(2 * i, k) = rate;
+      inputs(2 * i + 1, k) = signed_speed / radius;
+      angles_[i] = angle;
+    }
+    if (k == 0) planned_first_sign_ = signs_;
+  }
+}
+
+const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
+                                             double measured_at) noexcept {
+  output_.solve = SolveSummary{};
+  const TimePoint start = clock().now();
+  if (measured.size() != 6 + modules_ || !measured.allFinite() || !std::isfinite(t) ||
+      !is_plausible_state(measured, kinematics_.layout())) {
+    fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
+    output_.source = CommandSource::kSafeStop;
+    output_.reason = "measured state rejected (wrong size, NaN/inf or implausible)";
+    twist_committed_ = false;
+    latency_.record(output_.modules);
+    return output_;
+  }
+  // A measurement taken before t is rolled forward by the commands sent since: a deadbeat
+  // steering law acting on a delayed angle would otherwise chase its own past and oscillate. The
+  // observer, when on, filters it first.
+  latency_.estimate(measured, measured_at, t, now_);
+  for (int k = 0; k < horizon_; ++k) {
+    const ReferenceSample sample = reference_->sample(t + (k + 1) * options_.dt);
+    reference_poses_.col(k) = sample.pose_world;
+    reference_twists_.col(k) = sample.twist_body;
+  }
+  const Eigen::Vector3d measured_twist = now_.segment<3>(3);
+  if (!plan_twists(now_.head<3>(), measured_twist, twist_committed_ ? committed_twist_ : measured_twist, reference_poses_,
+                   reference_twists_)) {
+    fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
+    output_.source = CommandSource::kSafeStop;
+    output_.reason = "the kinematic plan failed";
+    twist_committed_ = false;
+    latency_.record(output_.modules);
+    return output_;
+  }
+  module_inputs(now_.segment(6, modules_), inputs_);
+  commit_first_step();
+  for (int i = 0; i < modules_; ++i) {
+    ModuleCommand& command = output_.modules[i];
+    command.steering_rate = inputs_(2 * i, 0);
+    command.steering_angle = wrap_angle(now_[6 + i] + options_.dt * command.steering_rate);
+    command.wheel_speed = inputs_(2 * i + 1, 0);
+  }
+  latency_.record(output_.modules);
+  output_.source = CommandSource::kOptimizer;
+  output_.reason = "kinematic plan";
+  output_.solve.status = SolveStatus::kConverged;
+  output_.solve.reason = "closed-form Gauss-Newton solve";
+  output_.solve.iterations = options_.gauss_newton_iterations;
+  output_.solve.solve_time_s = to_seconds(clock().now() - start);
+  output_.step_time_s = output_.solve.solve_time_s;
+  return output_;
+}
+
+}  // namespace swerve

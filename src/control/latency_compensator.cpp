@@ -1,0 +1,117 @@
+#include "swerve/control/latency_compensator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "swerve/core/config_error.hpp"
+
+namespace swerve {
+
+void MeasurementFilterOptions::validate() const {
+  if (!(pose_gain > 0.0 && pose_gain <= 1.0)) {
+    throw_invalid_field("MeasurementFilterOptions", "pose_gain", pose_gain, "must be in (0, 1]");
+  }
+  if (!(steering_gain > 0.0 && steering_gain <= 1.0)) {
+    throw_invalid_field("MeasurementFilterOptions", "steering_gain", steering_gain, "must be in (0, 1]");
+  }
+}
+
+LatencyCompensator::LatencyCompensator(const ModuleLayout& layout, double dt, MeasurementFilterOptions filter)
+    : kinematics_(layout), dt_(dt), modules_(layout.size()), states_(layout.size()), filter_(filter) {
+  if (!std::isfinite(dt) || dt <= 0.0) throw_invalid_field("LatencyCompensator", "dt", dt, "must be finite and > 0");
+  filter_.validate();
+  history_ = Eigen::MatrixXd::Zero(2 * modules_, kMaxSteps);
+  filtered_ = predicted_ = Eigen::VectorXd::Zero(6 + modules_);
+}
+
+void LatencyCompensator::record(const ModuleArray<ModuleCommand>& commands) noexcept {
+  newest_ = (newest_ + 1) % kMaxSteps;
+  const double radius = kinematics_.layout().wheel_radius();
+  for (int i = 0; i < modules_ && i < commands.size(); ++i) {
+    history_(2 * i, newest_) = commands[i].steering_rate;
+    history_(2 * i + 1, newest_) = radius * commands[i].wheel_speed;
+  }
+  recorded_ = std::min(recorded_ + 1, kMaxSteps);
+}
+
+int LatencyCompensator::latency_steps(double latency) const noexcept {
+  if (!(latency > 0.5 * dt_)) return 0;
+  return std::min({static_cast<int>(std::lround(std::min(latency / dt_, 1e3))), recorded_, kMaxSteps});
+}
+
+void LatencyCompensator::advance(Eigen::Ref<Eigen::VectorXd> state, int column) noexcept {
+  for (int i = 0; i < modules_; ++i) {
+    const double angle = state[6 + i];
+    state[6 + i] = wrap_angle(angle + dt_ * history_(2 * i, column));
+    // The module drives along its mean angle over the period (midpoint rule).
+    states_[i].angle = wrap_angle(angle + 0.5 * dt_ * history_(2 * i, column));
+    states_[i].speed = history_(2 * i + 1, column);
+  }
+  Eigen::Vector3d twist_body = Eigen::Vector3d::Zero();
+  if (kinematics_.forward(states_, &twist_body) != KinematicsStatus::kOk) twist_body.setZero();
+  const double heading = state[2] + 0.5 * dt_ * twist_body.z();
+  const double c = std::cos(heading), s = std::sin(heading);
+  state[0] += dt_ * (c * twist_body.x() - s * twist_body.y());
+  state[1] += dt_ * (s * twist_body.x() + c * twist_body.y());
+  state[2] += dt_ * twist_body.z();  // headings stay continuous, as measured
+  // The twist the drives are being told is a better guess than a delayed one.
+  state.segment<3>(3) = twist_body;
+}
+
+int LatencyCompensator::compensate(const Eigen::Ref<const Eigen::VectorXd>& measured, double latency,
+                                   Eigen::Ref<Eigen::VectorXd> now) noexcept {
+  now = measured;
+  if (measured.size() != 6 + modules_ || now.size() != measured.size()) return 0;
+  const int steps = latency_steps(latency);
+  // The commands sent since the measurement, oldest first: the measured state saw none of them.
+  for (int back = steps - 1; back >= 0; --back) advance(now, (newest_ - back + kMaxSteps) % kMaxSteps);
+  return steps;
+}
+
+bool LatencyCompensator::update_filter(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at,
+                                       int latency) noexcept {
+  if (!filtered_valid_) return false;
+  const double periods_since = (measured_at - filtered_at_) / dt_;
+  if (!(std::abs(periods_since) < 1e3)) return false;
+  const int periods = static_cast<int>(std::lround(periods_since));
+  if (periods == 0) return true;  // the same measurement again: nothing new to blend
+  if (periods < 0 || latency + periods > std::min(recorded_, kMaxSteps)) return false;
+  // The estimate, predicted by the commands that acted from its time to the measurement's.
+  predicted_ = filtered_;
+  for (int back = latency + periods - 1; back >= latency; --back) {
+    advance(predicted_, (newest_ - back + kMaxSteps) % kMaxSteps);
+  }
+  const Eigen::Vector2d position_surprise = measured.head<2>() - predicted_.head<2>();
+  const double heading_surprise = wrap_angle(measured[2] - predicted_[2]);
+  if (position_surprise.norm() > MeasurementFilterOptions::kResetDistance ||
+      std::abs(heading_surprise) > MeasurementFilterOptions::kResetAngle) {
+    return false;
+  }
+  for (int i = 0; i < modules_; ++i) {
+    if (std::abs(wrap_angle(measured[6 + i] - predicted_[6 + i])) > MeasurementFilterOptions::kResetAngle) return false;
+  }
+  filtered_.head<2>() = predicted_.head<2>() + filter_.pose_gain * position_surprise;
+  filtered_[2] = predicted_[2] + filter_.pose_gain * heading_surprise;
+  filtered_.segment<3>(3) = measured.segment<3>(3);
+  for (int i = 0; i < modules_; ++i) {
+    filtered_[6 + i] =
+        wrap_angle(predicted_[6 + i] + filter_.steering_gain * wrap_angle(measured[6 + i] - predicted_[6 + i]));
+  }
+  filtered_at_ = measured_at;
+  return true;
+}
+
+int LatencyCompensator::estimate(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at, double t,
+                                 Eigen::Ref<Eigen::VectorXd> now) noexcept {
+  const double taken = std::isfinite(measured_at) ? measured_at : t;
+  const double latency = t - taken;
+  if (!filter_.filters() || measured.size() != 6 + modules_) return compensate(measured, latency, now);
+  if (!update_filter(measured, taken, latency_steps(latency))) {
+    filtered_ = measured;
+    filtered_at_ = taken;
+    filtered_valid_ = true;
+  }
+  return compensate(filtered_, latency, now);
+}
+
+}  // namespace swerve

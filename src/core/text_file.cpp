@@ -1,0 +1,73 @@
+#include "swerve/core/text_file.hpp"
+
+#include <cerrno>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <system_error>
+
+#include "swerve/core/config_error.hpp"
+#include "swerve/core/error_text.hpp"
+
+namespace swerve::config {
+namespace {
+
+const char* describe_file_type(std::filesystem::file_type type) {
+  switch (type) {
+    case std::filesystem::file_type::directory:
+      return "a directory";
+    case std::filesystem::file_type::character:
+      return "a character device";
+    case std::filesystem::file_type::block:
+      return "a block device";
+    case std::filesystem::file_type::fifo:
+      return "a pipe";
+    case std::filesystem::file_type::socket:
+      return "a socket";
+    default:
+      return "not a regular file";
+  }
+}
+
+std::string file_too_large(const std::string& file_path, const std::string& size, const TextFileRules& rules) {
+  constexpr std::size_t kMiB = std::size_t{1} << 20;
+  const std::string limit = rules.max_bytes % kMiB == 0 ? std::to_string(rules.max_bytes / kMiB) + " MiB (" +
+                                                              std::to_string(rules.max_bytes) + " bytes)"
+                                                        : std::to_string(rules.max_bytes) + " bytes";
+  return printable_value(file_path, std::string::npos) + ": " + size + " bytes: " + rules.kind_plural +
+         " are limited to " + limit;
+}
+
+}  // namespace
+
+std::string read_text_file(const std::string& file_path, const TextFileRules& rules) {
+  namespace fs = std::filesystem;
+  const std::string shown = printable_value(file_path, std::string::npos);
+  // Checked before reading: a directory reads as an empty document and /dev/zero never ends.
+  std::error_code error;
+  const fs::file_status status = fs::status(file_path, error);
+  if (status.type() == fs::file_type::not_found || (error && !fs::exists(status))) {
+    throw ConfigError(shown + ": cannot open the file for reading");
+  }
+  if (error) throw ConfigError(shown + ": cannot open the file for reading (" + error.message() + ")");
+  if (!fs::is_regular_file(status)) {
+    throw ConfigError(shown + ": " + describe_file_type(status.type()) + ", not a regular file: give a " +
+                      rules.format + " file");
+  }
+  const std::uintmax_t size = fs::file_size(file_path, error);
+  if (!error && size > rules.max_bytes) throw ConfigError(file_too_large(file_path, std::to_string(size), rules));
+  std::ifstream in(file_path, std::ios::binary);
+  if (!in) throw ConfigError(shown + ": cannot open the file for reading (" + std::strerror(errno) + ")");
+  // Read at most one byte past the limit, so a file that grew since the size check stays bounded.
+  std::string text(rules.max_bytes + 1, '\0');
+  in.read(&text[0], static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (in.bad()) throw ConfigError(shown + ": read error");
+  if (text.size() > rules.max_bytes) {
+    throw ConfigError(file_too_large(file_path, "more than " + std::to_string(rules.max_bytes), rules));
+  }
+  return text;
+}
+
+}  // namespace swerve::config

@@ -1,0 +1,251 @@
+#include "swerve/ocp/ocp_problem.hpp"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "swerve/core/config_error.hpp"
+#include "swerve/kinematics/module_state.hpp"  // wrap_angle
+
+namespace swerve {
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+template <typename Value>
+[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
+  throw_invalid_field("OcpProblem", field, value, rule);
+}
+
+void require_non_negative(const std::string& field, double value) {
+  if (!std::isfinite(value) || value < 0.0) reject(field, value, "must be finite and >= 0");
+}
+
+// An empty vector means "this default for every input"; otherwise it must have one entry per input.
+Eigen::VectorXd expand(const Eigen::VectorXd& given, int size, double fallback, const std::string& field) {
+  if (given.size() == 0) return Eigen::VectorXd::Constant(size, fallback);
+  if (given.size() != size) reject(field + ".size()", given.size(), "must equal the input size " + std::to_string(size));
+  return given;
+}
+
+}  // namespace
+
+OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, CostWeights weights, InputBounds bounds)
+    : model_(&model), horizon_(horizon), nx_(model.state_size()), nu_(model.input_size()), dt_(dt),
+      weights_(std::move(weights)), bounds_(std::move(bounds)) {
+  if (horizon_ < 1) reject("horizon", horizon_, "must be >= 1");
+  if (!std::isfinite(dt_) || dt_ <= 0.0) reject("dt", dt_, "must be finite and > 0");
+  if (nx_ < 6) reject("state_size", nx_, "must be >= 6 (pose and body twist first)");
+  if (nu_ < 1) reject("input_size", nu_, "must be >= 1");
+  if (nu_ % model.input_group_size() != 0) reject("input_group_size", model.input_group_size(), "must divide the input size");
+  const char* pose_names[3] = {"weights.pose.x", "weights.pose.y", "weights.pose.psi"};
+  const char* twist_names[3] = {"weights.twist.vx", "weights.twist.vy", "weights.twist.r"};
+  for (int i = 0; i < 3; ++i) {
+    require_non_negative(pose_names[i], weights_.pose[i]);
+    require_non_negative(twist_names[i], weights_.twist[i]);
+  }
+  require_non_negative("weights.terminal_scale", weights_.terminal_scale);
+  require_non_negative("weights.wear", weights_.wear);
+  require_non_negative("weights.tube_penalty", weights_.tube_penalty);
+  weights_.effort = expand(weights_.effort, nu_, 0.0, "weights.effort");
+  weights_.rate = expand(weights_.rate, nu_, 0.0, "weights.rate");
+  for (int i = 0; i < nu_; ++i) {
+    require_non_negative("weights.effort[" + std::to_string(i) + "]", weights_.effort[i]);
+    require_non_negative("weights.rate[" + std::to_string(i) + "]", weights_.rate[i]);
+  }
+  bounds_.lower = expand(bounds_.lower, nu_, -kInfinity, "bounds.lower");
+  bounds_.upper = expand(bounds_.upper, nu_, kInfinity, "bounds.upper");
+  bounds_.max_step = expand(bounds_.max_step, nu_, kInfinity, "bounds.max_step");
+  for (int i = 0; i < nu_; ++i) {
+    const std::string index = "[" + std::to_string(i) + "]";
+    if (std::isnan(bounds_.lower[i]) || std::isnan(bounds_.upper[i]) || bounds_.lower[i] > bounds_.upper[i]) {
+      reject("bounds.lower" + index, bounds_.lower[i], "must be <= bounds.upper" + index + " (" +
+                                                            std::to_string(bounds_.upper[i]) + ")");
+    }
+    if (std::isnan(bounds_.max_step[i]) || bounds_.max_step[i] <= 0.0) {
+      reject("bounds.max_step" + index, bounds_.max_step[i], "must be > 0");
+    }
+  }
+  x0_ = Eigen::VectorXd::Zero(nx_);
+  u_previous_ = Eigen::VectorXd::Zero(nu_).cwiseMax(bounds_.lower).cwiseMin(bounds_.upper);
+  reference_pose_ = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, horizon_);
+  reference_twist_ = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, horizon_);
+  tube_ = Eigen::Matrix<double, 2, Eigen::Dynamic>::Constant(2, horizon_, kInfinity);
+}
+
+bool OcpProblem::set_tube(int k, double position_bound, double heading_bound) noexcept {
+  if (k < 1 || k > horizon_ || !(position_bound > 0.0) || !(heading_bound > 0.0)) return false;
+  tube_(0, k - 1) = position_bound;
+  tube_(1, k - 1) = heading_bound;
+  return true;
+}
+
+void OcpProblem::clear_tube() noexcept { tube_.setConstant(kInfinity); }
+
+Eigen::Vector2d OcpProblem::tube_excess(const Eigen::Ref<const Eigen::MatrixXd>& states) const noexcept {
+  Eigen::Vector2d worst = Eigen::Vector2d::Zero();
+  if (states.rows() != nx_ || states.cols() != horizon_ + 1) return Eigen::Vector2d::Constant(kInfinity);
+  for (int k = 1; k <= horizon_; ++k) {
+    const Eigen::Vector2d error = tracking_error(k, states.col(k));
+    worst = worst.cwiseMax(error - tube_.col(k - 1));
+  }
+  return worst;
+}
+
+Eigen::Vector2d OcpProblem::tracking_error(int k, const Eigen::Ref<const Eigen::VectorXd>& x) const noexcept {
+  const auto column = static_cast<Eigen::Index>(k - 1);
+  return {(x.head<2>() - reference_pose_.col(column).head<2>()).norm(),
+          std::abs(wrap_angle(x[2] - reference_pose_(2, column)))};
+}
+
+bool OcpProblem::set_initial_state(const Eigen::Ref<const Eigen::VectorXd>& x0) noexcept {
+  if (x0.size() != nx_ || !x0.allFinite()) return false;
+  x0_ = x0;
+  return true;
+}
+
+bool OcpProblem::set_previous_input(const Eigen::Ref<const Eigen::VectorXd>& u_previous) noexcept {
+  if (u_previous.size() != nu_ || !u_previous.allFinite()) return false;
+  u_previous_ = u_previous;
+  return true;
+}
+
+bool OcpProblem::set_reference(int k, const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body) noexcept {
+  if (k < 1 || k > horizon_ || !pose_world.allFinite() || !twist_body.allFinite()) return false;
+  reference_pose_.col(k - 1) = pose_world;
+  reference_twist_.col(k - 1) = twist_body;
+  return true;
+}
+
+bool OcpProblem::set_wear_weight(double lambda) noexcept {
+  if (!std::isfinite(lambda) || lambda < 0.0) return false;
+  weights_.wear = lambda;
+  return true;
+}
+
+int OcpProblem::project(Eigen::Ref<Eigen::MatrixXd> inputs) const noexcept {
+  int first_changed = horizon_;
+  for (int k = 0; k < horizon_; ++k) {
+    for (int i = 0; i < nu_; ++i) {
+      const double before = k == 0 ? u_previous_[i] : inputs(i, k - 1);
+      const double lower = std::max(bounds_.lower[i], before - bounds_.max_step[i]);
+      const double upper = std::min(bounds_.upper[i], before + bounds_.max_step[i]);
+      double value = inputs(i, k);
+      if (!std::isfinite(value)) value = before;
+      // When the previous input lies outside the box (a bound changed), the box wins.
+      const double projected = lower <= upper ? std::min(std::max(value, lower), upper)
+                                              : std::min(std::max(value, bounds_.lower[i]), bounds_.upper[i]);
+      if (projected != inputs(i, k)) {
+        inputs(i, k) = projected;
+        if (k < first_changed) first_changed = k;
+      }
+    }
+  }
+  return first_changed;
+}
+
+bool OcpProblem::is_feasible(const Eigen::Ref<const Eigen::MatrixXd>& inputs, double tolerance) const noexcept {
+  if (inputs.rows() != nu_ || inputs.cols() != horizon_ || !inputs.allFinite()) return false;
+  for (int k = 0; k < horizon_; ++k) {
+    for (int i = 0; i < nu_; ++i) {
+      const double before = k == 0 ? u_previous_[i] : inputs(i, k - 1);
+      const double value = inputs(i, k);
+      if (value < bounds_.lower[i] - tolerance || value > bounds_.upper[i] + tolerance) return false;
+      if (std::abs(value - before) > bounds_.max_step[i] + tolerance) return false;
+    }
+  }
+  return true;
+}
+
+Eigen::Ref<const Eigen::VectorXd> OcpProblem::input_before(const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                                                           int k) const noexcept {
+  if (k == 0) return Eigen::Ref<const Eigen::VectorXd>(u_previous_);
+  return Eigen::Ref<const Eigen::VectorXd>(inputs.col(static_cast<Eigen::Index>(k) - 1));
+}
+
+double OcpProblem::stage_cost(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next,
+                              const Eigen::Ref<const Eigen::VectorXd>& u,
+                              const Eigen::Ref<const Eigen::VectorXd>& u_before, double wear,
+                              CostBreakdown* parts) const noexcept {
+  const auto kk = static_cast<Eigen::Index>(k);
+  Eigen::Vector3d pose_error = x_next.head<3>() - reference_pose_.col(kk);
+  pose_error.z() = wrap_angle(pose_error.z());
+  const Eigen::Vector3d twist_error = x_next.segment<3>(3) - reference_twist_.col(kk);
+  const double scale = (k == horizon_ - 1) ? weights_.terminal_scale : 1.0;
+  const double position_excess = std::max(0.0, pose_error.head<2>().norm() - tube_(0, kk));
+  const double heading_excess = std::max(0.0, std::abs(pose_error.z()) - tube_(1, kk));
+  const double tracking = scale * pose_error.cwiseAbs2().dot(weights_.pose) + twist_error.cwiseAbs2().dot(weights_.twist) +
+                          weights_.tube_penalty * (position_excess * position_excess + heading_excess * heading_excess);
+  const double wear_cost = weights_.wear * wear;
+  const double effort = u.cwiseAbs2().dot(weights_.effort);
+  const double rate = (u - u_before).cwiseAbs2().dot(weights_.rate);
+  if (parts != nullptr) {
+    parts->tracking += tracking;
+    parts->wear += wear_cost;
+    parts->effort += effort;
+    parts->rate += rate;
+  }
+  return tracking + wear_cost + effort + rate;
+}
+
+double OcpProblem::stage_cost_without_wear(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next,
+                                           const Eigen::Ref<const Eigen::VectorXd>& u,
+                                           const Eigen::Ref<const Eigen::VectorXd>& u_before,
+                                           Eigen::Ref<Eigen::VectorXd> d_x_next, Eigen::Ref<Eigen::VectorXd> d_u,
+                                           Eigen::Ref<Eigen::VectorXd> d_u_before) const noexcept {
+  const auto kk = static_cast<Eigen::Index>(k);
+  Eigen::Vector3d pose_error = x_next.head<3>() - reference_pose_.col(kk);
+  pose_error.z() = wrap_angle(pose_error.z());
+  const Eigen::Vector3d twist_error = x_next.segment<3>(3) - reference_twist_.col(kk);
+  const double scale = (k == horizon_ - 1) ? weights_.terminal_scale : 1.0;
+  d_x_next.setZero();
+  d_x_next.head<3>() = 2.0 * scale * weights_.pose.cwiseProduct(pose_error);
+  d_x_next.segment<3>(3) = 2.0 * weights_.twist.cwiseProduct(twist_error);
+  // The tube: d/de mu max(0, |e| - b)^2 = 2 mu (|e| - b) e / |e| beyond the bound, 0 inside.
+  const double position_error = pose_error.head<2>().norm();
+  if (position_error > tube_(0, kk)) {
+    d_x_next.head<2>() += 2.0 * weights_.tube_penalty * (position_error - tube_(0, kk)) / position_error * pose_error.head<2>();
+  }
+  if (std::abs(pose_error.z()) > tube_(1, kk)) {
+    d_x_next[2] += 2.0 * weights_.tube_penalty * (std::abs(pose_error.z()) - tube_(1, kk)) * (pose_error.z() > 0.0 ? 1.0 : -1.0);
+  }
+  d_u = 2.0 * weights_.effort.cwiseProduct(u) + 2.0 * weights_.rate.cwiseProduct(u - u_before);
+  d_u_before = -2.0 * weights_.rate.cwiseProduct(u - u_before);
+  return stage_cost(k, x_next, u, u_before, 0.0, nullptr);
+}
+
+double OcpProblem::rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
+                           Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept {
+  if (first_step <= 0) {
+    first_step = 0;
+    states.col(0) = x0_;
+  }
+  for (int k = first_step; k < horizon_; ++k) {
+    double wear = 0.0;
+    const auto kk = static_cast<Eigen::Index>(k);
+    if (!model_->step(states.col(kk), inputs.col(kk), dt_, states.col(kk + 1), &wear) || !std::isfinite(wear)) {
+      for (int j = k; j < horizon_; ++j) stage_costs[j] = std::numeric_limits<double>::infinity();
+      return std::numeric_limits<double>::infinity();
+    }
+    stage_costs[kk] = stage_cost(k, states.col(kk + 1), inputs.col(kk), input_before(inputs, k), wear, nullptr);
+  }
+  return stage_costs.sum();
+}
+
+CostBreakdown OcpProblem::evaluate(const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                                   Eigen::Ref<Eigen::MatrixXd> states) const noexcept {
+  CostBreakdown parts;
+  states.col(0) = x0_;
+  for (int k = 0; k < horizon_; ++k) {
+    double wear = 0.0;
+    const auto kk = static_cast<Eigen::Index>(k);
+    if (!model_->step(states.col(kk), inputs.col(kk), dt_, states.col(kk + 1), &wear) || !std::isfinite(wear)) {
+      parts.tracking = std::numeric_limits<double>::infinity();
+      return parts;
+    }
+    stage_cost(k, states.col(kk + 1), inputs.col(kk), input_before(inputs, k), wear, &parts);
+  }
+  return parts;
+}
+
+}  // namespace swerve

@@ -1,0 +1,605 @@
+// The swerve prediction step for any scalar type: double for the optimiser's rollouts, ceres::Jet
+// for their exact Jacobians. Internal to the library; vehicle_prediction_model.hpp says what the
+// step does and why. Branches (the 180 deg flip, clamps, the slow-motion substeps) are chosen on
+// the values, so the Jet evaluation differentiates the branch the double evaluation takes.
+//
+// The backward-Euler body twist v+ solves G(v+, p) = v+ - v0 - h a(v+, p) = 0 (p: state and
+// inputs). Newton's method finds its value in double; its derivatives follow from the implicit
+// function theorem, dv+/dp = -(dG/dv)^-1 dG/dp, with both partials from Jets of the model's
+// derivative at the converged v+ (exact, no finite differences and no differentiation of the
+// Newton iterations).
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "swerve/kinematics/kinematics.hpp"
+#include "swerve/kinematics/module_state.hpp"
+#include "swerve/kinematics/se2.hpp"
+#include "swerve/models/drive_response.hpp"
+#include "swerve/models/integrators.hpp"
+#include "swerve/models/jet.hpp"
+#include "swerve/models/vehicle_model.hpp"
+#include "swerve/ocp/vehicle_prediction_model.hpp"
+
+namespace swerve::detail {
+
+inline constexpr double kSlowSpeed = 0.25;  // m/s: 5 slip-regularisation speeds of the paper's tire
+// Below this contact speed a module's direction is noise: it keeps its angle (the singularity hold).
+inline constexpr double kHoldSpeed = 1e-3;  // m/s
+// Deepest halving of a semi-implicit substep whose Newton solve finds no root (h / 16).
+inline constexpr int kMaxSplits = 4;
+
+// `value` limited to [lower, upper], the bounds chosen on values (a Jet keeps the derivative of
+// whichever side is active).
+template <typename T>
+T clamp_by_value(const T& value, const T& lower, const T& upper) {
+  if (scalar_value(value) < scalar_value(lower)) return lower;
+  if (scalar_value(value) > scalar_value(upper)) return upper;
+  return value;
+}
+
+// Smooth saturations for the limits inside the step. A hard clamp has a kink where it becomes
+// active, and a gradient method whose iterates cross it sees linearisations that are wrong on one
+// side (Ipopt stalled with dynamics defects of 1e-2 at the stages where the steering-rate limit
+// switched on or off). min(x, limit) is replaced by a C1 blend over [limit - width, limit + width]:
+// x - (x - limit + width)^2 / (4 width) there, exactly x below it and exactly the limit above it,
+// so motion away from the limits is unchanged. Every scalar type uses them, so every optimiser
+// sees one map.
+template <typename T>
+T soft_min(const T& x, double limit, double width) {
+  const double value = scalar_value(x);
+  if (value <= limit - width) return x;
+  if (value >= limit + width) return T(limit);
+  const T excess = x - (limit - width);
+  return x - excess * excess / (4.0 * width);
+}
+template <typename T>
+T soft_max(const T& x, double limit, double width) {
+  return -soft_min<T>(-x, -limit, width);
+}
+template <typename T>
+T soft_clamp(const T& x, double lower, double upper, double width) {
+  return soft_min<T>(soft_max<T>(x, lower, width), upper, width);
+}
+
+// max(0, x) made C1 without moving its zero: 0 below 0, x^2 / (2 width) up to width, x - width / 2
+// above. The step's energy balance is clamped by it: steady motion dissipates ~0, so the optimum
+// of a plan that cruises sits on this corner at many stages, where a kink stalled SLSQP.
+template <typename T>
+T positive_part(const T& x) {
+  constexpr double kWidth = 1e-4;  // J: the bias above it (5e-5 J per step) is negligible
+  const double value = scalar_value(x);
+  if (value <= 0.0) return T(0.0);
+  if (value >= kWidth) return x - 0.5 * kWidth;
+  return x * x / (2.0 * kWidth);
+}
+
+// Blend widths, relative to each limit's scale.
+inline constexpr double kRateLimitSmoothing = 0.1;    // x max steering rate
+inline constexpr double kSpeedLimitSmoothing = 0.05;  // x max wheel speed
+inline constexpr double kAlignmentSmoothing = 0.05;   // on cos(remaining steering error), at 0
+
+// Backward-Euler body twist by Newton's method in double (the value every scalar type shares). The
+// residual's Jacobian dG/dv = I - h da/dv is exact: each evaluation of the model carries Jets along
+// the three twist directions (TwistJet), so one evaluation gives the residual and its Jacobian, and
+// the iteration converges quadratically. (A forward-difference Jacobian cost four evaluations an
+// iteration, ~19 a step.)
+class BodyTwistSolver {
+ public:
+  using TwistJetVector = Eigen::Matrix<TwistJet, Eigen::Dynamic, 1>;
+
+  // The solver's scratch, owned by its caller: one per thread makes solves re-entrant.
+  struct Data {
+    explicit Data(const BodyTwistSolver& solver)
+        : state(TwistJetVector::Zero(solver.state_size_)), inputs(TwistJetVector::Zero(solver.input_size_)),
+          state_dot(TwistJetVector::Zero(solver.state_size_)), diagnostics(static_cast<std::size_t>(solver.modules_)),
+          value_state(Eigen::VectorXd::Zero(solver.state_size_)), value_inputs(Eigen::VectorXd::Zero(solver.input_size_)),
+          value_state_dot(Eigen::VectorXd::Zero(solver.state_size_)),
+          value_diagnostics(static_cast<std::size_t>(solver.modules_)) {}
+    TwistJetVector state, inputs, state_dot;
+    std::vector<ModuleDiagnostics<TwistJet>> diagnostics;
+    TwistJet wear_rate{0.0};
+    Eigen::VectorXd value_state, value_inputs, value_state_dot;
+    std::vector<ModuleDiagnostics<double>> value_diagnostics;
+    double value_wear_rate = 0.0;
+    bool final_in_double = false;  // whether the last evaluation was final_values()
+    long evaluations = 0;
+  };
+
+  BodyTwistSolver(const VehicleParams& params, int max_iterations)
+      : model_(params, Fidelity::kIdeal), value_model_(params, Fidelity::kIdeal), max_iterations_(max_iterations),
+        state_size_(model_.state_size()), input_size_(model_.input_size()), modules_(model_.modules()) {}
+
+  // v+ for the state `trial_state` (steering already advanced; its twist entries are ignored) under
+  // `inputs`, from v0 over h, started at `guess`. Step halving keeps each iterate's residual below
+  // the last. True only when the residual has converged: a tyre past its force peak makes the
+  // residual non-monotone, and a long step from rest then has no root near v0 or several (Newton
+  // wandered, and an unconverged 6.5 m/s was once returned for a 4 cm/s command); the caller
+  // splits the step.
+  bool solve(Data& d, const Eigen::Ref<const Eigen::VectorXd>& trial_state, const Eigen::Ref<const Eigen::VectorXd>& inputs,
+             const Eigen::Vector3d& v0, const Eigen::Vector3d& guess, double h, Eigen::Vector3d* v_out) const noexcept {
+    for (Eigen::Index k = 0; k < d.state.size(); ++k) d.state[k] = TwistJet(trial_state[k]);
+    for (Eigen::Index k = 0; k < d.inputs.size(); ++k) d.inputs[k] = TwistJet(inputs[k]);
+    Eigen::Vector3d v = guess, a;
+    Eigen::Matrix3d da_dv;
+    if (!acceleration(d, v, &a, &da_dv)) return false;
+    Eigen::Vector3d residual = v - v0 - h * a;
+    double residual_norm = residual.norm();
+    double previous_norm = 0.0;  // the residual before the last full Newton step; 0 if there was none
+    d.final_in_double = false;
+    for (int iteration = 0; iteration < max_iterations_ && residual_norm > kTolerance; ++iteration) {
+      const Eigen::Matrix3d jacobian = Eigen::Matrix3d::Identity() - h * da_dv;
+      const Eigen::Vector3d newton_step = jacobian.partialPivLu().solve(-residual);
+      // Quadratic convergence, |r+| ~ K |r|^2 with K measured over the last full step: when that
+      // puts the next residual under the tolerance, the step is taken and the model evaluated
+      // there in double only, for the forces and wear rate at v+ (a Jet evaluation costs ~2.2
+      // double ones, and its Jacobian would go unused). Extrapolating them along their twist
+      // derivatives instead was cheaper still, but left the map rough at 1e-9, and Ipopt's line
+      // search then needed 258 iterations where it had needed 165.
+      if (previous_norm > 0.0) {
+        const double predicted = residual_norm / (previous_norm * previous_norm) * residual_norm * residual_norm;
+        if (predicted <= kTolerance) {
+          v += newton_step;
+          if (!final_values(d, v)) return false;
+          residual_norm = predicted;
+          break;
+        }
+      }
+      double scale = 1.0;
+      bool decreased = false;
+      for (int halving = 0; halving < 6; ++halving, scale *= 0.5) {
+        const Eigen::Vector3d trial = v + scale * newton_step;
+        Eigen::Vector3d trial_a;
+        Eigen::Matrix3d trial_da_dv;
+        if (!acceleration(d, trial, &trial_a, &trial_da_dv)) continue;
+        const Eigen::Vector3d trial_residual = trial - v0 - h * trial_a;
+        if (trial_residual.norm() < residual_norm) {
+          previous_norm = halving == 0 ? residual_norm : 0.0;
+          v = trial;
+          a = trial_a;
+          da_dv = trial_da_dv;
+          residual = trial_residual;
+          residual_norm = residual.norm();
+          decreased = true;
+          break;
+        }
+      }
+      if (!decreased) break;
+    }
+    *v_out = v;
+    return v.allFinite() && residual_norm <= kConverged;
+  }
+
+  static long evaluations(const Data& d) noexcept { return d.evaluations; }
+  // At the twist the last solve() returned (when it converged): the wear rate and each module's
+  // longitudinal wheel-frame force.
+  static double wear_rate(const Data& d) noexcept { return d.final_in_double ? d.value_wear_rate : d.wear_rate.a; }
+  static double drive_force(const Data& d, int module) noexcept {
+    const auto i = static_cast<std::size_t>(module);
+    return d.final_in_double ? d.value_diagnostics[i].fx_wheel : d.diagnostics[i].fx_wheel.a;
+  }
+
+ private:
+  static constexpr double kTolerance = 1e-10;  // m/s, rad/s on the residual: the iteration's target
+  static constexpr double kConverged = 1e-8;   // what counts as a root (a rollout's cost moves ~1e-6 J)
+
+  // a(v) and da/dv, the twist seeded in the Jets' three directions; the per-module forces and the
+  // wear rate come along, so the step needs no further evaluation at the converged twist.
+  bool acceleration(Data& d, const Eigen::Vector3d& v, Eigen::Vector3d* a, Eigen::Matrix3d* da_dv) const noexcept {
+    ++d.evaluations;
+    for (int j = 0; j < 3; ++j) d.state[StateIndex::kVx + j] = TwistJet(v[j], j);
+    if (model_.derivative(d.state, d.inputs, d.state_dot, d.diagnostics.data(), &d.wear_rate) != ModelStatus::kOk) {
+      return false;
+    }
+    for (int i = 0; i < 3; ++i) {
+      (*a)[i] = d.state_dot[StateIndex::kVx + i].a;
+      da_dv->row(i) = d.state_dot[StateIndex::kVx + i].v.transpose();
+    }
+    return a->allFinite() && da_dv->allFinite();
+  }
+
+  // The model in double at v (the converged twist): forces and wear rate.
+  bool final_values(Data& d, const Eigen::Vector3d& v) const noexcept {
+    ++d.evaluations;
+    d.final_in_double = true;
+    for (Eigen::Index k = 0; k < d.state.size(); ++k) d.value_state[k] = d.state[k].a;
+    for (Eigen::Index k = 0; k < d.inputs.size(); ++k) d.value_inputs[k] = d.inputs[k].a;
+    d.value_state.segment<3>(StateIndex::kVx) = v;
+    return value_model_.derivative(d.value_state, d.value_inputs, d.value_state_dot, d.value_diagnostics.data(),
+                                   &d.value_wear_rate) == ModelStatus::kOk &&
+           std::isfinite(d.value_wear_rate);
+  }
+
+  VehicleModel<TwistJet> model_;
+  VehicleModel<double> value_model_;
+  int max_iterations_, state_size_, input_size_, modules_;
+};
+
+template <typename T>
+class PredictionStep {
+ public:
+  using Vector = Eigen::Matrix<T, Eigen::Dynamic, 1>;
+  using Vector3 = Eigen::Matrix<T, 3, 1>;
+
+  PredictionStep(const VehicleParams& params, const PredictionOptions& options)
+      : options_(options), model_(params, Fidelity::kIdeal), rk4_(model_, IntegratorMethod::kRk4),
+        twist_solver_(params, options.max_newton_iterations), layout_(params.layout), kinematics_(params.layout),
+        modules_(model_.modules()) {
+    energy_wear_ = params.casters.empty() && params.wear.model == WearModelKind::kFrictionalPower;
+    wheel_radius_ = params.layout.wheel_radius();
+    wear_coefficient_ = params.wear.coefficient;
+    // The drives reach a command through their first-order lag only when the plant has one.
+    drive_lag_ = params.plant.actuator_lag ? params.actuators.drive_time_constant : 0.0;
+    // With options.drive_lag the wheel speeds are states of the prediction (see step()).
+    lag_states_ = options.drive_lag && drive_lag_ > 0.0 ? modules_ : 0;
+    drive_response_.time_constant = drive_lag_;
+    if (params.plant.actuator_saturation) {
+      drive_response_.max_acceleration = params.layout.limits().max_drive_acceleration / params.layout.wheel_radius();
+    }
+    mass_ = params.mass;
+    slip_speed_epsilon_ = params.tire.slip_speed_epsilon;
+    // Sum over the tyres of their slip stiffness B C D (mean of the longitudinal and lateral
+    // curves at the static loads), in N per unit slip: the damping the body's velocity sees.
+    const double stiffness_per_newton = 0.5 * params.tire.mu *
+                                        (params.tire.longitudinal.b * params.tire.longitudinal.c +
+                                         params.tire.lateral.b * params.tire.lateral.c);
+    for (int i = 0; i < modules_; ++i) {
+      slip_stiffness_sum_ += stiffness_per_newton * model_.static_normal_loads()[static_cast<std::size_t>(i)];
+    }
+  }
+
+  // The step's scratch, owned by its caller (Crocoddyl's createData(), acados' workspace): the
+  // step itself is immutable, so rollouts with a Data each may run on threads of their own.
+  struct Data {
+    explicit Data(const PredictionStep& step) : twist(step.twist_solver_) {
+      const int nx = step.model_.state_size();
+      const int nu = step.model_.input_size();
+      u_applied = Vector::Zero(nu);
+      trial_state = Vector::Zero(nx);
+      state_dot = Vector::Zero(nx);
+      substep_state = Vector::Zero(nx);
+      seeded_state = Vector::Zero(nx);
+      constant_inputs = Vector::Zero(nu);
+      state_values = Eigen::VectorXd::Zero(nx);
+      input_values = Eigen::VectorXd::Zero(nu);
+      diagnostics.resize(static_cast<std::size_t>(step.modules_));
+      // One slot per Newton solve: every substep, each split into halves down to kMaxSplits deep.
+      const auto most_solves =
+          static_cast<std::size_t>(std::max(step.options_.substeps, step.options_.slow_substeps)) *
+          ((std::size_t{1} << (kMaxSplits + 1)) - 1);
+      twist_values.assign(most_solves, Eigen::Vector3d::Zero());
+      twist_factorizations.assign(most_solves, Eigen::PartialPivLU<Eigen::Matrix3d>(Eigen::Matrix3d::Identity()));
+      split.assign(most_solves, 0);
+      split_states.assign(kMaxSplits, Vector::Zero(nx));
+      wheel_states = ModuleStates(step.modules_);
+      wheel_speeds_next = Vector::Zero(step.lag_states_);
+    }
+    Vector u_applied, trial_state, state_dot, substep_state, seeded_state, constant_inputs;
+    Vector wheel_speeds_next;  // drive lag: the wheel speeds at the end of the step
+    Eigen::VectorXd state_values, input_values;
+    std::vector<ModuleDiagnostics<T>> diagnostics;
+    bool replay = false;  // see begin_chunk
+    int substep_index = 0;
+    std::vector<Eigen::Vector3d> twist_values;                             // per solve
+    std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> twist_factorizations;  // per solve
+    std::vector<char> split;                                                 // per solve
+    std::vector<Vector> split_states;                                        // per split depth
+    ModuleStates wheel_states;
+    BodyTwistSolver::Data twist;
+  };
+
+  const VehicleModel<T>& model() const noexcept { return model_; }
+  // The prediction's state: the model's (pose, twist, steering angles), then with drive_lag the n
+  // wheel speeds (rad/s).
+  int state_size() const noexcept { return model_.state_size() + lag_states_; }
+  // Evaluations of the vehicle model's derivative in double by the semi-implicit steps so far.
+  static long model_evaluations(const Data& d) noexcept { return BodyTwistSolver::evaluations(d.twist); }
+
+  // Jacobians are evaluated in chunks of Jet directions, each a full step at the same values. The
+  // first chunk records each substep's Newton solution and dG/dv factorisation; later chunks
+  // replay them instead of solving again (Jet instances only).
+  static void begin_chunk(Data& d, bool first) noexcept { d.replay = !first; }
+
+  // x_next = F(x, u) over dt with module inputs u (steering rate, wheel speed per module) and the
+  // stage wear. Sizes and finiteness are the caller's to check. No allocation.
+  //
+  // Drive lag (PredictionOptions::drive_lag): wheel i starts the step at its state x[6 + n + i]
+  // and follows its command through the drive's first-order lag and acceleration clamp, as the
+  // plant's drive does (drive_response). The step runs on the wheel's mean speed over dt, and the
+  // state moves on to its speed at the end. Without it the wheels
+  // reach their commands at once, and the prediction missed the wear of modules whose lagging
+  // wheels fight one another while the body turns: on the 8-module carrier's hard start the
+  // plant wore 172 and 235 J in two half-second windows where the prediction, from the same states
+  // and commands, said 27 and 8.5 J; with the logged wheel speeds and the lag, 165 and 226 J.
+  bool step(Data& d, const Eigen::Ref<const Vector>& x_full, const Eigen::Ref<const Vector>& u, double dt,
+            Eigen::Ref<Vector> x_next_full, T* stage_wear) const noexcept {
+    const int model_size = model_.state_size();
+    const auto x = x_full.head(model_size);
+    Eigen::Ref<Vector> x_next = x_next_full.head(model_size);
+    const ModuleLimits& limits = layout_.limits();
+    // End stops: the steering rate is clipped so the angle stays inside the module's range. A
+    // [-pi, pi] range means none: the module turns freely through +-pi (a clip there left a
+    // module reversed by pi unable to steer one way, and the tracking stuck).
+    d.u_applied = u;
+    for (int i = 0; i < modules_ && limits.has_steering_end_stops(); ++i) {
+      const T& angle = x[StateIndex::steering(i)];
+      T& rate = d.u_applied[InputIndex::steering_rate(i)];
+      rate = clamp_by_value<T>(rate, (limits.min_steering_angle - angle) / dt, (limits.max_steering_angle - angle) / dt);
+    }
+    for (int i = 0; i < lag_states_; ++i) {
+      T& wheel = d.u_applied[InputIndex::wheel_speed(i)];
+      const T command = wheel;
+      drive_response<T>(x_full[model_size + i], command, drive_response_, dt, &d.wheel_speeds_next[i], &wheel);
+    }
+    T wear(0.0);
+    bool ok = true;
+    if (options_.method == PredictionMethod::kRk4) {
+      ok = rk4_.step(x, d.u_applied, dt, options_.substeps, x_next, &wear) == ModelStatus::kOk;
+    } else {
+      // Slow motion (body and every commanded contact speed under 0.25 m/s) is where one implicit
+      // step per controller step mispredicts wear most; there it takes more, shorter steps.
+      double fastest = std::hypot(scalar_value(x[StateIndex::kVx]), scalar_value(x[StateIndex::kVy]));
+      for (int i = 0; i < modules_; ++i) {
+        fastest = std::max(fastest, std::abs(scalar_value(d.u_applied[InputIndex::wheel_speed(i)])) * wheel_radius_);
+      }
+      const int substeps =
+          fastest < kSlowSpeed ? std::max(options_.substeps, options_.slow_substeps) : options_.substeps;
+      const double h = dt / substeps;
+      d.substep_index = 0;
+      d.substep_state = x;
+      for (int s = 0; s < substeps && ok; ++s) {
+        ok = semi_implicit_substep(d, d.substep_state, h, x_next, &wear, 0);
+        d.substep_state = x_next;
+      }
+    }
+    if (lag_states_ > 0) x_next_full.tail(lag_states_) = d.wheel_speeds_next;
+    if (stage_wear != nullptr) *stage_wear = wear;
+    return ok && std::isfinite(scalar_value(wear));
+  }
+
+  // The module inputs that carry out `twist_body` over the next dt from state x: inverse
+  // kinematics, the 180 deg choice nearest the current angle (unless past an end stop), the
+  // steering-rate limit, and the wheel speed scaled by the cosine of the steering error left.
+  void module_inputs(const Eigen::Ref<const Vector>& x, const Vector3& twist_body, double dt,
+                     Eigen::Ref<Vector> inputs) const noexcept {
+    using std::atan2;
+    using std::cos;
+    using std::sqrt;
+    const ModuleLimits& limits = layout_.limits();
+    const bool end_stops = limits.has_steering_end_stops();
+    const double max_wheel_speed = limits.max_drive_speed / wheel_radius_;
+    for (int i = 0; i < modules_; ++i) {
+      const Eigen::Vector2d& p = layout_.position_body(i);
+      const T vx = twist_body.x() - twist_body.z() * p.y();
+      const T vy = twist_body.y() + twist_body.z() * p.x();
+      const T& angle = x[StateIndex::steering(i)];
+      T rate(0.0), wheel_speed(0.0);
+      if (std::hypot(scalar_value(vx), scalar_value(vy)) > kHoldSpeed) {
+        const T speed = sqrt(vx * vx + vy * vy);
+        T error = wrap_angle_of<T>(atan2(vy, vx) - angle);
+        double sign = 1.0;
+        if (std::abs(scalar_value(error)) > kPi / 2) {
+          error = wrap_angle_of<T>(error + kPi);
+          sign = -1.0;
+        }
+        const double reached = scalar_value(angle) + scalar_value(error);
+        if (end_stops && (reached < limits.min_steering_angle || reached > limits.max_steering_angle)) {
+          error = scalar_value(error) > 0.0 ? error - kPi : error + kPi;
+          sign = -sign;
+        }
+        rate = soft_clamp<T>(error / dt, -limits.max_steering_rate, limits.max_steering_rate,
+                               kRateLimitSmoothing * limits.max_steering_rate);
+        // Drive only as fast as the wheel points the right way at the end of this step.
+        const T alignment = soft_max<T>(cos(error - rate * dt), 0.0, kAlignmentSmoothing);
+        wheel_speed = soft_clamp<T>(sign * speed * alignment / wheel_radius_, -max_wheel_speed, max_wheel_speed,
+                                      kSpeedLimitSmoothing * max_wheel_speed);
+      }
+      inputs[InputIndex::steering_rate(i)] = rate;
+      inputs[InputIndex::wheel_speed(i)] = wheel_speed;
+    }
+  }
+
+ private:
+  // Kinetic energy of the body (CoM translation + rotation) moving with twist v of the body origin.
+  T kinetic_energy(const Vector3& v) const noexcept {
+    const VehicleParams& p = model_.params();
+    const Eigen::Vector2d& c = p.center_of_mass_body;
+    const T vcx = v.x() - v.z() * c.y();
+    const T vcy = v.y() + v.z() * c.x();
+    return 0.5 * p.mass * (vcx * vcx + vcy * vcy) + 0.5 * p.yaw_inertia * v.z() * v.z();
+  }
+
+  // dv+/dp by the implicit function theorem at the converged v+ (T is a Jet; see the top). A member
+  // template so that the double instantiation never compiles it.
+  template <typename Jet = T>
+  bool implicit_twist(Data& d, const Vector3& v0, const Eigen::Vector3d& v_value, double h, std::size_t slot,
+                      Vector3* v) const noexcept {
+    constexpr int kDirections = decltype(std::declval<Jet>().v)::RowsAtCompileTime;
+    static_assert(kDirections >= 3, "the Jet must hold the three twist directions");
+    Eigen::PartialPivLU<Eigen::Matrix3d>& lu = d.twist_factorizations[slot];
+    if (!d.replay) {
+      if (!twist_jacobian(d, v_value, h, &lu)) return false;
+    }
+    // dG/dp: v held at its value, the state's and inputs' own derivatives flowing.
+    for (int j = 0; j < 3; ++j) d.trial_state[StateIndex::kVx + j] = T(v_value[j]);
+    if (model_.derivative(d.trial_state, d.u_applied, d.state_dot) != ModelStatus::kOk) return false;
+    Eigen::Matrix<double, 3, kDirections> dg_dp;
+    for (int i = 0; i < 3; ++i) {
+      const T g = T(v_value[i]) - v0[i] - h * d.state_dot[StateIndex::kVx + i];
+      dg_dp.row(i) = g.v.transpose();
+    }
+    const Eigen::Matrix<double, 3, kDirections> dv_dp = -lu.solve(dg_dp);
+    for (int i = 0; i < 3; ++i) {
+      (*v)[i] = T(v_value[i]);
+      (*v)[i].v = dv_dp.row(i).transpose();
+    }
+    return dv_dp.allFinite();
+  }
+
+  // dG/dv = I - h da/dv at v+, exactly: the twist seeded alone, everything else constant.
+  template <typename Jet = T>
+  bool twist_jacobian(Data& d, const Eigen::Vector3d& v_value, double h, Eigen::PartialPivLU<Eigen::Matrix3d>* lu) const noexcept {
+    for (Eigen::Index k = 0; k < d.trial_state.size(); ++k) d.seeded_state[k] = T(scalar_value(d.trial_state[k]));
+    for (Eigen::Index k = 0; k < d.u_applied.size(); ++k) d.constant_inputs[k] = T(scalar_value(d.u_applied[k]));
+    for (int j = 0; j < 3; ++j) {
+      d.seeded_state[StateIndex::kVx + j] = T(v_value[j]);
+      d.seeded_state[StateIndex::kVx + j].v[j] = 1.0;
+    }
+    if (model_.derivative(d.seeded_state, d.constant_inputs, d.state_dot) != ModelStatus::kOk) return false;
+    Eigen::Matrix3d dg_dv;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) dg_dv(i, j) = (i == j ? 1.0 : 0.0) - h * d.state_dot[StateIndex::kVx + i].v[j];
+    }
+    lu->compute(dg_dv);
+    return dg_dv.allFinite();
+  }
+
+  // Where the stiff tyres put v+ to first order: each tyre a damper (time constant tau_t, see
+  // lagged_wear) pulling the body towards the twist its wheel rolls at (least squares over the
+  // modules), the body's momentum holding it at v0: v+ = (v0 + (h/tau_t) v_wheels) / (1 + h/tau_t),
+  // the exact root of the linearised residual. Newton's method starts there (from v0 it took 4-5
+  // iterations at cruise).
+  Eigen::Vector3d quasi_steady_twist(Data& d, const Eigen::Ref<const Eigen::VectorXd>& state,
+                                     const Eigen::Ref<const Eigen::VectorXd>& inputs, const Eigen::Vector3d& v0,
+                                     double h) const noexcept {
+    if (slip_stiffness_sum_ <= 0.0) return v0;
+    for (int i = 0; i < modules_; ++i) {
+      d.wheel_states[i] = ModuleState{wheel_radius_ * inputs[InputIndex::wheel_speed(i)], state[StateIndex::steering(i)]};
+    }
+    Eigen::Vector3d wheels;
+    if (kinematics_.forward(d.wheel_states, &wheels) != KinematicsStatus::kOk) return v0;
+    const double ratio = h / tire_time_constant<double>(v0.x(), v0.y());
+    return (v0 + ratio * wheels) / (1.0 + ratio);
+  }
+
+  // One backward-Euler substep of h. Where Newton's method finds no root (a tyre past its force
+  // peak: see BodyTwistSolver::solve) the substep is taken as two half steps instead, down to
+  // h / 2^kMaxSplits, which keeps the root the one that continues v0. The Jet instances replay the
+  // split decisions of the first chunk.
+  bool semi_implicit_substep(Data& d, const Eigen::Ref<const Vector>& x, double h, Eigen::Ref<Vector> x_next, T* wear,
+                             int depth) const noexcept {
+    const auto slot = static_cast<std::size_t>(d.substep_index++);
+    if (slot >= d.split.size()) return false;
+    // Steering advances explicitly under the (already end-stop-clipped) rate.
+    d.trial_state = x;
+    for (int i = 0; i < modules_; ++i) {
+      d.trial_state[StateIndex::steering(i)] = x[StateIndex::steering(i)] + h * d.u_applied[InputIndex::steering_rate(i)];
+    }
+    const Vector3 v0 = x.template segment<3>(StateIndex::kVx);
+    Vector3 v;
+    if constexpr (std::is_same_v<T, double>) {
+      d.split[slot] = !twist_solver_.solve(d.twist, d.trial_state, d.u_applied, v0, quasi_steady_twist(d, d.trial_state, d.u_applied, v0, h),
+                                          h, &v);
+    } else {
+      for (Eigen::Index k = 0; k < d.trial_state.size(); ++k) d.state_values[k] = scalar_value(d.trial_state[k]);
+      for (Eigen::Index k = 0; k < d.u_applied.size(); ++k) d.input_values[k] = scalar_value(d.u_applied[k]);
+      const Eigen::Vector3d v0_value(scalar_value(v0.x()), scalar_value(v0.y()), scalar_value(v0.z()));
+      Eigen::Vector3d& v_value = d.twist_values[slot];
+      if (!d.replay) {
+        d.split[slot] = !twist_solver_.solve(d.twist, d.state_values, d.input_values, v0_value,
+                                            quasi_steady_twist(d, d.state_values, d.input_values, v0_value, h), h, &v_value);
+      }
+      if (!d.split[slot] && !implicit_twist(d, v0, v_value, h, slot, &v)) return false;
+    }
+    if (d.split[slot]) {
+      if (depth >= kMaxSplits) return false;
+      Vector& middle = d.split_states[static_cast<std::size_t>(depth)];
+      return semi_implicit_substep(d, x, 0.5 * h, middle, wear, depth + 1) &&
+             semi_implicit_substep(d, middle, 0.5 * h, x_next, wear, depth + 1);
+    }
+    d.trial_state.template segment<3>(StateIndex::kVx) = v;
+    T wear_rate(0.0);
+    if constexpr (std::is_same_v<T, double>) {
+      // The solver's last evaluation was at v+: its forces and wear rate are the step's.
+      wear_rate = BodyTwistSolver::wear_rate(d.twist);
+      for (int i = 0; i < modules_; ++i) d.diagnostics[static_cast<std::size_t>(i)].fx_wheel = BodyTwistSolver::drive_force(d.twist, i);
+    } else {
+      if (model_.derivative(d.trial_state, d.u_applied, d.state_dot, d.diagnostics.data(), &wear_rate) != ModelStatus::kOk) {
+        return false;
+      }
+    }
+    T step_wear = h * wear_rate;
+    if (energy_wear_) {
+      // The drives' work with the implicit step's forces at v+, less the body's kinetic-energy gain.
+      T drive_work(0.0);
+      for (int i = 0; i < modules_; ++i) {
+        drive_work += h * d.diagnostics[static_cast<std::size_t>(i)].fx_wheel * wheel_radius_ *
+                      d.u_applied[InputIndex::wheel_speed(i)];
+      }
+      const T dissipated = drive_work - (kinetic_energy(v) - kinetic_energy(v0));
+      step_wear = lagged_wear(step_wear, wear_coefficient_ * positive_part(dissipated), v0);
+    }
+    // Pose: the body moves with the constant twist v over h (exact on arcs).
+    const Vector3 delta_body = h * v;
+    const Vector3 pose = compose_pose_of<T>(x.template head<3>(), delta_body);
+    x_next = d.trial_state;
+    x_next.template head<3>() = pose;
+    *wear += step_wear;
+    for (Eigen::Index k = 0; k < x_next.size(); ++k) {
+      if (!std::isfinite(scalar_value(x_next[k]))) return false;
+    }
+    return true;
+  }
+
+  // The step's wear when the drives follow a command through their first-order lag tau_a, from
+  // its steady part (h times the wear rate at v+) and the energy balance (which charges the whole
+  // velocity change as if it were instantaneous). The tyres act on the body as a damper
+  // c = stiffness / |v| (time constant tau_t = m / c, milliseconds); a velocity source that
+  // follows a step dv through a first-order lag tau_a and drives a mass m through that damper
+  // dissipates 1/2 m dv^2 tau_t / (tau_t + tau_a), not the 1/2 m dv^2 of an ideal step (integrate
+  // c e^2 with e = dv tau_t / (tau_t - tau_a) (e^-t/tau_t - e^-t/tau_a)). Without that share, a
+  // 1 cm/s correction in cruise was predicted ~8x dearer than the plant (tau_a = 50 ms against
+  // tau_t = 7 ms on the paper's AGV at 1 m/s), and the controller let the tracking go to save it.
+  // With the wheel speeds as lagged states (drive_lag) each step sees the wheels' mean change, and
+  // the same share still applies: the wheels still reach it through the lag inside the step. (A
+  // share for a change spread over the step, tau_t / (tau_t + h / 2), was measured against the
+  // plant over 0.3 s of small corrections at cruise: 1.2-4.3x its wear, against 0.9-3.4x.)
+  T lagged_wear(const T& steady, const T& balance, const Vector3& v0) const noexcept {
+    if (drive_lag_ <= 0.0 || slip_stiffness_sum_ <= 0.0) return balance;
+    const T tire_time = tire_time_constant<T>(v0.x(), v0.y());
+    const T share = tire_time / (tire_time + drive_lag_);
+    return steady + share * (balance - steady);
+  }
+
+  // tau_t = m / c of the tyres acting on the body as one damper c = stiffness / |v| (|v| regularised
+  // by the slip-speed epsilon), for a body moving at (vx, vy). Needs slip_stiffness_sum_ > 0.
+  template <typename S>
+  S tire_time_constant(const S& vx, const S& vy) const noexcept {
+    using std::sqrt;
+    return mass_ * sqrt(vx * vx + vy * vy + slip_speed_epsilon_ * slip_speed_epsilon_) / slip_stiffness_sum_;
+  }
+
+  PredictionOptions options_;
+  VehicleModel<T> model_;
+  DiscreteDynamics<T> rk4_;
+  BodyTwistSolver twist_solver_;
+  ModuleLayout layout_;
+  Kinematics kinematics_;
+  int modules_;
+  bool energy_wear_ = false;
+  double wheel_radius_ = 0.0, wear_coefficient_ = 0.0;
+  double drive_lag_ = 0.0, mass_ = 0.0, slip_speed_epsilon_ = 0.0, slip_stiffness_sum_ = 0.0;
+  int lag_states_ = 0;  // n with PredictionOptions::drive_lag on a plant with drive lag, else 0
+  DriveLag drive_response_;
+};
+
+}  // namespace swerve::detail
+
+namespace swerve {
+
+// VehiclePredictionModel's caller-owned scratch: the double step's and the module inputs a
+// twist_step maps to.
+struct VehiclePredictionModel::Data::Impl {
+  explicit Impl(const detail::PredictionStep<double>& step)
+      : values(step), inputs(Eigen::VectorXd::Zero(step.model().input_size())) {}
+  detail::PredictionStep<double>::Data values;
+  Eigen::VectorXd inputs;
+};
+
+}  // namespace swerve

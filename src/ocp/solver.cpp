@@ -1,0 +1,108 @@
+#include "swerve/ocp/solver.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace swerve {
+namespace {
+class SteadyClock final : public Clock {
+ public:
+  TimePoint now() const noexcept override { return SolverClock::now(); }
+};
+const SteadyClock kSteadyClock;
+}  // namespace
+
+const Clock& steady_clock() noexcept { return kSteadyClock; }
+
+const char* to_string(SolveStatus status) noexcept {
+  switch (status) {
+    case SolveStatus::kNotRun: return "not_run";
+    case SolveStatus::kConverged: return "converged";
+    case SolveStatus::kBudgetExhausted: return "budget_exhausted";
+    case SolveStatus::kInfeasible: return "infeasible";
+    case SolveStatus::kNumericalError: return "numerical_error";
+    case SolveStatus::kInvalidInput: return "invalid_input";
+  }
+  return "unknown";
+}
+
+void Solution::resize(int state_size, int input_size, int horizon) {
+  inputs = Eigen::MatrixXd::Zero(input_size, horizon);
+  states = Eigen::MatrixXd::Zero(state_size, horizon + 1);
+  cost = 0.0;
+  valid = false;
+}
+
+void Solution::shift() noexcept {
+  const Eigen::Index horizon = inputs.cols();
+  if (horizon == 0) return;
+  for (Eigen::Index k = 0; k + 1 < horizon; ++k) inputs.col(k) = inputs.col(k + 1);
+  for (Eigen::Index k = 0; k + 1 < states.cols(); ++k) states.col(k) = states.col(k + 1);
+}
+
+double cheapest_start(const OcpProblem& problem, const InitialGuesses& guesses, Eigen::MatrixXd& inputs,
+                      Eigen::MatrixXd& states, Eigen::MatrixXd& candidate_inputs, Eigen::MatrixXd& candidate_states,
+                      Eigen::VectorXd& stage_costs, long* rollouts) noexcept {
+  double best_cost = std::numeric_limits<double>::infinity();
+  bool found = false;
+  for (int g = 0; g < guesses.count; ++g) {
+    const Eigen::MatrixXd* guess = guesses.sequences[g];
+    if (guess == nullptr || guess->rows() != problem.input_size() || guess->cols() != problem.horizon() ||
+        !guess->allFinite()) {
+      continue;
+    }
+    candidate_inputs = *guess;
+    problem.project(candidate_inputs);
+    const double cost = problem.rollout(candidate_inputs, 0, candidate_states, stage_costs);
+    ++*rollouts;
+    if (!found || cost < best_cost) {
+      found = true;
+      best_cost = cost;
+      inputs.swap(candidate_inputs);
+      states.swap(candidate_states);
+    }
+  }
+  if (!found || !std::isfinite(best_cost)) {
+    inputs.setZero();
+    problem.project(inputs);
+    best_cost = problem.rollout(inputs, 0, states, stage_costs);
+    ++*rollouts;
+  }
+  return best_cost;
+}
+
+SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
+                          SolveSummary* summary) noexcept {
+  const TimePoint start = deadline.now();
+  SolveSummary local_summary;
+  SolveSummary& report = summary != nullptr ? *summary : local_summary;
+  report = SolveSummary{};
+  auto finish = [&](SolveStatus status, const char* reason) {
+    report.status = status;
+    if (reason != nullptr) report.reason = reason;
+    report.solve_time_s = to_seconds(deadline.now() - start);
+    return status;
+  };
+  if (out == nullptr || out->inputs.rows() != problem.input_size() || out->inputs.cols() != problem.horizon() ||
+      out->states.rows() != problem.state_size() || out->states.cols() != problem.horizon() + 1) {
+    return finish(SolveStatus::kInvalidInput, "the output Solution is not sized for the problem");
+  }
+  out->valid = false;
+  if (problem.state_size() != state_size_ || problem.input_size() != input_size_ || problem.horizon() != horizon_) {
+    return finish(SolveStatus::kInvalidInput, "the problem's shape differs from the one the solver was built for");
+  }
+  if (!problem.initial_state().allFinite() || !problem.reference_poses().allFinite() ||
+      !problem.reference_twists().allFinite() || !problem.previous_input().allFinite()) {
+    return finish(SolveStatus::kInvalidInput, "the problem's state, reference or previous input is not finite");
+  }
+  if (deadline.at() <= start) return finish(SolveStatus::kInvalidInput, "the deadline has already passed");
+  const SolveStatus status = do_solve(problem, guesses, deadline, out, &report);
+  if (has_solution(status) && (!out->inputs.allFinite() || !std::isfinite(out->cost))) {
+    out->valid = false;
+    return finish(SolveStatus::kNumericalError, "the backend returned a non-finite plan");
+  }
+  out->valid = has_solution(status);
+  return finish(status, nullptr);
+}
+
+}  // namespace swerve

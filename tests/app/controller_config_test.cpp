@@ -1,0 +1,155 @@
+// The controller YAML's stale_measurement block: read into ControllerOptions, and bad values named
+// with the key path. (In sim_tests: the controller loader lives in the scenarios library.)
+#include "swerve/app/controller_config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "swerve/core/config_error.hpp"
+#include "swerve/app/config_node.hpp"
+
+namespace swerve {
+namespace {
+
+ControllerConfig load(const std::string& stale_block) {
+  const std::string yaml = "controller:\n  name: c\n  type: wear_mpc\n" + stale_block;
+  const config::ConfigNode root = config::ConfigNode::parse(yaml, "c.yaml");
+  ControllerConfig config = load_controller_config(root.child("controller"));
+  root.expect_all_read();  // as the file loaders do: an unknown key is an error
+  return config;
+}
+
+// A block that must be rejected with an error naming the file and the key path.
+void expect_rejected(const char* block, const char* key) {
+  SCOPED_TRACE(block);
+  try {
+    load(block);
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("c.yaml"), std::string::npos) << message;
+    EXPECT_NE(message.find(key), std::string::npos) << message;
+  }
+}
+
+TEST(ControllerConfig, ReadsTheStaleMeasurementLimits) {
+  const ControllerConfig c = load("  stale_measurement: {max_age: 0.25, frozen_cycles: 5, moving_speed: 0.02}\n");
+  EXPECT_DOUBLE_EQ(c.mpc.stale_measurement.max_age, 0.25);
+  EXPECT_EQ(c.mpc.stale_measurement.frozen_cycles, 5);
+  EXPECT_DOUBLE_EQ(c.mpc.stale_measurement.moving_speed, 0.02);
+  const ControllerConfig defaults = load("");
+  EXPECT_DOUBLE_EQ(defaults.mpc.stale_measurement.max_age, StalenessOptions{}.max_age);
+  EXPECT_EQ(defaults.mpc.stale_measurement.frozen_cycles, StalenessOptions{}.frozen_cycles);
+}
+
+TEST(ControllerConfig, RejectsBadStaleMeasurementLimitsNamingTheKeyPath) {
+  const struct {
+    const char* block;
+    const char* key;
+  } cases[] = {{"  stale_measurement: {max_age: 0}\n", "controller.stale_measurement.max_age"},
+               {"  stale_measurement: {max_age: .nan}\n", "controller.stale_measurement.max_age"},
+               {"  stale_measurement: {frozen_cycles: 1}\n", "controller.stale_measurement.frozen_cycles"},
+               {"  stale_measurement: {moving_speed: -1}\n", "controller.stale_measurement.moving_speed"},
+               {"  stale_measurement: {max_agee: 1}\n", "controller.stale_measurement.max_agee"}};
+  for (const auto& c : cases) expect_rejected(c.block, c.key);
+}
+
+TEST(StalenessOptions, ValidateNamesTheField) {
+  StalenessOptions o;
+  o.frozen_cycles = 1;
+  try {
+    o.validate();
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("frozen_cycles"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ControllerConfig, ReadsTheTrackingToleranceAndTheGeometryHeadingWeight) {
+  const ControllerConfig c =
+      load("  tracking_tolerance: {position: 0.05, heading: 0.02}\n  weights: {heading_from_geometry: true}\n");
+  EXPECT_DOUBLE_EQ(c.mpc.tracking_tolerance.position, 0.05);
+  EXPECT_DOUBLE_EQ(c.mpc.tracking_tolerance.heading, 0.02);
+  EXPECT_DOUBLE_EQ(c.mpc.tracking_tolerance.penalty, TrackingTolerance{}.penalty);
+  EXPECT_TRUE(c.mpc.tracking_tolerance.enabled());
+  EXPECT_TRUE(c.mpc.heading_weight_from_geometry);
+  EXPECT_FALSE(load("").mpc.tracking_tolerance.enabled());
+}
+
+TEST(ControllerConfig, ReadsTheDriveLagSwitchOfThePrediction) {
+  EXPECT_TRUE(load("  prediction: {drive_lag: true}\n").mpc.prediction.drive_lag);
+  EXPECT_FALSE(load("").mpc.prediction.drive_lag);
+  expect_rejected("  prediction: {drive_lag: sometimes}\n", "controller.prediction.drive_lag");
+}
+
+TEST(ControllerConfig, ReadsTheWearReferenceMassAndRejectsABadOne) {
+  EXPECT_DOUBLE_EQ(load("  weights: {wear: 0.3, wear_reference_mass: 800}\n").mpc.wear_reference_mass, 800.0);
+  EXPECT_DOUBLE_EQ(load("").mpc.wear_reference_mass, 0.0);
+  for (const char* block : {"  weights: {wear_reference_mass: -800}\n", "  weights: {wear_reference_mass: .nan}\n",
+                            "  weights: {wear_reference_mass: heavy}\n"}) {
+    expect_rejected(block, "controller.weights.wear_reference_mass");
+  }
+}
+
+TEST(ControllerConfig, ReadsTheHeadingLever) {
+  EXPECT_DOUBLE_EQ(load("  weights: {heading_from_geometry: true, heading_lever: 2.5}\n").mpc.heading_lever, 2.5);
+  EXPECT_DOUBLE_EQ(load("").mpc.heading_lever, 1.0);
+}
+
+TEST(ControllerConfig, RejectsABadHeadingLeverOrOneWithoutTheGeometryHeadingWeight) {
+  for (const char* block : {"  weights: {heading_from_geometry: true, heading_lever: 0}\n",
+                            "  weights: {heading_from_geometry: true, heading_lever: -2}\n",
+                            "  weights: {heading_from_geometry: true, heading_lever: .nan}\n",
+                            "  weights: {heading_from_geometry: true, heading_lever: two}\n",
+                            "  weights: {heading_lever: 2}\n",
+                            "  weights: {heading_from_geometry: false, heading_lever: 2}\n"}) {
+    expect_rejected(block, "controller.weights.heading_lever");
+  }
+}
+
+TEST(ControllerConfig, RejectsABadTrackingToleranceNamingTheFileKeyPathAndValue) {
+  const struct {
+    const char* block;
+    const char* key;
+  } cases[] = {{"  tracking_tolerance: {position: 0, heading: 0.02}\n", "controller.tracking_tolerance.position"},
+               {"  tracking_tolerance: {position: -0.05, heading: 0.02}\n", "controller.tracking_tolerance.position"},
+               {"  tracking_tolerance: {position: .nan, heading: 0.02}\n", "controller.tracking_tolerance.position"},
+               {"  tracking_tolerance: {position: 0.05, heading: abc}\n", "controller.tracking_tolerance.heading"},
+               {"  tracking_tolerance: {position: 0.05}\n", "controller.tracking_tolerance.heading"},
+               {"  tracking_tolerance: {position: 0.05, heading: 0.02, penalty: 0}\n",
+                "controller.tracking_tolerance.penalty"},
+               {"  tracking_tolerance: {position: 0.05, heading: 0.02, width: 1}\n",
+                "controller.tracking_tolerance.width"}};
+  for (const auto& c : cases) expect_rejected(c.block, c.key);
+}
+
+TEST(ControllerConfig, RejectsATrackingToleranceOnTheKinematicBaselineWhichCannotUseIt) {
+  const std::string yaml =
+      "controller:\n  name: b\n  type: kinematic_baseline\n  tracking_tolerance: {position: 0.05, heading: 0.02}\n";
+  const config::ConfigNode root = config::ConfigNode::parse(yaml, "b.yaml");
+  try {
+    load_controller_config(root.child("controller"));
+    root.expect_all_read();
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("b.yaml"), std::string::npos) << message;
+    EXPECT_NE(message.find("controller.tracking_tolerance"), std::string::npos) << message;
+  }
+}
+
+TEST(TrackingTolerance, ValidateNamesTheFieldAndAllowsOffOnly) {
+  EXPECT_NO_THROW(TrackingTolerance{}.validate());  // both 0: off
+  TrackingTolerance half;
+  half.position = 0.05;  // one bound without the other is not a tube
+  try {
+    half.validate();
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("heading"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace swerve

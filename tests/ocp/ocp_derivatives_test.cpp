@@ -1,0 +1,63 @@
+// The OCP's single-shooting gradient (adjoint recursion over the models' exact Jacobians): zero at
+// the closed-form optimum of the linear-quadratic problem, equal to central finite differences of
+// the rollout cost on the swerve problem, and the same cost OcpProblem::rollout reports.
+#include "swerve/ocp/ocp_derivatives.hpp"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "support/linear_models.hpp"
+#include "support/swerve_problems.hpp"
+#include "swerve/core/config_error.hpp"
+#include "swerve/ocp/twist_prediction_model.hpp"
+
+namespace swerve {
+namespace {
+
+TEST(OcpDerivatives, GradientVanishesAtTheClosedFormOptimum) {
+  const testing::DoubleIntegratorModel model(0.5);
+  const OcpProblem problem = testing::make_lq_problem(model, 6);
+  const Eigen::MatrixXd optimum = testing::double_integrator_optimum(problem, model);
+  OcpDerivatives derivatives(problem);
+  Eigen::MatrixXd states(6, 7), gradient(3, 6);
+  const double cost = derivatives.cost_and_gradient(problem, optimum, states, gradient);
+  EXPECT_LT(gradient.cwiseAbs().maxCoeff(), 1e-9 * (1.0 + cost)) << gradient;
+  // Away from it the gradient is not zero (so the check above can fail).
+  const Eigen::MatrixXd off = optimum.array() + 0.1;
+  derivatives.cost_and_gradient(problem, off, states, gradient);
+  EXPECT_GT(gradient.cwiseAbs().maxCoeff(), 1e-3);
+}
+
+TEST(OcpDerivatives, SwerveGradientMatchesCentralFiniteDifferencesOfTheRolloutCost) {
+  testing::SwerveTestProblem s(testing::SwerveScene::kTurn, 10, std::numeric_limits<double>::infinity());
+  const OcpProblem& problem = s.problem;
+  const TwistPredictionModel& model = s.model;
+  const Eigen::MatrixXd inputs = s.jittered_inputs(0.05, 7);
+  OcpDerivatives derivatives(problem);
+  Eigen::MatrixXd states(model.state_size(), 11), gradient(3, 10), fd(3, 10);
+  Eigen::VectorXd stage_costs(10);
+  const double cost = derivatives.cost_and_gradient(problem, inputs, states, gradient);
+  EXPECT_NEAR(cost, problem.rollout(inputs, 0, states, stage_costs), 1e-12 * cost);
+  for (int k = 0; k < 10; ++k) {
+    for (int i = 0; i < 3; ++i) {
+      Eigen::MatrixXd plus = inputs, minus = inputs;
+      const double h = 1e-6;
+      plus(i, k) += h;
+      minus(i, k) -= h;
+      fd(i, k) = (problem.rollout(plus, 0, states, stage_costs) - problem.rollout(minus, 0, states, stage_costs)) / (2 * h);
+    }
+  }
+  const double scale = fd.cwiseAbs().maxCoeff();
+  EXPECT_GT(scale, 1.0);
+  EXPECT_LT((gradient - fd).cwiseAbs().maxCoeff(), 1e-5 * scale) << "adjoint\n" << gradient << "\nfd\n" << fd;
+}
+
+TEST(OcpDerivatives, RefusesAModelWithoutJacobians) {
+  const testing::ModelWithoutJacobians model;
+  const OcpProblem problem(model, 3, 0.1, CostWeights{}, InputBounds{});
+  EXPECT_THROW(OcpDerivatives{problem}, ConfigError);
+}
+
+}  // namespace
+}  // namespace swerve

@@ -1,0 +1,253 @@
+// OcpProblem: the exact cost of a hand-computed case, projection onto bounds, incremental
+// rollouts, and validation of every field.
+#include "swerve/ocp/ocp_problem.hpp"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "support/linear_models.hpp"
+#include "swerve/core/config_error.hpp"
+
+namespace swerve {
+namespace {
+
+using testing::DoubleIntegratorModel;
+
+// |u| <= 1 on every input, and at most `max_step` of change per step.
+InputBounds unit_box_with_step(double max_step) {
+  InputBounds bounds;
+  bounds.lower = Eigen::Vector3d::Constant(-1.0);
+  bounds.upper = Eigen::Vector3d::Constant(1.0);
+  bounds.max_step = Eigen::Vector3d::Constant(max_step);
+  return bounds;
+}
+
+CostWeights hand_weights() {
+  CostWeights w;
+  w.pose = {10.0, 10.0, 5.0};
+  w.terminal_scale = 10.0;
+  w.effort = Eigen::Vector3d::Constant(1.0);
+  w.rate = Eigen::Vector3d::Constant(2.0);
+  w.wear = 0.5;
+  return w;
+}
+
+TEST(OcpProblem, CostOfAHandComputedCaseIsExact) {
+  // dt = 1, x0 = 0, u0 = (1, 0, 0), u1 = 0, reference at the origin:
+  //   x1 = 0.5 (v 1), x2 = 1.5: tracking 10 * 0.25 + 10 * 10 * 2.25 = 227.5
+  //   effort 1 * 1 = 1; rate 2 * (1 - 0)^2 + 2 * (0 - 1)^2 = 4; wear 0.5 * (1 * 1 * 1) = 0.5
+  const DoubleIntegratorModel model(1.0);
+  const OcpProblem problem(model, 2, 1.0, hand_weights(), {});
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 2);
+  inputs(0, 0) = 1.0;
+  Eigen::MatrixXd states(6, 3);
+  const CostBreakdown parts = problem.evaluate(inputs, states);
+  EXPECT_DOUBLE_EQ(parts.tracking, 227.5);
+  EXPECT_DOUBLE_EQ(parts.effort, 1.0);
+  EXPECT_DOUBLE_EQ(parts.rate, 4.0);
+  EXPECT_DOUBLE_EQ(parts.wear, 0.5);
+  EXPECT_DOUBLE_EQ(states(0, 2), 1.5);
+  Eigen::VectorXd stage(2);
+  EXPECT_DOUBLE_EQ(problem.rollout(inputs, 0, states, stage), 233.0);
+}
+
+TEST(OcpProblem, HeadingErrorIsWrapped) {
+  const DoubleIntegratorModel model;
+  CostWeights w;
+  w.pose = {0.0, 0.0, 1.0};
+  w.terminal_scale = 1.0;
+  OcpProblem problem(model, 1, 1.0, w, {});
+  Eigen::VectorXd x0 = Eigen::VectorXd::Zero(6);
+  x0[2] = 3.1;
+  ASSERT_TRUE(problem.set_initial_state(x0));
+  ASSERT_TRUE(problem.set_reference(1, {0.0, 0.0, -3.1}, Eigen::Vector3d::Zero()));
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 1), states(6, 2);
+  const double error = 2 * 3.14159265358979323846 - 6.2;
+  EXPECT_NEAR(problem.evaluate(inputs, states).tracking, error * error, 1e-12);
+}
+
+TEST(OcpProblem, IncrementalRolloutEqualsFullRollout) {
+  const DoubleIntegratorModel model(0.3);
+  OcpProblem problem(model, 8, 0.1, hand_weights(), {});
+  for (int k = 1; k <= 8; ++k) problem.set_reference(k, {0.1 * k, -0.05 * k, 0.02 * k}, Eigen::Vector3d::Zero());
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Random(3, 8), states(6, 9);
+  Eigen::VectorXd stage(8);
+  problem.rollout(inputs, 0, states, stage);
+  inputs.col(5) += Eigen::Vector3d(0.3, -0.2, 0.1);
+  const double incremental = problem.rollout(inputs, 5, states, stage);
+  Eigen::MatrixXd fresh_states(6, 9);
+  Eigen::VectorXd fresh_stage(8);
+  EXPECT_NEAR(incremental, problem.rollout(inputs, 0, fresh_states, fresh_stage), 1e-12);
+}
+
+TEST(OcpProblem, ProjectionKeepsBoxAndStepBoundsAndReportsTheFirstChange) {
+  const DoubleIntegratorModel model;
+  OcpProblem problem(model, 4, 0.1, {}, unit_box_with_step(0.25));
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 4);
+  inputs(0, 2) = 5.0;  // out of the box and far beyond one step from 0
+  EXPECT_EQ(problem.project(inputs), 2);
+  EXPECT_DOUBLE_EQ(inputs(0, 2), 0.25);
+  EXPECT_DOUBLE_EQ(inputs(0, 3), 0.0);
+  EXPECT_TRUE(problem.is_feasible(inputs));
+  EXPECT_EQ(problem.project(inputs), 4);  // already feasible: nothing changes
+  inputs(1, 0) = std::numeric_limits<double>::quiet_NaN();
+  problem.project(inputs);
+  EXPECT_DOUBLE_EQ(inputs(1, 0), 0.0);  // a NaN input is replaced by the previous input
+}
+
+TEST(OcpProblem, CostOfAHandComputedCaseIncludesTheTwistTermWithoutTerminalScale) {
+  // The hand case above with a twist weight (1, 0, 0): the body velocity is 1 m/s after both
+  // steps (u0 = 1 for 1 s, then coasting), against a zero reference twist, so the twist term adds
+  // 1 * 1^2 per stage = 2, unscaled at the terminal step: tracking 227.5 + 2 = 229.5.
+  const DoubleIntegratorModel model(1.0);
+  CostWeights weights = hand_weights();
+  weights.twist = {1.0, 0.0, 0.0};
+  const OcpProblem problem(model, 2, 1.0, weights, {});
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 2);
+  inputs(0, 0) = 1.0;
+  Eigen::MatrixXd states(6, 3);
+  EXPECT_DOUBLE_EQ(problem.evaluate(inputs, states).tracking, 229.5);
+}
+
+TEST(OcpProblem, ProjectionKeepsTheStepBoundGoingDownToo) {
+  const DoubleIntegratorModel model;
+  OcpProblem problem(model, 4, 0.1, {}, unit_box_with_step(0.25));
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 4);
+  inputs(1, 1) = -5.0;  // below the box and far beyond one step down from 0
+  EXPECT_EQ(problem.project(inputs), 1);
+  EXPECT_DOUBLE_EQ(inputs(1, 1), -0.25);
+  EXPECT_TRUE(problem.is_feasible(inputs));
+  // One step of the bound beyond it is infeasible, on either side of the previous input.
+  inputs(1, 2) = -0.25 - 0.25 - 1e-3;
+  EXPECT_FALSE(problem.is_feasible(inputs));
+  inputs(1, 2) = -0.25 + 0.25 + 1e-3;
+  EXPECT_FALSE(problem.is_feasible(inputs));
+  inputs(1, 2) = -0.25 + 0.25;
+  inputs(1, 3) = 0.0;
+  EXPECT_TRUE(problem.is_feasible(inputs));
+}
+
+TEST(OcpProblem, IsFeasibleRejectsTheBoxAndTheStepBoundEachOnItsOwn) {
+  const DoubleIntegratorModel model;
+  InputBounds box_only;  // no step bound: only the box can be broken
+  box_only.lower = Eigen::Vector3d::Constant(-1.0);
+  box_only.upper = Eigen::Vector3d::Constant(1.0);
+  const OcpProblem box_problem(model, 4, 0.1, {}, box_only);
+  Eigen::MatrixXd inputs = Eigen::MatrixXd::Constant(3, 4, 1.0);
+  EXPECT_TRUE(box_problem.is_feasible(inputs, 0.0));
+  inputs(2, 3) = 1.001;
+  EXPECT_FALSE(box_problem.is_feasible(inputs, 0.0));
+  inputs(2, 3) = -1.001;
+  EXPECT_FALSE(box_problem.is_feasible(inputs, 0.0));
+  InputBounds step_only;  // no box: only the step bound can be broken (from the previous input 0)
+  step_only.max_step = Eigen::Vector3d::Constant(0.25);
+  const OcpProblem step_problem(model, 4, 0.1, {}, step_only);
+  inputs.setZero();
+  inputs(0, 0) = 0.25;
+  EXPECT_TRUE(step_problem.is_feasible(inputs, 0.0));
+  inputs(0, 0) = 0.251;
+  EXPECT_FALSE(step_problem.is_feasible(inputs, 0.0));
+}
+
+TEST(OcpProblem, PerCycleSettersRejectBadValuesAndKeepTheOldOnes) {
+  const DoubleIntegratorModel model;
+  OcpProblem problem(model, 3, 0.1, {}, {});
+  Eigen::VectorXd x0 = Eigen::VectorXd::Ones(6);
+  ASSERT_TRUE(problem.set_initial_state(x0));
+  x0[4] = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(problem.set_initial_state(x0));
+  EXPECT_FALSE(problem.set_initial_state(Eigen::VectorXd::Ones(5)));
+  EXPECT_TRUE(problem.initial_state().isOnes());
+  EXPECT_FALSE(problem.set_reference(0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()));
+  EXPECT_FALSE(problem.set_reference(4, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()));
+  EXPECT_FALSE(problem.set_wear_weight(-1.0));
+  EXPECT_FALSE(problem.set_previous_input(Eigen::Vector3d(0, std::nan(""), 0)));
+}
+
+template <typename Build>
+std::string error_of(Build build) {
+  try {
+    build();
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// The tracking tube: mu (max(0, |e_xy| - b)^2 + max(0, |e_psi| - c)^2), by hand. dt = 1, x0 = 0,
+// u = (1, 0, 1): x1 = (0.5, 0, 0.5 rad), so 0.3 m and 0.4 rad beyond a (0.2 m, 0.1 rad) tube.
+TEST(OcpProblem, TheTubeCostsMuTimesTheSquaredExcessAndNothingInside) {
+  const DoubleIntegratorModel model(1.0);
+  CostWeights w;
+  w.pose = Eigen::Vector3d::Zero();
+  w.tube_penalty = 100.0;
+  OcpProblem problem(model, 1, 1.0, w, {});
+  Eigen::MatrixXd inputs(3, 1);
+  inputs << 1.0, 0.0, 1.0;
+  Eigen::MatrixXd states(6, 2);
+  EXPECT_DOUBLE_EQ(problem.evaluate(inputs, states).tracking, 0.0);  // no tube by default
+  EXPECT_EQ(problem.tube_excess(states), Eigen::Vector2d::Zero());
+  ASSERT_TRUE(problem.set_tube(1, 0.2, 0.1));
+  EXPECT_NEAR(problem.evaluate(inputs, states).tracking, 100.0 * (0.3 * 0.3 + 0.4 * 0.4), 1e-12);
+  EXPECT_NEAR(problem.tube_excess(states).x(), 0.3, 1e-12);
+  EXPECT_NEAR(problem.tube_excess(states).y(), 0.4, 1e-12);
+  ASSERT_TRUE(problem.set_tube(1, 0.6, 0.6));  // inside: free
+  EXPECT_DOUBLE_EQ(problem.evaluate(inputs, states).tracking, 0.0);
+  EXPECT_EQ(problem.tube_excess(states), Eigen::Vector2d::Zero());
+  problem.clear_tube();
+  ASSERT_TRUE(problem.set_tube(1, 0.2, 0.1));
+  EXPECT_FALSE(problem.set_tube(1, 0.0, 0.1));
+  EXPECT_FALSE(problem.set_tube(1, 0.2, std::nan("")));
+  EXPECT_FALSE(problem.set_tube(2, 0.2, 0.1));  // beyond the horizon
+  EXPECT_NEAR(problem.tube()(0, 0), 0.2, 0.0);  // the rejected calls changed nothing
+}
+
+TEST(OcpProblem, TheTubeGradientMatchesFiniteDifferencesOutsideTheTube) {
+  const DoubleIntegratorModel model(1.0);
+  CostWeights w = hand_weights();
+  w.tube_penalty = 1e3;
+  OcpProblem problem(model, 2, 1.0, w, {});
+  ASSERT_TRUE(problem.set_tube(1, 0.05, 0.02));
+  ASSERT_TRUE(problem.set_reference(1, Eigen::Vector3d(0.1, -0.2, 0.3), Eigen::Vector3d::Zero()));
+  Eigen::VectorXd x_next(6);
+  x_next << 0.3, 0.1, -0.2, 0.5, 0.0, 0.1;  // 0.36 m and 0.5 rad off: outside on both
+  const Eigen::VectorXd u = Eigen::Vector3d(0.2, -0.1, 0.3), u_before = Eigen::Vector3d::Zero();
+  Eigen::VectorXd d_x(6), d_u(3), d_u_before(3), scratch_x(6), scratch_u(3), scratch_before(3);
+  problem.stage_cost_without_wear(0, x_next, u, u_before, d_x, d_u, d_u_before);
+  for (int i = 0; i < 3; ++i) {
+    const double h = 1e-6;
+    Eigen::VectorXd plus = x_next, minus = x_next;
+    plus[i] += h;
+    minus[i] -= h;
+    const double numeric = (problem.stage_cost_without_wear(0, plus, u, u_before, scratch_x, scratch_u, scratch_before) -
+                            problem.stage_cost_without_wear(0, minus, u, u_before, scratch_x, scratch_u, scratch_before)) /
+                           (2 * h);
+    EXPECT_NEAR(d_x[i], numeric, 1e-4 * std::max(1.0, std::abs(numeric))) << "state " << i;
+  }
+}
+
+TEST(OcpProblem, ConstructionValidatesEveryField) {
+  const DoubleIntegratorModel model;
+  EXPECT_EQ(error_of([&] { OcpProblem(model, 0, 0.1, {}, {}); }), "OcpProblem.horizon = 0: must be >= 1");
+  EXPECT_EQ(error_of([&] { OcpProblem(model, 5, -0.1, {}, {}); }), "OcpProblem.dt = -0.1: must be finite and > 0");
+  CostWeights negative;
+  negative.wear = -1.0;
+  EXPECT_EQ(error_of([&] { OcpProblem(model, 5, 0.1, negative, {}); }),
+            "OcpProblem.weights.wear = -1: must be finite and >= 0");
+  CostWeights wrong_size;
+  wrong_size.effort = Eigen::VectorXd::Ones(2);
+  EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, wrong_size, {}); }).find("weights.effort.size() = 2"),
+            std::string::npos);
+  InputBounds inverted;
+  inverted.lower = Eigen::Vector3d(0, 2, 0);
+  inverted.upper = Eigen::Vector3d(1, 1, 1);
+  EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, {}, inverted); }).find("OcpProblem.bounds.lower[1] = 2"),
+            std::string::npos);
+  InputBounds zero_step;
+  zero_step.max_step = Eigen::Vector3d(1, 0, 1);
+  EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, {}, zero_step); }), "");
+}
+
+}  // namespace
+}  // namespace swerve
