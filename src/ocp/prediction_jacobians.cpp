@@ -4,8 +4,8 @@
 #include <cmath>
 #include <utility>
 
-#include "prediction_step.hpp"
 #include "swerve/models/jet_chunks.hpp"
+#include "swerve/models/semi_implicit_step.hpp"
 #include "swerve/ocp/vehicle_prediction_model.hpp"
 
 namespace swerve {
@@ -20,8 +20,8 @@ struct PredictionJets {
     twist = ModelJetVector::Zero(3);
     out = ModelJetVector::Zero(nx);
   }
-  PredictionStep<ModelJet> step;
-  PredictionStep<ModelJet>::Data data{step};
+  SemiImplicitStep<ModelJet> step;
+  SemiImplicitStep<ModelJet>::Data data{step};
   ModelJetVector x, u, twist, out;  // u: module inputs (given, or mapped from the twist)
 };
 
@@ -30,7 +30,7 @@ struct PredictionJets {
 VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, PredictionOptions options)
     : options_(options) {
   options_.validate();
-  values_ = std::make_unique<detail::PredictionStep<double>>(params, options_);
+  values_ = std::make_unique<SemiImplicitStep<double>>(params, options_);
   jets_ = std::make_unique<detail::PredictionJets>(params, options_);
   modules_ = values_->model().modules();
   state_size_ = values_->state_size();
@@ -63,7 +63,7 @@ bool VehiclePredictionModel::step_jacobians(const Eigen::Ref<const Eigen::Vector
   bool first = true;
   const bool ok = jet_jacobian(x, u, j.x, j.u, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
                                [&](ModelJet* wear) {
-                                 detail::PredictionStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
+                                 SemiImplicitStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
                                  return j.step.step(j.data, j.x, j.u, dt, j.out, wear);
                                });
   return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
@@ -79,7 +79,7 @@ bool VehiclePredictionModel::twist_step_jacobians(const Eigen::Ref<const Eigen::
   bool first = true;
   const bool ok = jet_jacobian(x, twist_body, j.x, j.twist, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
                                [&](ModelJet* wear) {
-                                 detail::PredictionStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
+                                 SemiImplicitStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
                                  const Eigen::Matrix<ModelJet, 3, 1> twist = j.twist;
                                  j.step.module_inputs(j.x, twist, dt, j.u);
                                  return j.step.step(j.data, j.x, j.u, dt, j.out, wear);

@@ -1,28 +1,20 @@
 #include "swerve/ocp/vehicle_prediction_model.hpp"
 
 #include <cmath>
-#include <sstream>
 #include <utility>
 
-#include "prediction_step.hpp"
-#include "swerve/core/config_error.hpp"
+#include "swerve/models/semi_implicit_step.hpp"
 
 namespace swerve {
 
-const char* to_string(PredictionMethod method) noexcept {
-  return method == PredictionMethod::kSemiImplicit ? "semi_implicit" : "rk4";
-}
-
-void PredictionOptions::validate() const {
-  auto reject = [](const char* field, int value, const char* rule) {
-    std::ostringstream message;
-    message << "PredictionOptions." << field << " = " << value << ": " << rule;
-    throw ConfigError(message.str());
-  };
-  if (substeps < 1) reject("substeps", substeps, "must be >= 1");
-  if (slow_substeps < 1) reject("slow_substeps", slow_substeps, "must be >= 1");
-  if (max_newton_iterations < 1) reject("max_newton_iterations", max_newton_iterations, "must be >= 1");
-}
+// VehiclePredictionModel's caller-owned scratch: the double step's and the module inputs a
+// twist_step maps to.
+struct VehiclePredictionModel::Data::Impl {
+  explicit Impl(const SemiImplicitStep<double>& step)
+      : values(step), inputs(Eigen::VectorXd::Zero(step.model().input_size())) {}
+  SemiImplicitStep<double>::Data values;
+  Eigen::VectorXd inputs;
+};
 
 const VehicleModel<double>& VehiclePredictionModel::vehicle() const noexcept { return values_->model(); }
 
@@ -38,7 +30,7 @@ VehiclePredictionModel::Data VehiclePredictionModel::create_data() const {
 long VehiclePredictionModel::model_evaluations() const noexcept { return model_evaluations(*data_); }
 
 long VehiclePredictionModel::model_evaluations(const Data& data) noexcept {
-  return detail::PredictionStep<double>::model_evaluations(data.impl_->values);
+  return SemiImplicitStep<double>::model_evaluations(data.impl_->values);
 }
 
 bool VehiclePredictionModel::step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,

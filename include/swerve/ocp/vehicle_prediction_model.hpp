@@ -32,29 +32,15 @@
 #include <memory>
 
 #include "swerve/models/integrators.hpp"
+#include "swerve/models/semi_implicit_step.hpp"
 #include "swerve/models/vehicle_model.hpp"
 #include "swerve/ocp/prediction_model.hpp"
 
 namespace swerve {
 
-enum class PredictionMethod { kSemiImplicit, kRk4 };
-const char* to_string(PredictionMethod method) noexcept;  // "semi_implicit", "rk4"
-
-struct PredictionOptions {
-  PredictionMethod method = PredictionMethod::kSemiImplicit;
-  int substeps = 1;              // per controller step (both methods)
-  int slow_substeps = 5;         // semi-implicit, when body and commanded wheels are under 0.25 m/s
-  int max_newton_iterations = 8; // semi-implicit only
-  // The wheel speeds as states that follow their commands through the drives' first-order lag
-  // (when the vehicle's plant has one: plant.actuator_lag), so the state is (pose, twist, steering
-  // angles, wheel speeds). Off: the drives reach their commands at once.
-  bool drive_lag = false;
-  void validate() const;         // throws ConfigError
-};
-
-namespace detail {
 template <typename T>
-class PredictionStep;
+class SemiImplicitStep;
+namespace detail {
 struct PredictionJets;
 }  // namespace detail
 
@@ -124,7 +110,7 @@ class VehiclePredictionModel final : public PredictionModel {
  private:
   PredictionOptions options_;
   int modules_, state_size_, input_size_;
-  std::unique_ptr<detail::PredictionStep<double>> values_;
+  std::unique_ptr<SemiImplicitStep<double>> values_;
   std::unique_ptr<detail::PredictionJets> jets_;  // the Jet twin of values_ (prediction_jacobians.cpp)
   std::unique_ptr<Data> data_;                     // the scratch of the overloads without a Data
 };

@@ -1,13 +1,16 @@
-// The swerve prediction step for any scalar type: double for the optimiser's rollouts, ceres::Jet
-// for their exact Jacobians. Internal to the library; vehicle_prediction_model.hpp says what the
-// step does and why. Branches (the 180 deg flip, clamps, the slow-motion substeps) are chosen on
-// the values, so the Jet evaluation differentiates the branch the double evaluation takes.
+// The prediction's discrete dynamics, for any scalar type: double for the optimiser's rollouts,
+// ceres::Jet for their exact Jacobians. SemiImplicitStep<T> advances the vehicle model with ideal
+// actuators (optionally the drives' lag, PredictionOptions::drive_lag) over one controller step and
+// returns its stage wear; ocp/vehicle_prediction_model.hpp wraps it as the MPC's PredictionModel and
+// says why each part is there. Branches (the 180 deg flip, clamps, the slow-motion substeps) are
+// chosen on the values, so the Jet evaluation differentiates the branch the double evaluation takes.
 //
 // The backward-Euler body twist v+ solves G(v+, p) = v+ - v0 - h a(v+, p) = 0 (p: state and
-// inputs). Newton's method finds its value in double; its derivatives follow from the implicit
-// function theorem, dv+/dp = -(dG/dv)^-1 dG/dp, with both partials from Jets of the model's
-// derivative at the converged v+ (exact, no finite differences and no differentiation of the
-// Newton iterations).
+// inputs). Newton's method finds its value in double (BodyTwistSolver); its derivatives follow from
+// the implicit function theorem, dv+/dp = -(dG/dv)^-1 dG/dp, with both partials from Jets of the
+// model's derivative at the converged v+ (exact, no finite differences and no differentiation of the
+// Newton iterations). The smoothing primitives every scalar type shares (soft_min, soft_clamp,
+// positive_part) live here too, so every optimiser sees one map.
 #pragma once
 
 #include <Eigen/Dense>
@@ -25,9 +28,24 @@
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/jet.hpp"
 #include "swerve/models/vehicle_model.hpp"
-#include "swerve/ocp/vehicle_prediction_model.hpp"
 
-namespace swerve::detail {
+namespace swerve {
+
+enum class PredictionMethod { kSemiImplicit, kRk4 };
+const char* to_string(PredictionMethod method) noexcept;  // "semi_implicit", "rk4"
+
+struct PredictionOptions {
+  PredictionMethod method = PredictionMethod::kSemiImplicit;
+  int substeps = 1;              // per controller step (both methods)
+  int slow_substeps = 5;         // semi-implicit, when body and commanded wheels are under 0.25 m/s
+  int max_newton_iterations = 8; // semi-implicit only
+  // The wheel speeds as states that follow their commands through the drives' first-order lag
+  // (when the vehicle's plant has one: plant.actuator_lag), so the state is (pose, twist, steering
+  // angles, wheel speeds). Off: the drives reach their commands at once.
+  bool drive_lag = false;
+  void validate() const;         // throws ConfigError
+};
+
 
 inline constexpr double kSlowSpeed = 0.25;  // m/s: 5 slip-regularisation speeds of the paper's tire
 // Below this contact speed a module's direction is noise: it keeps its angle (the singularity hold).
@@ -222,12 +240,12 @@ class BodyTwistSolver {
 };
 
 template <typename T>
-class PredictionStep {
+class SemiImplicitStep {
  public:
   using Vector = Eigen::Matrix<T, Eigen::Dynamic, 1>;
   using Vector3 = Eigen::Matrix<T, 3, 1>;
 
-  PredictionStep(const VehicleParams& params, const PredictionOptions& options)
+  SemiImplicitStep(const VehicleParams& params, const PredictionOptions& options)
       : options_(options), model_(params, Fidelity::kIdeal), rk4_(model_, IntegratorMethod::kRk4),
         twist_solver_(params, options.max_newton_iterations), layout_(params.layout), kinematics_(params.layout),
         modules_(model_.modules()) {
@@ -257,7 +275,7 @@ class PredictionStep {
   // The step's scratch, owned by its caller (Crocoddyl's createData(), acados' workspace): the
   // step itself is immutable, so rollouts with a Data each may run on threads of their own.
   struct Data {
-    explicit Data(const PredictionStep& step) : twist(step.twist_solver_) {
+    explicit Data(const SemiImplicitStep& step) : twist(step.twist_solver_) {
       const int nx = step.model_.state_size();
       const int nu = step.model_.input_size();
       u_applied = Vector::Zero(nu);
@@ -587,19 +605,6 @@ class PredictionStep {
   double drive_lag_ = 0.0, mass_ = 0.0, slip_speed_epsilon_ = 0.0, slip_stiffness_sum_ = 0.0;
   int lag_states_ = 0;  // n with PredictionOptions::drive_lag on a plant with drive lag, else 0
   DriveLag drive_response_;
-};
-
-}  // namespace swerve::detail
-
-namespace swerve {
-
-// VehiclePredictionModel's caller-owned scratch: the double step's and the module inputs a
-// twist_step maps to.
-struct VehiclePredictionModel::Data::Impl {
-  explicit Impl(const detail::PredictionStep<double>& step)
-      : values(step), inputs(Eigen::VectorXd::Zero(step.model().input_size())) {}
-  detail::PredictionStep<double>::Data values;
-  Eigen::VectorXd inputs;
 };
 
 }  // namespace swerve
