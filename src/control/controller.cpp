@@ -365,6 +365,12 @@ Duration Controller::solve_margin() const noexcept {
   return to_duration(margin_s);
 }
 
+void Controller::set_reference(std::shared_ptr<const Reference> reference) {
+  if (!reference) throw ConfigError("Controller.reference: must not be null");
+  baseline_.set_reference(reference);
+  reference_ = std::move(reference);
+}
+
 const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
                                       double measured_at) noexcept {
   // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
@@ -394,6 +400,16 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     output_.solve.status = SolveStatus::kInvalidInput;
     output_.solve.reason = stale;
     output_.reason = stale;
+    plan_.valid = false;
+    safe_stop(measured);
+    return finish(step_start);
+  }
+  reference_->begin_cycle();
+  if (const char* unusable = reference_->unusable(t)) {
+    // No trajectory, or only a stale one: nothing to follow that the planner still stands by.
+    output_.solve.status = SolveStatus::kInvalidInput;
+    output_.solve.reason = unusable;
+    output_.reason = unusable;
     plan_.valid = false;
     safe_stop(measured);
     return finish(step_start);

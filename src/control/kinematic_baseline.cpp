@@ -305,6 +305,11 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
   }
 }
 
+void KinematicBaseline::set_reference(std::shared_ptr<const Reference> reference) {
+  if (!reference) throw ConfigError("KinematicBaseline.reference: must not be null");
+  reference_ = std::move(reference);
+}
+
 const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
                                              double measured_at) noexcept {
   output_.solve = SolveSummary{};
@@ -314,6 +319,15 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
     output_.source = CommandSource::kSafeStop;
     output_.reason = "measured state rejected (wrong size, NaN/inf or implausible)";
+    twist_committed_ = false;
+    latency_.record(output_.modules);
+    return output_;
+  }
+  reference_->begin_cycle();
+  if (const char* unusable = reference_->unusable(t)) {
+    fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
+    output_.source = CommandSource::kSafeStop;
+    output_.reason = unusable;
     twist_committed_ = false;
     latency_.record(output_.modules);
     return output_;

@@ -114,8 +114,7 @@ double hermite(double x, double x0, double x1, double y0, double y1, double m0, 
 
 // Slope at x[at] of the interpolating polynomial through up to 4 points starting at `first`
 // (Lagrange form): third-order accurate end slopes for the clamped spline.
-double end_slope(const std::vector<double>& x, const std::vector<double>& y, std::size_t first,
-                 std::size_t count, std::size_t at) {
+double end_slope(const double* x, const double* y, std::size_t first, std::size_t count, std::size_t at) {
   double slope = 0.0;
   for (std::size_t j = first; j < first + count; ++j) {
     double derivative = 0.0;  // L_j'(x[at])
@@ -134,14 +133,18 @@ double end_slope(const std::vector<double>& x, const std::vector<double>& y, std
   return slope;
 }
 
-// Clamped cubic spline second derivatives (end slopes from end_slope), by the Thomas algorithm.
-std::vector<double> clamped_spline_second_derivatives(const std::vector<double>& x, const std::vector<double>& y) {
-  const std::size_t n = x.size();
+// Clamped cubic spline second derivatives m (end slopes from end_slope) of n >= 2 points, by the
+// Thomas algorithm; `scratch` holds 3n values. No allocation: the planner-fed reference calls it.
+void clamped_spline_second_derivatives(const double* x, const double* y, std::size_t n, double* m, double* scratch) {
   const std::size_t fit = std::min<std::size_t>(4, n);
   const double slope_start = end_slope(x, y, 0, fit, 0);
   const double slope_end = end_slope(x, y, n - fit, fit, n - 1);
-  std::vector<double> lower(n, 0.0), diagonal(n, 0.0), upper(n, 0.0), rhs(n, 0.0);
+  double* lower = scratch;
+  double* diagonal = scratch + n;
+  double* upper = scratch + 2 * n;
+  double* rhs = m;  // solved in place
   const double h_first = x[1] - x[0], h_last = x[n - 1] - x[n - 2];
+  lower[0] = 0.0;
   diagonal[0] = h_first / 3.0;
   upper[0] = h_first / 6.0;
   rhs[0] = (y[1] - y[0]) / h_first - slope_start;
@@ -154,16 +157,55 @@ std::vector<double> clamped_spline_second_derivatives(const std::vector<double>&
   }
   lower[n - 1] = h_last / 6.0;
   diagonal[n - 1] = h_last / 3.0;
+  upper[n - 1] = 0.0;
   rhs[n - 1] = slope_end - (y[n - 1] - y[n - 2]) / h_last;
   for (std::size_t i = 1; i < n; ++i) {
     const double factor = lower[i] / diagonal[i - 1];
     diagonal[i] -= factor * upper[i - 1];
     rhs[i] -= factor * rhs[i - 1];
   }
-  std::vector<double> m(n, 0.0);
   m[n - 1] = rhs[n - 1] / diagonal[n - 1];
   for (std::size_t i = n - 1; i-- > 0;) m[i] = (rhs[i] - upper[i] * m[i + 1]) / diagonal[i];
-  return m;
+}
+
+// A sampled trajectory as SampledReference and TrajectoryReference both store it: times, per
+// channel (x, y, psi unwrapped) values and spline second derivatives, optional twists.
+struct SplineView {
+  const double* t;
+  const double* value[3];
+  const double* second[3];
+  const double* twist[3];  // null entries without twists
+  std::size_t n;
+};
+
+// The one evaluation of a sampled trajectory at t (absolute, on the samples' clock): the spline's
+// pose, and the given twists interpolated linearly or the spline's rates turned into the body
+// frame. Before the first sample it holds the first pose, past the last the last, with zero twist.
+ReferenceSample evaluate(const SplineView& v, double t_query) noexcept {
+  ReferenceSample out;
+  const double first = v.t[0], last = v.t[v.n - 1];
+  const double t = std::clamp(t_query, first, last);
+  const bool outside = t_query < first || t_query > last;
+  const double* upper = std::upper_bound(v.t, v.t + v.n, t);
+  const auto j = std::min(static_cast<std::size_t>(std::max<std::ptrdiff_t>(1, upper - v.t)) - 1, v.n - 2);
+  const double h = v.t[j + 1] - v.t[j];
+  const double a = (v.t[j + 1] - t) / h, b = (t - v.t[j]) / h;
+  double value[3], rate[3];
+  for (int c = 0; c < 3; ++c) {
+    const double* y = v.value[c];
+    const double* m = v.second[c];
+    value[c] = a * y[j] + b * y[j + 1] + ((a * a * a - a) * m[j] + (b * b * b - b) * m[j + 1]) * h * h / 6.0;
+    rate[c] = (y[j + 1] - y[j]) / h + (-(3 * a * a - 1) * m[j] + (3 * b * b - 1) * m[j + 1]) * h / 6.0;
+  }
+  out.pose_world << value[0], value[1], wrap_angle(value[2]);
+  if (outside) return out;
+  if (v.twist[0] != nullptr) {
+    for (int c = 0; c < 3; ++c) out.twist_body[c] = a * v.twist[c][j] + b * v.twist[c][j + 1];
+  } else {
+    const double c = std::cos(value[2]), s = std::sin(value[2]);
+    out.twist_body << c * rate[0] + s * rate[1], -s * rate[0] + c * rate[1], rate[2];
+  }
+  return out;
 }
 
 }  // namespace
@@ -337,34 +379,21 @@ SampledReference::SampledReference(const std::vector<std::vector<double>>& rows)
       for (int c = 0; c < 3; ++c) twist_[c].push_back(row[4 + static_cast<std::size_t>(c)]);
     }
   }
-  for (int c = 0; c < 3; ++c) second_[c] = clamped_spline_second_derivatives(t_, value_[c]);
+  std::vector<double> scratch(3 * t_.size());
+  for (int c = 0; c < 3; ++c) {
+    second_[c].assign(t_.size(), 0.0);
+    clamped_spline_second_derivatives(t_.data(), value_[c].data(), t_.size(), second_[c].data(), scratch.data());
+  }
 }
 
 ReferenceSample SampledReference::sample(double t_relative) const noexcept {
-  ReferenceSample out;
-  const double t = std::clamp(t_.front() + t_relative, t_.front(), t_.back());
-  const bool outside = t_relative < 0.0 || t_relative > duration();
-  const auto upper = std::upper_bound(t_.begin(), t_.end(), t);
-  const auto j = std::min(static_cast<std::size_t>(std::max<std::ptrdiff_t>(1, upper - t_.begin())) - 1,
-                          t_.size() - 2);
-  const double h = t_[j + 1] - t_[j];
-  const double a = (t_[j + 1] - t) / h, b = (t - t_[j]) / h;
-  double value[3], rate[3];
+  SplineView view{t_.data(), {}, {}, {}, t_.size()};
   for (int c = 0; c < 3; ++c) {
-    const auto& y = value_[c];
-    const auto& m = second_[c];
-    value[c] = a * y[j] + b * y[j + 1] + ((a * a * a - a) * m[j] + (b * b * b - b) * m[j + 1]) * h * h / 6.0;
-    rate[c] = (y[j + 1] - y[j]) / h + (-(3 * a * a - 1) * m[j] + (3 * b * b - 1) * m[j + 1]) * h / 6.0;
+    view.value[c] = value_[c].data();
+    view.second[c] = second_[c].data();
+    view.twist[c] = has_twist_ ? twist_[c].data() : nullptr;
   }
-  out.pose_world << value[0], value[1], wrap_angle(value[2]);
-  if (outside) return out;  // before the start or past the end: hold the pose, zero twist
-  if (has_twist_) {
-    for (int c = 0; c < 3; ++c) out.twist_body[c] = a * twist_[c][j] + b * twist_[c][j + 1];
-  } else {
-    const double c = std::cos(value[2]), s = std::sin(value[2]);
-    out.twist_body << c * rate[0] + s * rate[1], -s * rate[0] + c * rate[1], rate[2];
-  }
-  return out;
+  return evaluate(view, t_.front() + t_relative);
 }
 
 std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path) {
@@ -414,6 +443,126 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
   } catch (const ConfigError& error) {
     reject(shown + ": " + error.what());
   }
+}
+
+const char* to_string(TrajectoryStatus status) noexcept {
+  switch (status) {
+    case TrajectoryStatus::kAccepted:
+      return "accepted";
+    case TrajectoryStatus::kTooFewSamples:
+      return "fewer than 2 samples";
+    case TrajectoryStatus::kTooManySamples:
+      return "more samples than the capacity";
+    case TrajectoryStatus::kWrongWidth:
+      return "expected 4 columns (t, x, y, psi) or 7 (+ vx, vy, r)";
+    case TrajectoryStatus::kNonFinite:
+      return "a value is NaN or infinite";
+    case TrajectoryStatus::kTimeNotIncreasing:
+      return "t must be greater than the previous sample's";
+    case TrajectoryStatus::kBusy:
+      return "another thread was publishing (one planner thread only)";
+  }
+  return "unknown";
+}
+
+std::string TrajectoryCheck::describe() const {
+  std::string text;
+  if (sample >= 0) text += "sample " + std::to_string(sample);
+  if (column >= 0) text += " column " + std::to_string(column);
+  if (!text.empty()) text += ": ";
+  return text + to_string(status);
+}
+
+TrajectoryReference::TrajectoryReference(int capacity, double max_age) : capacity_(capacity), max_age_(max_age) {
+  if (capacity < 2) reject("TrajectoryReference.capacity = " + std::to_string(capacity) + ": must be >= 2");
+  if (std::isnan(max_age) || max_age <= 0.0) {
+    reject("TrajectoryReference.max_age = " + number(max_age) + ": must be > 0 (s; infinity: never stale)");
+  }
+  const auto n = static_cast<std::size_t>(capacity);
+  for (Buffer& b : buffers_) {
+    b.t.assign(n, 0.0);
+    for (int c = 0; c < 3; ++c) {
+      b.value[c].assign(n, 0.0);
+      b.second[c].assign(n, 0.0);
+      b.twist[c].assign(n, 0.0);
+    }
+    b.scratch.assign(3 * n, 0.0);
+  }
+}
+
+TrajectoryCheck TrajectoryReference::publish(const Eigen::Ref<const Eigen::MatrixXd>& samples) noexcept {
+  TrajectoryCheck check;
+  const auto rows = static_cast<int>(samples.rows());
+  const auto width = static_cast<int>(samples.cols());
+  if (width != 4 && width != 7) check.status = TrajectoryStatus::kWrongWidth;
+  else if (rows < 2) check.status = TrajectoryStatus::kTooFewSamples;
+  else if (rows > capacity_) check.status = TrajectoryStatus::kTooManySamples;
+  for (int i = 0; i < rows && check.accepted(); ++i) {
+    for (int c = 0; c < width; ++c) {
+      if (!std::isfinite(samples(i, c))) {
+        check = {TrajectoryStatus::kNonFinite, i, c};
+        break;
+      }
+    }
+    if (check.accepted() && i > 0 && !(samples(i, 0) > samples(i - 1, 0))) {
+      check = {TrajectoryStatus::kTimeNotIncreasing, i, 0};
+    }
+  }
+  if (!check.accepted()) return check;
+  if (publishing_.test_and_set(std::memory_order_acquire)) return {TrajectoryStatus::kBusy, -1, -1};
+  Buffer& b = buffers_[static_cast<std::size_t>(back_)];
+  const auto n = static_cast<std::size_t>(rows);
+  b.count = rows;
+  b.has_twist = width == 7;
+  b.version = ++published_;
+  double previous_psi = 0.0;
+  for (int i = 0; i < rows; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    b.t[k] = samples(i, 0);
+    b.value[0][k] = samples(i, 1);
+    b.value[1][k] = samples(i, 2);
+    // Unwrapped, so the spline never sees a 2 pi jump.
+    const double psi = i == 0 ? samples(i, 3) : previous_psi + wrap_angle(samples(i, 3) - previous_psi);
+    b.value[2][k] = previous_psi = psi;
+    for (int c = 0; c < 3 && b.has_twist; ++c) b.twist[c][k] = samples(i, 4 + c);
+  }
+  for (int c = 0; c < 3; ++c) {
+    clamped_spline_second_derivatives(b.t.data(), b.value[c].data(), n, b.second[c].data(), b.scratch.data());
+  }
+  // Hand the filled buffer over; take whichever the middle held (never the reader's).
+  back_ = middle_.exchange(back_ | kDirty, std::memory_order_acq_rel) & ~kDirty;
+  publishing_.clear(std::memory_order_release);
+  return check;
+}
+
+void TrajectoryReference::begin_cycle() const noexcept {
+  if ((middle_.load(std::memory_order_acquire) & kDirty) == 0) return;
+  front_ = middle_.exchange(front_, std::memory_order_acq_rel) & ~kDirty;
+  front_version_ = buffers_[static_cast<std::size_t>(front_)].version;
+}
+
+ReferenceSample TrajectoryReference::sample(double t) const noexcept {
+  const Buffer& b = buffers_[static_cast<std::size_t>(front_)];
+  if (b.count < 2) return ReferenceSample{};
+  SplineView view{b.t.data(), {}, {}, {}, static_cast<std::size_t>(b.count)};
+  for (int c = 0; c < 3; ++c) {
+    view.value[c] = b.value[c].data();
+    view.second[c] = b.second[c].data();
+    view.twist[c] = b.has_twist ? b.twist[c].data() : nullptr;
+  }
+  return evaluate(view, t);
+}
+
+double TrajectoryReference::duration() const noexcept {
+  const Buffer& b = buffers_[static_cast<std::size_t>(front_)];
+  return b.count < 2 ? 0.0 : b.t[static_cast<std::size_t>(b.count - 1)];
+}
+
+const char* TrajectoryReference::unusable(double t) const noexcept {
+  const Buffer& b = buffers_[static_cast<std::size_t>(front_)];
+  if (b.count < 2) return "reference: no trajectory published yet";
+  if (t - b.t[0] > max_age_) return "reference: the trajectory is stale (its first sample is older than max_age)";
+  return nullptr;
 }
 
 }  // namespace swerve

@@ -836,6 +836,98 @@ TEST(KinematicBaseline, StepAllocatesNothingAfterConstruction) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// A planner-fed reference: replans at run time; no trajectory, or a stale one, stops safely.
+
+// The straight line y = `lateral` at 0.5 m/s, sampled every 0.1 s from t0 for 10 s (t, x, y, psi).
+Eigen::MatrixXd line_samples(double t0, double lateral) {
+  Eigen::MatrixXd rows(101, 4);
+  for (int i = 0; i < 101; ++i) rows.row(i) << t0 + 0.1 * i, 0.05 * i, lateral, 0.0;
+  return rows;
+}
+
+std::shared_ptr<const Reference> line_at(double lateral) {
+  SpeedProfile profile;
+  profile.speed = 0.5;
+  profile.acceleration = 1.0;
+  return std::make_shared<PathReference>(make_line_curve({0.0, lateral}, 0.0, 50.0), profile, 0.0);
+}
+
+TEST(Controller, StopsSafelyWithoutAUsableTrajectoryAndSaysWhy) {
+  FakeScript script;
+  const auto trajectory = std::make_shared<TrajectoryReference>(128, 1.0);
+  Controller controller(small_robot(), trajectory, fast_options(),
+                        [&script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, &script); });
+  controller.set_clock(script.clock);
+  const ControlOutput& none = controller.step(at_rest(), 0.0);
+  EXPECT_EQ(none.source, CommandSource::kSafeStop);
+  EXPECT_EQ(reason_of(none), "reference: no trajectory published yet");
+  EXPECT_EQ(script.calls, 0);
+  ASSERT_TRUE(trajectory->publish(line_samples(0.0, 0.0)).accepted());
+  EXPECT_EQ(controller.step(at_rest(), 0.05).source, CommandSource::kOptimizer);
+  EXPECT_EQ(script.calls, 1);
+  const ControlOutput& stale = controller.step(at_rest(), 1.2);  // first sample 1.2 s old, max_age 1 s
+  EXPECT_EQ(stale.source, CommandSource::kSafeStop);
+  EXPECT_EQ(reason_of(stale), "reference: the trajectory is stale (its first sample is older than max_age)");
+  ASSERT_TRUE(trajectory->publish(line_samples(1.1, 0.0)).accepted());
+  EXPECT_EQ(controller.step(at_rest(), 1.25).source, CommandSource::kOptimizer);
+}
+
+TEST(Controller, FollowsANewReferenceFromTheNextStepOnAndRefusesANullOne) {
+  FakeScript script;
+  Controller controller = make_fake_controller(&script);
+  controller.step(at_rest(), 0.0);
+  EXPECT_EQ(controller.problem().reference_poses().row(1).cwiseAbs().maxCoeff(), 0.0);
+  controller.set_reference(line_at(1.0));
+  EXPECT_EQ(controller.step(at_rest(), 0.05).source, CommandSource::kOptimizer);
+  EXPECT_EQ(controller.problem().reference_poses().row(1).minCoeff(), 1.0);
+  EXPECT_EQ(controller.problem().reference_poses().row(1).maxCoeff(), 1.0);
+  EXPECT_THROW(controller.set_reference(nullptr), ConfigError);
+}
+
+TEST(KinematicBaseline, FollowsANewReferenceAndStopsSafelyWithoutATrajectory) {
+  const VehicleParams params = small_robot();
+  const auto trajectory = std::make_shared<TrajectoryReference>(128);
+  KinematicBaseline baseline(params.layout, line_at(0.0), BaselineOptions{});
+  EXPECT_NE(baseline.step(offset_start(0.0), 0.0).source, CommandSource::kSafeStop);
+  baseline.set_reference(trajectory);
+  const ControlOutput& none = baseline.step(offset_start(0.0), 0.05);
+  EXPECT_EQ(none.source, CommandSource::kSafeStop);
+  EXPECT_EQ(reason_of(none), "reference: no trajectory published yet");
+  ASSERT_TRUE(trajectory->publish(line_samples(0.0, 0.0)).accepted());
+  EXPECT_NE(baseline.step(offset_start(0.0), 0.1).source, CommandSource::kSafeStop);
+  EXPECT_THROW(baseline.set_reference(nullptr), ConfigError);
+}
+
+TEST(Controller, StepAllocatesNothingWhileAPlannerReplansEveryCycle) {
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (ASan)";
+  const VehicleParams params = small_robot();
+  const ControllerOptions options = closed_loop_options(1.0, InputParameterization::kBodyTwist);
+  const auto trajectory = std::make_shared<TrajectoryReference>(128);
+  ASSERT_TRUE(trajectory->publish(line_samples(0.0, 0.0)).accepted());
+  Controller controller(params, trajectory, options, sa_factory(3, 100));
+  const testing::WorkClock clock(kClockTick);
+  controller.set_clock(clock);
+  testing::ModelPlant plant(params, options.dt);
+  Eigen::VectorXd state = offset_start(0.1);
+  double t = 0.0;
+  long allocations = 0;
+  for (int k = 0; k < 13; ++k, t += options.dt) {
+    // The planner's replan, outside the counted step: each shifted 1 mm further.
+    ASSERT_TRUE(trajectory->publish(line_samples(t, 0.001 * k)).accepted());
+    const ControlOutput* out = nullptr;
+    {
+      const testing::AllocationCounter counter;
+      out = &controller.step(state, t);
+      if (k >= 3) allocations += counter.count();  // three cycles to settle
+    }
+    EXPECT_EQ(out->source, CommandSource::kOptimizer);
+    ASSERT_TRUE(plant.step(out->modules, &state, nullptr));
+  }
+  EXPECT_EQ(trajectory->version(), 14);  // the first one and 13 replans, each taken up
+  EXPECT_EQ(allocations, 0);
+}
+
+// ---------------------------------------------------------------------------------------------
 // A finite plan that breaks the input bounds is not applied.
 
 // Returns, once `good_cycles` are used up, a finite kConverged plan that breaks the problem's

@@ -104,6 +104,7 @@ class Controller final : public TrackingController {
   const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
                             double measured_at) noexcept override;
   void reset() noexcept override;
+  void set_reference(std::shared_ptr<const Reference> reference) override;
 
   const OcpProblem& problem() const noexcept { return *problem_; }
   const Solution& plan() const noexcept { return plan_; }

@@ -50,6 +50,7 @@ class KinematicBaseline final : public TrackingController {
   const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
                             double measured_at) noexcept override;
   void reset() noexcept override;
+  void set_reference(std::shared_ptr<const Reference> reference) override;
 
   // The planning core, also used by the wear-aware controller for its initial guess.
   // Plans body twists (3 x N) from `pose_world` moving at `twist_body` for reference poses/twists

@@ -6,7 +6,10 @@
 
 #include <Eigen/Core>
 
+#include <array>
+#include <atomic>
 #include <cstddef>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -28,6 +31,13 @@ class Reference {
   // allocation.
   virtual ReferenceSample sample(double t) const noexcept = 0;
   virtual double duration() const noexcept = 0;
+  // Called by a controller at the start of each cycle, before it samples its window: a reference
+  // that a planner replaces while the controller runs (TrajectoryReference) takes up the newest
+  // version here, so one cycle's window never mixes two trajectories. noexcept, no allocation.
+  virtual void begin_cycle() const noexcept {}
+  // Whether the reference can be followed at cycle time t; a reason (static text) when it cannot,
+  // and the controller then stops safely. nullptr: usable.
+  virtual const char* unusable(double /*t*/) const noexcept { return nullptr; }
 };
 
 // A planar curve p(u), u in [0, u_end], with its first two derivatives (for tangent and curvature).
@@ -102,6 +112,74 @@ class SampledReference final : public Reference {
   std::vector<double> value_[3], second_[3];
   bool has_twist_ = false;
   std::vector<double> twist_[3];
+};
+
+// Why a trajectory was refused by TrajectoryReference::publish (the previous one stays active).
+enum class TrajectoryStatus {
+  kAccepted,
+  kTooFewSamples,     // fewer than 2
+  kTooManySamples,    // more than the capacity
+  kWrongWidth,        // columns other than 4 (t, x, y, psi) or 7 (+ vx, vy, r)
+  kNonFinite,         // a NaN or inf value
+  kTimeNotIncreasing, // t not greater than the previous sample's
+  kBusy,              // another thread was publishing at the same time (one planner thread only)
+};
+const char* to_string(TrajectoryStatus status) noexcept;
+struct TrajectoryCheck {
+  TrajectoryStatus status = TrajectoryStatus::kAccepted;
+  int sample = -1;  // the offending sample (row), or -1
+  int column = -1;  // its column for kNonFinite, or -1
+  bool accepted() const noexcept { return status == TrajectoryStatus::kAccepted; }
+  std::string describe() const;  // "sample 3: t not increasing" (allocates: not for the control thread)
+};
+
+// A planner-fed reference (design card: "replaced at run time without blocking the control
+// thread"). A planner thread publishes time-stamped samples (t, x, y, psi[, vx, vy, r]) on the
+// controller's clock (the t it passes to step()); the controller's thread samples them as
+// SampledReference does (a clamped cubic spline through the poses; twists from it unless given).
+// Three buffers of fixed capacity, allocated at construction, hand trajectories over without a
+// lock: publish() fills the one neither side holds and swaps it into the middle, and begin_cycle()
+// swaps the middle one in when it is newer, so a cycle's window comes from one trajectory, neither
+// side ever waits, and nothing allocates after construction. One publishing thread at a time.
+// A trajectory whose first sample is more than `max_age` older than the cycle time is stale, and
+// so is having none yet: unusable() says so, and the controller stops safely.
+class TrajectoryReference final : public Reference {
+ public:
+  // Throws ConfigError for a capacity < 2 or a max_age that is not > 0 (infinity: never stale).
+  explicit TrajectoryReference(int capacity, double max_age = std::numeric_limits<double>::infinity());
+  TrajectoryReference(const TrajectoryReference&) = delete;
+  TrajectoryReference& operator=(const TrajectoryReference&) = delete;
+
+  // Planner thread. `samples`: one row per sample, 4 or 7 columns, strictly increasing t. noexcept,
+  // no allocation; a refused trajectory leaves the active one in place.
+  TrajectoryCheck publish(const Eigen::Ref<const Eigen::MatrixXd>& samples) noexcept;
+
+  // Controller thread.
+  void begin_cycle() const noexcept override;
+  ReferenceSample sample(double t) const noexcept override;
+  double duration() const noexcept override;  // the last sample's time (0 before any trajectory)
+  const char* unusable(double t) const noexcept override;
+  // Trajectories taken up by begin_cycle() so far.
+  long version() const noexcept { return front_version_; }
+  int capacity() const noexcept { return capacity_; }
+
+ private:
+  struct Buffer {
+    int count = 0;
+    bool has_twist = false;
+    long version = 0;
+    std::vector<double> t, value[3], second[3], twist[3], scratch;
+  };
+  static constexpr int kDirty = 4;  // the middle buffer holds a trajectory the reader has not taken
+  int capacity_;
+  double max_age_;
+  mutable std::array<Buffer, 3> buffers_;
+  mutable int front_ = 0;          // the controller thread's buffer
+  mutable long front_version_ = 0;
+  int back_ = 2;                   // the planner thread's buffer
+  long published_ = 0;
+  mutable std::atomic<int> middle_{1};
+  std::atomic_flag publishing_ = ATOMIC_FLAG_INIT;
 };
 
 // Largest reference CSV accepted: about 250 000 rows of 7 full-precision columns (over 40 min at

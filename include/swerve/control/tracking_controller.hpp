@@ -4,10 +4,14 @@
 
 #include <Eigen/Core>
 
+#include <memory>
+
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/ocp/solver.hpp"
 
 namespace swerve {
+
+class Reference;
 
 // Where the applied commands came from, worst last. kTrackingFirst: the solve succeeded, but its
 // plan left the tracking tolerance, so the kinematic baseline's commands were sent instead.
@@ -38,6 +42,11 @@ class TrackingController {
   }
   // Forget plans and remembered inputs (a new run from a new state).
   virtual void reset() noexcept = 0;
+  // Follow another reference from the next step on: a replanned trajectory, for single-threaded
+  // use (a planner on its own thread publishes into a TrajectoryReference instead). Plans, warm
+  // starts and flip memory are kept; the next window is sampled from the new reference. Not for
+  // the real-time path: releasing the old reference may free it. Throws ConfigError for null.
+  virtual void set_reference(std::shared_ptr<const Reference> reference) = 0;
 
   // The clock step() is timed and its deadline kept on: the steady clock unless a test or a
   // simulated-time host injects another. Not owned; it must outlive the controller.
