@@ -1,5 +1,7 @@
 #include "swerve/app/controller_config.hpp"
 
+#include "swerve/app/vehicle_config.hpp"
+
 namespace swerve {
 namespace {
 
@@ -207,6 +209,12 @@ std::unique_ptr<TrackingController> make_controller(const ControllerConfig& conf
       vehicle, std::move(reference), config.mpc,
       [solver](const OcpProblem& problem) { return make_solver(solver, problem); }, config.baseline,
       config.name.empty() ? "wear_mpc" : config.name);
+}
+
+std::unique_ptr<TrackingController> make_controller(const std::string& vehicle_yaml, const std::string& controller_yaml,
+                                                    std::shared_ptr<const Reference> reference) {
+  const VehicleParams vehicle = load_vehicle_config_file(vehicle_yaml);
+  return make_controller(load_controller_config_file(controller_yaml), vehicle, std::move(reference));
 }
 
 }  // namespace swerve

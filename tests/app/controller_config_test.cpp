@@ -153,3 +153,36 @@ TEST(TrackingTolerance, ValidateNamesTheFieldAndAllowsOffOnly) {
 
 }  // namespace
 }  // namespace swerve
+
+namespace swerve {
+namespace {
+
+// One call from the shipped files: a ready controller whose backend the file chose, stepping a
+// vehicle at rest on a planner-fed trajectory; a missing file is a ConfigError naming it.
+TEST(MakeController, BuildsAReadyControllerFromAVehicleFileAndAControllerFile) {
+  const std::string configs = std::string(SWERVE_SOURCE_DIR) + "/configs/";
+  const auto trajectory = std::make_shared<TrajectoryReference>(16);
+  Eigen::MatrixXd samples(2, 4);
+  samples << 0.0, 0.0, 0.0, 0.0,  //
+      10.0, 5.0, 0.0, 0.0;
+  ASSERT_TRUE(trajectory->publish(samples).accepted());
+  const auto mpc = make_controller(configs + "vehicles/agv_4wheel.yaml", configs + "controllers/default.yaml", trajectory);
+  ASSERT_NE(mpc, nullptr);
+  EXPECT_STREQ(mpc->name(), "wear_mpc");
+  const auto baseline =
+      make_controller(configs + "vehicles/agv_4wheel.yaml", configs + "controllers/kinematic_baseline.yaml", trajectory);
+  EXPECT_STREQ(baseline->name(), "kinematic_baseline");
+  const Eigen::VectorXd at_rest = Eigen::VectorXd::Zero(6 + 4);
+  const ControlOutput& out = baseline->step(at_rest, 0.0);
+  EXPECT_NE(out.source, CommandSource::kSafeStop) << (out.reason != nullptr ? out.reason : "");
+  EXPECT_GT(out.modules[0].wheel_speed, 0.0);
+  try {
+    make_controller(configs + "vehicles/no_such_vehicle.yaml", configs + "controllers/default.yaml", trajectory);
+    ADD_FAILURE() << "accepted a missing vehicle file";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("no_such_vehicle.yaml"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace swerve

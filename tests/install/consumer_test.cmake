@@ -14,8 +14,10 @@ run_step(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
 run_step(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/consumer -B ${WORK_DIR}/consumer
          -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=${BUILD_TYPE})
 run_step(${CMAKE_COMMAND} --build ${WORK_DIR}/consumer)
-run_step(${WORK_DIR}/consumer/swerve_consumer ${prefix}/share/swerve_mpc/configs/targets/default.yaml)
-if(NOT last_output MATCHES "SwerveMPC [0-9]+\\.[0-9]+\\.[0-9]+")
+# Three seconds of the closed loop with a replan every second (two land after the first plan).
+run_step(${WORK_DIR}/consumer/swerve_consumer ${prefix}/share/swerve_mpc/configs 3)
+if(NOT last_output MATCHES "SwerveMPC [0-9]+\\.[0-9]+\\.[0-9]+" OR
+   NOT last_output MATCHES "closed loop: [0-9]+ steps, [12] replans, 0 safe stops, position RMSE")
   message(FATAL_ERROR "consumer printed:\n${last_output}")
 endif()
 message(STATUS "consumer output:\n${last_output}")

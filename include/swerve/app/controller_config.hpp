@@ -56,4 +56,10 @@ ControllerConfig load_controller_config_file(const std::string& file_path);
 std::unique_ptr<TrackingController> make_controller(const ControllerConfig& config, const VehicleParams& vehicle,
                                                     std::shared_ptr<const Reference> reference);
 
+// One call for a vehicle program: the vehicle file's `vehicle:` section and the controller file's
+// `controller:` section (the backend the file names), tracking `reference` (e.g. a
+// TrajectoryReference its planner feeds). Throws ConfigError naming the file, key and value.
+std::unique_ptr<TrackingController> make_controller(const std::string& vehicle_yaml, const std::string& controller_yaml,
+                                                    std::shared_ptr<const Reference> reference);
+
 }  // namespace swerve
