@@ -401,20 +401,22 @@ KinematicsStatus Kinematics::forward_delta(const ModulePositions& deltas, const 
 // ---- second order --------------------------------------------------------------------------------
 
 KinematicsStatus Kinematics::second_order(const Eigen::Vector3d& twist_body, const Eigen::Vector3d& acceleration_body,
-                                          const ModuleStates& states,
-                                          ModuleAccelerations* accelerations) const noexcept {
+                                          const ModuleStates& states, ModuleAccelerations* accelerations,
+                                          const Eigen::Vector2d& center_of_rotation_body) const noexcept {
   accelerations->resize(size_);
   for (ModuleAcceleration& a : *accelerations) a = ModuleAcceleration{};
   if (states.size() != size_) return KinematicsStatus::kWrongModuleCount;
-  if (!finite3(twist_body) || !finite3(acceleration_body) || !finite_states(states)) {
+  if (!finite3(twist_body) || !finite3(acceleration_body) || !finite_states(states) ||
+      !finite2(center_of_rotation_body)) {
     return KinematicsStatus::kNonFiniteInput;
   }
   const double omega = twist_body.z();
   const double alpha = acceleration_body.z();
   const double eps2 = options_.hold_speed_threshold * options_.hold_speed_threshold;
   for (int i = 0; i < size_; ++i) {
-    const Eigen::Vector2d& r = positions_[static_cast<std::size_t>(i)];
-    const Eigen::Vector2d u = module_velocity(i, twist_body, Eigen::Vector2d::Zero());
+    // Positions relative to the point c whose velocity and acceleration are given.
+    const Eigen::Vector2d r = positions_[static_cast<std::size_t>(i)] - center_of_rotation_body;
+    const Eigen::Vector2d u = module_velocity(i, twist_body, center_of_rotation_body);
     // a_i = a + alpha x r_i - omega^2 r_i: acceleration of a point fixed on a rigid body.
     const Eigen::Vector2d a_point(acceleration_body.x() - alpha * r.y() - omega * omega * r.x(),
                                   acceleration_body.y() + alpha * r.x() - omega * omega * r.y());
@@ -465,6 +467,25 @@ Eigen::Vector3d Kinematics::inertial_acceleration(const Eigen::Vector3d& twist_b
   const double omega = twist_body.z();
   return {twist_rate_body.x() - omega * twist_body.y(), twist_rate_body.y() + omega * twist_body.x(),
           twist_rate_body.z()};
+}
+
+std::optional<ModuleStates> Kinematics::inverse(const Eigen::Vector3d& twist_body,
+                                                const Eigen::Vector2d& center_of_rotation_body) const {
+  ModuleStates states(size_);
+  if (inverse(twist_body, &states, center_of_rotation_body) != KinematicsStatus::kOk) return std::nullopt;
+  return states;
+}
+
+std::optional<Eigen::Vector3d> Kinematics::forward(const ModuleStates& states) const {
+  Eigen::Vector3d twist;
+  if (forward(states, &twist) != KinematicsStatus::kOk) return std::nullopt;
+  return twist;
+}
+
+ModuleState optimize_module(const ModuleState& desired, double current_angle) noexcept {
+  const double error = wrap_angle(desired.angle - current_angle);
+  if (std::abs(error) <= kPi / 2.0) return ModuleState{desired.speed, wrap_angle(desired.angle)};
+  return ModuleState{-desired.speed, wrap_angle(desired.angle + kPi)};
 }
 
 }  // namespace swerve

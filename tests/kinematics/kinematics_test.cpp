@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include <Eigen/Dense>
 #include <cmath>
 #include <random>
@@ -770,6 +772,69 @@ TEST(SecondOrderKinematics, BadInputGivesStatusAndZeros) {
   for (const ModuleAcceleration& a : accelerations) EXPECT_EQ(a.steering_rate, 0.0);
   EXPECT_EQ(kinematics.second_order({1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, ModuleStates(4), &accelerations),
             KinematicsStatus::kWrongModuleCount);
+}
+
+TEST(SecondOrderKinematics, AboutACentreOfRotationItIsTheSameMotionTransferredToTheOrigin) {
+  // Twist and acceleration of the body point c; the origin o = c + d (d = -c) then moves with
+  // v_o = v_c + omega x d and accelerates with a_o = a_c + alpha x d - omega^2 d (rigid body).
+  const Kinematics kinematics(ModuleLayout::rectangle(0.6, 0.4, 0.05));
+  const Eigen::Vector2d c(0.4, -0.2), d = -c;
+  const Eigen::Vector3d twist_c(0.5, 0.1, 0.8), accel_c(0.3, -0.2, 1.5);
+  const double omega = twist_c.z(), alpha = accel_c.z();
+  const Eigen::Vector3d twist_o(twist_c.x() - omega * d.y(), twist_c.y() + omega * d.x(), omega);
+  const Eigen::Vector3d accel_o(accel_c.x() - alpha * d.y() - omega * omega * d.x(),
+                                accel_c.y() + alpha * d.x() - omega * omega * d.y(), alpha);
+  ModuleStates states(4);
+  ASSERT_EQ(kinematics.inverse(twist_c, &states, c), KinematicsStatus::kOk);
+  ModuleAccelerations about_c(4), about_o(4);
+  ASSERT_EQ(kinematics.second_order(twist_c, accel_c, states, &about_c, c), KinematicsStatus::kOk);
+  ASSERT_EQ(kinematics.second_order(twist_o, accel_o, states, &about_o), KinematicsStatus::kOk);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_NEAR(about_c[i].drive_acceleration, about_o[i].drive_acceleration, 1e-12) << "module " << i;
+    EXPECT_NEAR(about_c[i].steering_rate, about_o[i].steering_rate, 1e-12) << "module " << i;
+  }
+  const Eigen::Vector2d not_finite(std::numeric_limits<double>::quiet_NaN(), 0.0);
+  EXPECT_EQ(kinematics.second_order(twist_c, accel_c, states, &about_c, not_finite), KinematicsStatus::kNonFiniteInput);
+}
+
+TEST(OptimizeModule, FlipsOnlyWhenTheDesiredAngleIsMoreThanNinetyDegreesAway) {
+  const double deg = kPi / 180.0;
+  const ModuleState flipped = optimize_module(ModuleState{2.0, 170 * deg}, 0.0);
+  EXPECT_NEAR(flipped.speed, -2.0, 1e-15);
+  EXPECT_NEAR(flipped.angle, -10 * deg, 1e-12);
+  const ModuleState kept = optimize_module(ModuleState{2.0, 80 * deg}, 0.0);
+  EXPECT_EQ(kept.speed, 2.0);
+  EXPECT_NEAR(kept.angle, 80 * deg, 1e-15);
+  EXPECT_EQ(optimize_module(ModuleState{1.0, kPi / 2.0}, 0.0).speed, 1.0);  // exactly 90 deg: kept
+  // Across the +-pi seam: at 175 deg, a desired -170 deg is 15 deg away, not 345.
+  EXPECT_EQ(optimize_module(ModuleState{1.0, -170 * deg}, 175 * deg).speed, 1.0);
+  const ModuleState across = optimize_module(ModuleState{1.0, 10 * deg}, 175 * deg);
+  EXPECT_EQ(across.speed, -1.0);
+  EXPECT_NEAR(across.angle, -170 * deg, 1e-12);
+}
+
+TEST(Kinematics, InverseAndForwardByValueRoundTripAndGiveNothingOnBadInput) {
+  const Kinematics kinematics(ModuleLayout::rectangle(0.6, 0.4, 0.05));
+  const Eigen::Vector3d twist(0.7, -0.2, 0.4);
+  const std::optional<ModuleStates> states = kinematics.inverse(twist);
+  ASSERT_TRUE(states.has_value());
+  ASSERT_EQ(states->size(), 4);
+  const std::optional<Eigen::Vector3d> back = kinematics.forward(*states);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_NEAR((*back - twist).norm(), 0.0, 1e-12);
+  EXPECT_FALSE(kinematics.inverse(Eigen::Vector3d(std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0)).has_value());
+  EXPECT_FALSE(kinematics.forward(ModuleStates(3)).has_value());
+}
+
+TEST(ModuleArray, BraceInitialisesOneEntryPerModule) {
+  const ModuleStates states{{1.0, 0.1}, {2.0, -0.3}};
+  ASSERT_EQ(states.size(), 2);
+  EXPECT_EQ(states[1].speed, 2.0);
+  EXPECT_EQ(states[1].angle, -0.3);
+  const ModuleArray<double> one{4.0};
+  EXPECT_EQ(one.size(), 1);
+  EXPECT_EQ(ModuleArray<double>(4).size(), 4);
+  EXPECT_THROW((ModuleArray<int>{1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17}), ConfigError);
 }
 
 }  // namespace

@@ -10,6 +10,8 @@
 
 #include <Eigen/Core>
 
+#include <optional>
+
 #include "swerve/kinematics/module_heading_memory.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/kinematics/module_state.hpp"
@@ -61,7 +63,12 @@ class Kinematics {
   KinematicsStatus inverse(const Eigen::Vector3d& twist_body, ModuleStates* states,
                            const Eigen::Vector2d& center_of_rotation_body = Eigen::Vector2d::Zero()) const noexcept;
 
-  // The command chain for hardware: inverse -> desaturate to limits().max_drive_speed ->
+  // By value, for code off the real-time path (no allocation either): nullopt on error.
+  std::optional<ModuleStates> inverse(const Eigen::Vector3d& twist_body,
+                                      const Eigen::Vector2d& center_of_rotation_body = Eigen::Vector2d::Zero()) const;
+
+  // The command chain for hardware: inverse -> desaturate to limits().max_drive_speed (the
+  // layout's limit: ModuleLayout's default is 2 m/s, so give yours; inverse() never desaturates) ->
   // singularity hold -> optimize (which records the result in *memory). `measured` (optional,
   // may be null) supplies current module angles for the flip decision and cosine scaling; without
   // it the remembered headings stand in. On error: zero speeds at the remembered headings.
@@ -96,6 +103,7 @@ class Kinematics {
   // pseudo-inverse factored at construction (or its closed form on centred layouts); the weighted
   // form solves the 3x3 normal equations per call. On error: zero twist.
   KinematicsStatus forward(const ModuleStates& states, Eigen::Vector3d* twist_body) const noexcept;
+  std::optional<Eigen::Vector3d> forward(const ModuleStates& states) const;  // by value; nullopt on error
   KinematicsStatus forward(const ModuleStates& states, const ModuleWeights& weights,
                            Eigen::Vector3d* twist_body) const noexcept;
   // The same on wheel-distance increments: returns the body displacement (dx, dy, dpsi) to feed
@@ -116,8 +124,12 @@ class Kinematics {
   // linearly to 0 at standstill and is continuous at eps, so v -> 0 gives no NaN and no division
   // by zero. A pure spin at constant rate gives centripetal a_i != 0 but zero drive acceleration
   // and steering rate. On error: all zeros.
+  // With a centre of rotation c, twist and acceleration are those of the body point c (as in
+  // inverse()), and r_i is measured from c.
   KinematicsStatus second_order(const Eigen::Vector3d& twist_body, const Eigen::Vector3d& acceleration_body,
-                                const ModuleStates& states, ModuleAccelerations* accelerations) const noexcept;
+                                const ModuleStates& states, ModuleAccelerations* accelerations,
+                                const Eigen::Vector2d& center_of_rotation_body = Eigen::Vector2d::Zero()) const
+      noexcept;
 
   // Inverse of second_order: the least-squares (ax, ay, alpha) from module drive accelerations and
   // steering rates at module states `states` (signed speeds and angles; omega comes from forward
@@ -159,5 +171,11 @@ class Kinematics {
   double inv_count_ = 0.0;
   double length_scale_ = 1.0;  // RMS module radius, for scale-free rank tests
 };
+
+// One module on its own (WPILib's SwerveModuleState::optimize): `desired`, or the same motion as
+// (angle + pi, -speed) when that needs less steering from `current_angle` (more than 90 deg away;
+// exactly 90 deg keeps `desired`). Angles wrapped. No memory and no hysteresis: a module near 90
+// deg may flip back and forth, which Kinematics::optimize with a ModuleHeadingMemory prevents.
+ModuleState optimize_module(const ModuleState& desired, double current_angle) noexcept;
 
 }  // namespace swerve

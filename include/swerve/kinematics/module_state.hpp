@@ -3,8 +3,10 @@
 // heap; plus the status codes every per-cycle kinematics function returns and the angle wrap.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <initializer_list>
 #include <string>
 
 #include "swerve/core/dcheck.hpp"
@@ -51,6 +53,11 @@ class ModuleArray {
                         std::to_string(kMaxModules) + "]");
     }
     data_.fill(value);
+  }
+  // One entry per module, e.g. ModuleStates{{1.0, 0.0}, {1.0, 0.5}}. As with std::vector, braces
+  // around a single number list that number: ModuleArray<double>{4} is one module; size with (4).
+  ModuleArray(std::initializer_list<T> values) : ModuleArray(static_cast<int>(values.size())) {
+    std::copy(values.begin(), values.end(), data_.begin());
   }
 
   int size() const { return size_; }
