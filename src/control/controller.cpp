@@ -332,6 +332,15 @@ bool Controller::motion_commanded() const noexcept {
   return false;
 }
 
+void Controller::refuse(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept {
+  // Nothing this step can act on: no plan is kept, and the vehicle stops safely, saying why.
+  output_.solve.status = SolveStatus::kInvalidInput;
+  output_.solve.reason = reason;
+  output_.reason = reason;
+  plan_.valid = false;
+  safe_stop(measured);
+}
+
 void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
   fill_safe_stop(layout_, options_.dt, measured, &output_.modules);
   for (int i = 0; i < modules_; ++i) {
@@ -397,21 +406,13 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     // A stale measurement says nothing about where the vehicle is now: neither an old plan nor the
     // baseline can be trusted on it, so stop safely until fresh measurements return.
     output_.measurement_stale = true;
-    output_.solve.status = SolveStatus::kInvalidInput;
-    output_.solve.reason = stale;
-    output_.reason = stale;
-    plan_.valid = false;
-    safe_stop(measured);
+    refuse(measured, stale);
     return finish(step_start);
   }
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
     // No trajectory, or only a stale one: nothing to follow that the planner still stands by.
-    output_.solve.status = SolveStatus::kInvalidInput;
-    output_.solve.reason = unusable;
-    output_.reason = unusable;
-    plan_.valid = false;
-    safe_stop(measured);
+    refuse(measured, unusable);
     return finish(step_start);
   }
   // A measurement taken before t is rolled forward by the commands sent since (Smith predictor),

@@ -310,27 +310,27 @@ void KinematicBaseline::set_reference(std::shared_ptr<const Reference> reference
   reference_ = std::move(reference);
 }
 
+const ControlOutput& KinematicBaseline::stop_safely(const Eigen::Ref<const Eigen::VectorXd>& measured,
+                                                    const char* reason) noexcept {
+  fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
+  output_.source = CommandSource::kSafeStop;
+  output_.reason = reason;
+  twist_committed_ = false;
+  latency_.record(output_.modules);
+  return output_;
+}
+
 const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
                                              double measured_at) noexcept {
   output_.solve = SolveSummary{};
   const TimePoint start = clock().now();
   if (measured.size() != 6 + modules_ || !measured.allFinite() || !std::isfinite(t) ||
       !is_plausible_state(measured, kinematics_.layout())) {
-    fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
-    output_.source = CommandSource::kSafeStop;
-    output_.reason = "measured state rejected (wrong size, NaN/inf or implausible)";
-    twist_committed_ = false;
-    latency_.record(output_.modules);
-    return output_;
+    return stop_safely(measured, "measured state rejected (wrong size, NaN/inf or implausible)");
   }
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
-    fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
-    output_.source = CommandSource::kSafeStop;
-    output_.reason = unusable;
-    twist_committed_ = false;
-    latency_.record(output_.modules);
-    return output_;
+    return stop_safely(measured, unusable);
   }
   // A measurement taken before t is rolled forward by the commands sent since: a deadbeat
   // steering law acting on a delayed angle would otherwise chase its own past and oscillate. The
@@ -344,12 +344,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
   const Eigen::Vector3d measured_twist = now_.segment<3>(3);
   if (!plan_twists(now_.head<3>(), measured_twist, twist_committed_ ? committed_twist_ : measured_twist, reference_poses_,
                    reference_twists_)) {
-    fill_safe_stop(kinematics_.layout(), options_.dt, measured, &output_.modules);
-    output_.source = CommandSource::kSafeStop;
-    output_.reason = "the kinematic plan failed";
-    twist_committed_ = false;
-    latency_.record(output_.modules);
-    return output_;
+    return stop_safely(measured, "the kinematic plan failed");
   }
   module_inputs(now_.segment(6, modules_), inputs_);
   commit_first_step();

@@ -168,46 +168,6 @@ void clamped_spline_second_derivatives(const double* x, const double* y, std::si
   for (std::size_t i = n - 1; i-- > 0;) m[i] = (rhs[i] - upper[i] * m[i + 1]) / diagonal[i];
 }
 
-// A sampled trajectory as SampledReference and TrajectoryReference both store it: times, per
-// channel (x, y, psi unwrapped) values and spline second derivatives, optional twists.
-struct SplineView {
-  const double* t;
-  const double* value[3];
-  const double* second[3];
-  const double* twist[3];  // null entries without twists
-  std::size_t n;
-};
-
-// The one evaluation of a sampled trajectory at t (absolute, on the samples' clock): the spline's
-// pose, and the given twists interpolated linearly or the spline's rates turned into the body
-// frame. Before the first sample it holds the first pose, past the last the last, with zero twist.
-ReferenceSample evaluate(const SplineView& v, double t_query) noexcept {
-  ReferenceSample out;
-  const double first = v.t[0], last = v.t[v.n - 1];
-  const double t = std::clamp(t_query, first, last);
-  const bool outside = t_query < first || t_query > last;
-  const double* upper = std::upper_bound(v.t, v.t + v.n, t);
-  const auto j = std::min(static_cast<std::size_t>(std::max<std::ptrdiff_t>(1, upper - v.t)) - 1, v.n - 2);
-  const double h = v.t[j + 1] - v.t[j];
-  const double a = (v.t[j + 1] - t) / h, b = (t - v.t[j]) / h;
-  double value[3], rate[3];
-  for (int c = 0; c < 3; ++c) {
-    const double* y = v.value[c];
-    const double* m = v.second[c];
-    value[c] = a * y[j] + b * y[j + 1] + ((a * a * a - a) * m[j] + (b * b * b - b) * m[j + 1]) * h * h / 6.0;
-    rate[c] = (y[j + 1] - y[j]) / h + (-(3 * a * a - 1) * m[j] + (3 * b * b - 1) * m[j + 1]) * h / 6.0;
-  }
-  out.pose_world << value[0], value[1], wrap_angle(value[2]);
-  if (outside) return out;
-  if (v.twist[0] != nullptr) {
-    for (int c = 0; c < 3; ++c) out.twist_body[c] = a * v.twist[c][j] + b * v.twist[c][j + 1];
-  } else {
-    const double c = std::cos(value[2]), s = std::sin(value[2]);
-    out.twist_body << c * rate[0] + s * rate[1], -s * rate[0] + c * rate[1], rate[2];
-  }
-  return out;
-}
-
 }  // namespace
 
 std::shared_ptr<const PlanarCurve> make_line_curve(const Eigen::Vector2d& start, double direction, double length) {
@@ -347,14 +307,73 @@ ReferenceSample PathReference::sample(double t) const noexcept {
   return out;
 }
 
-SampledReference::SampledReference(const std::vector<std::vector<double>>& rows) {
+SplineTrajectory::SplineTrajectory(int capacity) {
+  const auto n = static_cast<std::size_t>(std::max(capacity, 0));
+  t_.assign(n, 0.0);
+  for (int c = 0; c < 3; ++c) {
+    value_[c].assign(n, 0.0);
+    second_[c].assign(n, 0.0);
+    twist_[c].assign(n, 0.0);
+  }
+  scratch_.assign(3 * n, 0.0);
+}
+
+void SplineTrajectory::assign(const Eigen::Ref<const Eigen::MatrixXd>& rows) noexcept {
+  count_ = static_cast<int>(rows.rows());
+  has_twist_ = rows.cols() == 7;
+  double previous_psi = 0.0;
+  for (int i = 0; i < count_; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    t_[k] = rows(i, 0);
+    value_[0][k] = rows(i, 1);
+    value_[1][k] = rows(i, 2);
+    // Unwrapped, so the spline never sees a 2 pi jump.
+    const double psi = i == 0 ? rows(i, 3) : previous_psi + wrap_angle(rows(i, 3) - previous_psi);
+    value_[2][k] = previous_psi = psi;
+    for (int c = 0; c < 3 && has_twist_; ++c) twist_[c][k] = rows(i, 4 + c);
+  }
+  const auto n = static_cast<std::size_t>(count_);
+  for (int c = 0; c < 3; ++c) {
+    clamped_spline_second_derivatives(t_.data(), value_[c].data(), n, second_[c].data(), scratch_.data());
+  }
+}
+
+ReferenceSample SplineTrajectory::sample(double t_query) const noexcept {
+  ReferenceSample out;
+  const auto n = static_cast<std::size_t>(count_);
+  const double first = t_[0], last = t_[n - 1];
+  const double t = std::clamp(t_query, first, last);
+  const bool outside = t_query < first || t_query > last;
+  const auto upper = std::upper_bound(t_.begin(), t_.begin() + count_, t);
+  const auto j = std::min(static_cast<std::size_t>(std::max<std::ptrdiff_t>(1, upper - t_.begin())) - 1, n - 2);
+  const double h = t_[j + 1] - t_[j];
+  const double a = (t_[j + 1] - t) / h, b = (t - t_[j]) / h;
+  double value[3], rate[3];
+  for (int c = 0; c < 3; ++c) {
+    const std::vector<double>& y = value_[c];
+    const std::vector<double>& m = second_[c];
+    value[c] = a * y[j] + b * y[j + 1] + ((a * a * a - a) * m[j] + (b * b * b - b) * m[j + 1]) * h * h / 6.0;
+    rate[c] = (y[j + 1] - y[j]) / h + (-(3 * a * a - 1) * m[j] + (3 * b * b - 1) * m[j + 1]) * h / 6.0;
+  }
+  out.pose_world << value[0], value[1], wrap_angle(value[2]);
+  if (outside) return out;  // before the start or past the end: hold the pose, zero twist
+  if (has_twist_) {
+    for (int c = 0; c < 3; ++c) out.twist_body[c] = a * twist_[c][j] + b * twist_[c][j + 1];
+  } else {
+    const double c = std::cos(value[2]), s = std::sin(value[2]);
+    out.twist_body << c * rate[0] + s * rate[1], -s * rate[0] + c * rate[1], rate[2];
+  }
+  return out;
+}
+
+SampledReference::SampledReference(const std::vector<std::vector<double>>& rows)
+    : spline_(static_cast<int>(std::min<std::size_t>(rows.size(), std::numeric_limits<int>::max()))) {
   if (rows.size() < 2) reject("reference: need at least 2 rows, got " + std::to_string(rows.size()));
   const std::size_t width = rows.front().size();
   if (width != 4 && width != 7) {
     reject("reference row 0: expected 4 (t, x, y, psi) or 7 (+ vx, vy, r) values, got " + std::to_string(width));
   }
-  has_twist_ = width == 7;
-  double previous_psi = 0.0;
+  Eigen::MatrixXd checked(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(width));
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const auto& row = rows[i];
     if (row.size() != width) {
@@ -364,36 +383,17 @@ SampledReference::SampledReference(const std::vector<std::vector<double>>& rows)
     for (std::size_t c = 0; c < width; ++c) {
       if (!std::isfinite(row[c])) reject("reference row " + std::to_string(i) + " column " + std::to_string(c) +
                                          " = " + number(row[c]) + ": must be finite");
+      checked(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(c)) = row[c];
     }
-    if (i > 0 && !(row[0] > t_.back())) {
+    if (i > 0 && !(row[0] > rows[i - 1][0])) {
       reject("reference row " + std::to_string(i) + ": t = " + number(row[0]) + ": must be greater than the previous t");
     }
-    t_.push_back(row[0]);
-    value_[0].push_back(row[1]);
-    value_[1].push_back(row[2]);
-    // Unwrap psi so the spline never sees a 2 pi jump.
-    const double psi = i == 0 ? row[3] : previous_psi + wrap_angle(row[3] - previous_psi);
-    value_[2].push_back(psi);
-    previous_psi = psi;
-    if (has_twist_) {
-      for (int c = 0; c < 3; ++c) twist_[c].push_back(row[4 + static_cast<std::size_t>(c)]);
-    }
   }
-  std::vector<double> scratch(3 * t_.size());
-  for (int c = 0; c < 3; ++c) {
-    second_[c].assign(t_.size(), 0.0);
-    clamped_spline_second_derivatives(t_.data(), value_[c].data(), t_.size(), second_[c].data(), scratch.data());
-  }
+  spline_.assign(checked);
 }
 
 ReferenceSample SampledReference::sample(double t_relative) const noexcept {
-  SplineView view{t_.data(), {}, {}, {}, t_.size()};
-  for (int c = 0; c < 3; ++c) {
-    view.value[c] = value_[c].data();
-    view.second[c] = second_[c].data();
-    view.twist[c] = has_twist_ ? twist_[c].data() : nullptr;
-  }
-  return evaluate(view, t_.front() + t_relative);
+  return spline_.sample(spline_.first_time() + t_relative);
 }
 
 std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path) {
@@ -478,16 +478,7 @@ TrajectoryReference::TrajectoryReference(int capacity, double max_age) : capacit
   if (std::isnan(max_age) || max_age <= 0.0) {
     reject("TrajectoryReference.max_age = " + number(max_age) + ": must be > 0 (s; infinity: never stale)");
   }
-  const auto n = static_cast<std::size_t>(capacity);
-  for (Buffer& b : buffers_) {
-    b.t.assign(n, 0.0);
-    for (int c = 0; c < 3; ++c) {
-      b.value[c].assign(n, 0.0);
-      b.second[c].assign(n, 0.0);
-      b.twist[c].assign(n, 0.0);
-    }
-    b.scratch.assign(3 * n, 0.0);
-  }
+  for (Buffer& b : buffers_) b.spline = SplineTrajectory(capacity);
 }
 
 TrajectoryCheck TrajectoryReference::publish(const Eigen::Ref<const Eigen::MatrixXd>& samples) noexcept {
@@ -511,24 +502,8 @@ TrajectoryCheck TrajectoryReference::publish(const Eigen::Ref<const Eigen::Matri
   if (!check.accepted()) return check;
   if (publishing_.test_and_set(std::memory_order_acquire)) return {TrajectoryStatus::kBusy, -1, -1};
   Buffer& b = buffers_[static_cast<std::size_t>(back_)];
-  const auto n = static_cast<std::size_t>(rows);
-  b.count = rows;
-  b.has_twist = width == 7;
+  b.spline.assign(samples);
   b.version = ++published_;
-  double previous_psi = 0.0;
-  for (int i = 0; i < rows; ++i) {
-    const auto k = static_cast<std::size_t>(i);
-    b.t[k] = samples(i, 0);
-    b.value[0][k] = samples(i, 1);
-    b.value[1][k] = samples(i, 2);
-    // Unwrapped, so the spline never sees a 2 pi jump.
-    const double psi = i == 0 ? samples(i, 3) : previous_psi + wrap_angle(samples(i, 3) - previous_psi);
-    b.value[2][k] = previous_psi = psi;
-    for (int c = 0; c < 3 && b.has_twist; ++c) b.twist[c][k] = samples(i, 4 + c);
-  }
-  for (int c = 0; c < 3; ++c) {
-    clamped_spline_second_derivatives(b.t.data(), b.value[c].data(), n, b.second[c].data(), b.scratch.data());
-  }
   // Hand the filled buffer over; take whichever the middle held (never the reader's).
   back_ = middle_.exchange(back_ | kDirty, std::memory_order_acq_rel) & ~kDirty;
   publishing_.clear(std::memory_order_release);
@@ -542,26 +517,21 @@ void TrajectoryReference::begin_cycle() const noexcept {
 }
 
 ReferenceSample TrajectoryReference::sample(double t) const noexcept {
-  const Buffer& b = buffers_[static_cast<std::size_t>(front_)];
-  if (b.count < 2) return ReferenceSample{};
-  SplineView view{b.t.data(), {}, {}, {}, static_cast<std::size_t>(b.count)};
-  for (int c = 0; c < 3; ++c) {
-    view.value[c] = b.value[c].data();
-    view.second[c] = b.second[c].data();
-    view.twist[c] = b.has_twist ? b.twist[c].data() : nullptr;
-  }
-  return evaluate(view, t);
+  const SplineTrajectory& spline = buffers_[static_cast<std::size_t>(front_)].spline;
+  return spline.size() < 2 ? ReferenceSample{} : spline.sample(t);
 }
 
 double TrajectoryReference::duration() const noexcept {
-  const Buffer& b = buffers_[static_cast<std::size_t>(front_)];
-  return b.count < 2 ? 0.0 : b.t[static_cast<std::size_t>(b.count - 1)];
+  const SplineTrajectory& spline = buffers_[static_cast<std::size_t>(front_)].spline;
+  return spline.size() < 2 ? 0.0 : spline.last_time();
 }
 
 const char* TrajectoryReference::unusable(double t) const noexcept {
-  const Buffer& b = buffers_[static_cast<std::size_t>(front_)];
-  if (b.count < 2) return "reference: no trajectory published yet";
-  if (t - b.t[0] > max_age_) return "reference: the trajectory is stale (its first sample is older than max_age)";
+  const SplineTrajectory& spline = buffers_[static_cast<std::size_t>(front_)].spline;
+  if (spline.size() < 2) return "reference: no trajectory published yet";
+  if (t - spline.first_time() > max_age_) {
+    return "reference: the trajectory is stale (its first sample is older than max_age)";
+  }
   return nullptr;
 }
 

@@ -38,11 +38,12 @@ inline VehicleParams small_robot() {
   return params;
 }
 
-inline std::shared_ptr<const Reference> line_reference(double speed, double acceleration = 1.0) {
+// Straight along +x from (0, lateral), 50 m.
+inline std::shared_ptr<const Reference> line_reference(double speed, double acceleration = 1.0, double lateral = 0.0) {
   SpeedProfile profile;
   profile.speed = speed;
   profile.acceleration = acceleration;
-  return std::make_shared<PathReference>(make_line_curve({0.0, 0.0}, 0.0, 50.0), profile, 0.0);
+  return std::make_shared<PathReference>(make_line_curve({0.0, lateral}, 0.0, 50.0), profile, 0.0);
 }
 
 // Counter-clockwise arc of radius 1.5 m from the origin heading +x (yaw rate speed / 1.5).

@@ -845,13 +845,6 @@ Eigen::MatrixXd line_samples(double t0, double lateral) {
   return rows;
 }
 
-std::shared_ptr<const Reference> line_at(double lateral) {
-  SpeedProfile profile;
-  profile.speed = 0.5;
-  profile.acceleration = 1.0;
-  return std::make_shared<PathReference>(make_line_curve({0.0, lateral}, 0.0, 50.0), profile, 0.0);
-}
-
 TEST(Controller, StopsSafelyWithoutAUsableTrajectoryAndSaysWhy) {
   FakeScript script;
   const auto trajectory = std::make_shared<TrajectoryReference>(128, 1.0);
@@ -877,7 +870,7 @@ TEST(Controller, FollowsANewReferenceFromTheNextStepOnAndRefusesANullOne) {
   Controller controller = make_fake_controller(&script);
   controller.step(at_rest(), 0.0);
   EXPECT_EQ(controller.problem().reference_poses().row(1).cwiseAbs().maxCoeff(), 0.0);
-  controller.set_reference(line_at(1.0));
+  controller.set_reference(testing::line_reference(0.5, 1.0, 1.0));
   EXPECT_EQ(controller.step(at_rest(), 0.05).source, CommandSource::kOptimizer);
   EXPECT_EQ(controller.problem().reference_poses().row(1).minCoeff(), 1.0);
   EXPECT_EQ(controller.problem().reference_poses().row(1).maxCoeff(), 1.0);
@@ -887,7 +880,7 @@ TEST(Controller, FollowsANewReferenceFromTheNextStepOnAndRefusesANullOne) {
 TEST(KinematicBaseline, FollowsANewReferenceAndStopsSafelyWithoutATrajectory) {
   const VehicleParams params = small_robot();
   const auto trajectory = std::make_shared<TrajectoryReference>(128);
-  KinematicBaseline baseline(params.layout, line_at(0.0), BaselineOptions{});
+  KinematicBaseline baseline(params.layout, testing::line_reference(0.5), BaselineOptions{});
   EXPECT_NE(baseline.step(offset_start(0.0), 0.0).source, CommandSource::kSafeStop);
   baseline.set_reference(trajectory);
   const ControlOutput& none = baseline.step(offset_start(0.0), 0.05);

@@ -129,6 +129,9 @@ class Controller final : public TrackingController {
   void set_tube(bool baseline_usable) noexcept;
   void send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
   void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
+  // A stale measurement or an unusable reference: kInvalidInput with `reason`, the plan dropped, a
+  // safe stop.
+  void refuse(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
   bool motion_commanded() const noexcept;
   const ControlOutput& finish(TimePoint step_start) noexcept;
   // The time kept free at the end of this step: the solver's deadline is the budget less it

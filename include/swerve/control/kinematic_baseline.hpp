@@ -79,6 +79,8 @@ class KinematicBaseline final : public TrackingController {
   const BaselineOptions& options() const noexcept { return options_; }
 
  private:
+  // Safe-stop commands with `reason`; the ramp restarts from the measured twist next step.
+  const ControlOutput& stop_safely(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
   BaselineOptions options_;
   Kinematics kinematics_;
   std::shared_ptr<const Reference> reference_;

@@ -95,23 +95,43 @@ std::shared_ptr<const PlanarCurve> make_sine_curve(double amplitude, double wave
 // centre heading up-right; `loops` full figure-eights.
 std::shared_ptr<const PlanarCurve> make_figure_eight_curve(double size, int loops);
 
-// A recorded trajectory: rows (t, x, y, psi) with optional (vx, vy, r) in the body frame. Without
-// twists they are derived from a clamped cubic spline through the poses (psi unwrapped first;
-// end slopes from a one-sided cubic, so the twist stays third-order accurate at the ends).
+// Samples (t, x, y, psi[, vx, vy, r]) as a clamped cubic spline through the poses (psi unwrapped
+// first; end slopes from a one-sided cubic, so the twist stays third-order accurate at the ends),
+// with the given twists interpolated linearly, or the spline's rates turned into the body frame.
+// The storage SampledReference and TrajectoryReference share: sized once, refilled without
+// allocating.
+class SplineTrajectory {
+ public:
+  explicit SplineTrajectory(int capacity = 0);
+  // Rows already checked by the caller: 2..capacity rows of 4 or 7 finite columns, t increasing.
+  // noexcept, no allocation.
+  void assign(const Eigen::Ref<const Eigen::MatrixXd>& rows) noexcept;
+  int size() const noexcept { return count_; }
+  double first_time() const noexcept { return t_[0]; }
+  double last_time() const noexcept { return t_[static_cast<std::size_t>(count_ - 1)]; }
+  // At t on the samples' clock; before the first sample it holds the first pose, past the last the
+  // last, with zero twist. Needs size() >= 2.
+  ReferenceSample sample(double t) const noexcept;
+
+ private:
+  int count_ = 0;
+  bool has_twist_ = false;
+  // Per channel (x, y, psi unwrapped): values and spline second derivatives; given twists.
+  std::vector<double> t_, value_[3], second_[3], twist_[3], scratch_;
+};
+
+// A recorded trajectory: rows (t, x, y, psi) with optional (vx, vy, r) in the body frame,
+// interpolated as SplineTrajectory says; sample(t) is relative to the first row's time.
 class SampledReference final : public Reference {
  public:
   // `rows`: each of size 4 or 7, strictly increasing t starting anywhere; throws ConfigError naming
   // the row and the value.
   explicit SampledReference(const std::vector<std::vector<double>>& rows);
   ReferenceSample sample(double t) const noexcept override;
-  double duration() const noexcept override { return t_.back() - t_.front(); }
+  double duration() const noexcept override { return spline_.last_time() - spline_.first_time(); }
 
  private:
-  std::vector<double> t_;
-  // Per channel (x, y, psi unwrapped): values and spline second derivatives.
-  std::vector<double> value_[3], second_[3];
-  bool has_twist_ = false;
-  std::vector<double> twist_[3];
+  SplineTrajectory spline_;
 };
 
 // Why a trajectory was refused by TrajectoryReference::publish (the previous one stays active).
@@ -165,10 +185,8 @@ class TrajectoryReference final : public Reference {
 
  private:
   struct Buffer {
-    int count = 0;
-    bool has_twist = false;
+    SplineTrajectory spline;  // size() 0 until the first trajectory
     long version = 0;
-    std::vector<double> t, value[3], second[3], twist[3], scratch;
   };
   static constexpr int kDirty = 4;  // the middle buffer holds a trajectory the reader has not taken
   int capacity_;
