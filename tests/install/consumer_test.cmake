@@ -1,7 +1,12 @@
-# Installs the build tree into a fresh prefix, then configures, builds and runs examples/consumer
-# against it with find_package(SwerveMPC): a broken export or a missing header fails this test.
-#   -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -DBUILD_TYPE=...
-file(REMOVE_RECURSE ${WORK_DIR})
+# Out-of-tree use of an installed SwerveMPC, one step per MODE:
+#   install            install the build tree into WORK_DIR/prefix (the fixture of the others)
+#   consumer           examples/consumer: the full package, a closed loop with a planner thread
+#   kinematics_only    examples/kinematics_only: COMPONENTS kinematics, with every dependency but
+#                      Eigen made unfindable, so a component that pulled in more fails here
+#   sa_only            COMPONENTS sa configures with NLopt, Ipopt, Ceres and nlohmann-json unfindable,
+#                      and loads the SA backend and what it builds on, not the other backends
+#   unknown_component  COMPONENTS nonsense must fail to configure and name the component
+#   -DMODE=... -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -DBUILD_TYPE=...
 set(prefix ${WORK_DIR}/prefix)
 function(run_step)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -10,17 +15,74 @@ function(run_step)
   endif()
   set(last_output "${out}" PARENT_SCOPE)
 endfunction()
-run_step(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
-run_step(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/consumer -B ${WORK_DIR}/consumer
-         -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=${BUILD_TYPE})
-run_step(${CMAKE_COMMAND} --build ${WORK_DIR}/consumer)
-# Three seconds of the closed loop with a replan every second (two land after the first plan).
-run_step(${WORK_DIR}/consumer/swerve_consumer ${prefix}/share/swerve_mpc/configs 3)
-if(NOT last_output MATCHES "SwerveMPC [0-9]+\\.[0-9]+\\.[0-9]+" OR
-   NOT last_output MATCHES "closed loop: [0-9]+ steps, [12] replans, 0 safe stops, position RMSE")
-  message(FATAL_ERROR "consumer printed:\n${last_output}")
-endif()
-message(STATUS "consumer output:\n${last_output}")
-if(NOT EXISTS ${prefix}/bin/swerve-mpc)
-  message(FATAL_ERROR "swerve-mpc was not installed into ${prefix}/bin")
+# unfindable(<package>...): sets `unfindable` to the -D flags under which find_package fails for them.
+function(unfindable)
+  set(flags "")
+  foreach(package ${ARGN})
+    list(APPEND flags -DCMAKE_DISABLE_FIND_PACKAGE_${package}=ON)
+  endforeach()
+  set(unfindable ${flags} PARENT_SCOPE)
+endfunction()
+
+if(MODE STREQUAL "install")
+  file(REMOVE_RECURSE ${WORK_DIR})
+  run_step(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
+  if(NOT EXISTS ${prefix}/bin/swerve-mpc)
+    message(FATAL_ERROR "swerve-mpc was not installed into ${prefix}/bin")
+  endif()
+
+elseif(MODE STREQUAL "consumer")
+  set(build ${WORK_DIR}/consumer)
+  file(REMOVE_RECURSE ${build})
+  run_step(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/consumer -B ${build}
+           -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=${BUILD_TYPE})
+  run_step(${CMAKE_COMMAND} --build ${build})
+  # Three seconds of the closed loop with a replan every second (two land after the first plan).
+  run_step(${build}/swerve_consumer ${prefix}/share/swerve_mpc/configs 3)
+  if(NOT last_output MATCHES "SwerveMPC [0-9]+\\.[0-9]+\\.[0-9]+" OR
+     NOT last_output MATCHES "closed loop: [0-9]+ steps, [12] replans, 0 safe stops, position RMSE")
+    message(FATAL_ERROR "consumer printed:\n${last_output}")
+  endif()
+  message(STATUS "consumer output:\n${last_output}")
+
+elseif(MODE STREQUAL "kinematics_only")
+  set(build ${WORK_DIR}/kinematics_only)
+  file(REMOVE_RECURSE ${build})
+  unfindable(yaml-cpp Ceres NLopt PkgConfig nlohmann_json)
+  run_step(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/kinematics_only -B ${build}
+           -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=${BUILD_TYPE} ${unfindable})
+  run_step(${CMAKE_COMMAND} --build ${build})
+  # The program checks its own odometry against the commanded motion and exits non-zero if not.
+  run_step(${build}/swerve_kinematics_only)
+  if(NOT last_output MATCHES "kinematics only: pose after 4 s")
+    message(FATAL_ERROR "kinematics_only printed:\n${last_output}")
+  endif()
+  message(STATUS "kinematics_only output:\n${last_output}")
+
+elseif(MODE STREQUAL "sa_only")
+  set(source ${WORK_DIR}/sa_only)
+  file(REMOVE_RECURSE ${source})
+  file(WRITE ${source}/CMakeLists.txt
+       "cmake_minimum_required(VERSION 3.20)\nproject(sa_only LANGUAGES CXX)\n"
+       "find_package(SwerveMPC REQUIRED COMPONENTS sa)\n"
+       "if(NOT TARGET SwerveMPC::solver_sa OR NOT TARGET SwerveMPC::swerve OR TARGET SwerveMPC::solver_nlopt)\n"
+       "  message(FATAL_ERROR \"COMPONENTS sa loaded the wrong targets\")\n"
+       "endif()\n")
+  unfindable(Ceres NLopt PkgConfig nlohmann_json)
+  run_step(${CMAKE_COMMAND} -S ${source} -B ${source}/build -DCMAKE_PREFIX_PATH=${prefix} ${unfindable})
+
+elseif(MODE STREQUAL "unknown_component")
+  set(source ${WORK_DIR}/unknown_component)
+  file(REMOVE_RECURSE ${source})
+  file(WRITE ${source}/CMakeLists.txt
+       "cmake_minimum_required(VERSION 3.20)\nproject(unknown LANGUAGES CXX)\n"
+       "find_package(SwerveMPC REQUIRED COMPONENTS kinematics warp_drive)\n")
+  execute_process(COMMAND ${CMAKE_COMMAND} -S ${source} -B ${source}/build -DCMAKE_PREFIX_PATH=${prefix}
+                  RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(code EQUAL 0 OR NOT err MATCHES "SwerveMPC has no component 'warp_drive'")
+    message(FATAL_ERROR "expected a configure error naming 'warp_drive', got (${code}):\n${out}\n${err}")
+  endif()
+
+else()
+  message(FATAL_ERROR "consumer_test.cmake: unknown MODE '${MODE}'")
 endif()
