@@ -86,6 +86,7 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
         {"type", to_string(run.kind)},
         {"backend", run.backend.empty() ? json() : json(run.backend)},
         {"wear_weight", run.wear_weight},
+        {"effective_wear_weight", run.effective_wear_weight},
         {"completed", run.completed},
         {"failure", run.failure.empty() ? json() : json(run.failure)},
         {"steps", m.steps},

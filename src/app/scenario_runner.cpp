@@ -61,6 +61,7 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
   const bool mpc = run.kind == ControllerKind::kWearMpc;
   run.backend = mpc ? controller.config.solver.backend : "";
   run.wear_weight = mpc ? controller.config.mpc.wear_weight : 0.0;
+  run.effective_wear_weight = mpc ? controller.config.mpc.effective_wear_weight(scenario.vehicle.mass) : 0.0;
   run.solve_budget = controller.config.solve_budget();
 
   std::unique_ptr<TrackingController> tracker =

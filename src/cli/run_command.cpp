@@ -1,6 +1,6 @@
 // `swerve-mpc run SCENARIO.yaml`: runs the scenario's controllers on the simulated plant, prints the
 // comparison table and writes per-step CSV logs and summary.json. `swerve-mpc sweep` runs the
-// wear-aware controller over a list of wear weights and writes the wear-versus-tracking table.
+// wear-aware controller over wear weights or tolerances (app/sweep.hpp) and writes the table.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -19,6 +19,7 @@
 #include "swerve/core/error_text.hpp"
 #include "swerve/app/scenario_config.hpp"
 #include "swerve/app/run_report.hpp"
+#include "swerve/app/sweep.hpp"
 #include "swerve/solvers/solver_factory.hpp"
 
 namespace swerve::cli {
@@ -139,51 +140,57 @@ int run(const RunArguments& a) {
   return kExitOk;
 }
 
-// One sweep point: the wear-aware controller with lambda or a tracking tolerance overridden.
-struct SweepPoint {
-  std::optional<double> wear_weight;
-  std::optional<TrackingTolerance> tolerance;
-};
+std::string sweep_label(const SweepPoint& point) {
+  char label[64];
+  if (point.tolerance) {
+    std::snprintf(label, sizeof label, "tol %g m, %g rad", point.tolerance->position, point.tolerance->heading);
+  } else {
+    std::snprintf(label, sizeof label, "lambda %g", *point.wear_weight);
+  }
+  return label;
+}
 
 int sweep(const RunArguments& a, const std::vector<SweepPoint>& sweep_points) {
   const ScenarioConfig loaded = load_scenario_config_file(a.scenario_file);
-  RunOverrides base_overrides = overrides_of(a);
   const std::string out_dir = out_dir_of(a, loaded) + "/sweep";
   prepare_out_dir(out_dir);
-  // The baseline once, then the wear-aware controller at every point.
-  RunOverrides baseline_only = base_overrides;
-  baseline_only.controllers = {"kinematic_baseline"};
-  const ScenarioConfig baseline_scenario = with_overrides(loaded, baseline_only);
-  const ControllerRun baseline = run_controller(baseline_scenario, baseline_scenario.controllers.front());
-  nlohmann::json points = nlohmann::json::array();
-  std::printf("%-22s %12s %14s %14s %10s\n", "point", "rmse [m]", "wear total", "vs base [%]", "p99 [ms]");
-  std::printf("%-22s %12.4f %14.2f %14s %10s\n", "baseline", baseline.metrics.tracking_rmse_m,
-              baseline.metrics.wear_total, "-", "-");
-  for (const SweepPoint& point : sweep_points) {
-    RunOverrides o = base_overrides;
-    o.controllers = {"wear_mpc"};
-    o.wear_weight = point.wear_weight;
-    o.tracking_tolerance = point.tolerance;
-    const ScenarioConfig s = with_overrides(loaded, o);
-    const ControllerRun r = run_controller(s, s.controllers.front());
-    const double reduction = wear_reduction_pct(r.metrics, baseline.metrics);
-    char label[64];
-    if (point.tolerance) {
-      std::snprintf(label, sizeof label, "tol %g m, %g rad", point.tolerance->position, point.tolerance->heading);
+  std::printf("%-22s %12s %14s %14s %10s %12s\n", "point", "rmse [m]", "wear total", "vs base [%]", "p99 [ms]",
+              "lambda used");
+  RunMetrics baseline_metrics;
+  // Each row as soon as its run ends; lambda used: the weight the cost had after the controller's
+  // reference-mass scaling (weights.wear_reference_mass), which the requested one is scaled by.
+  const SweepCallback print_row = [&baseline_metrics](const SweepPoint* point, const ControllerRun& r) {
+    if (point == nullptr) {
+      baseline_metrics = r.metrics;
+      std::printf("%-22s %12.4f %14.2f %14s %10s %12s\n", "baseline", r.metrics.tracking_rmse_m, r.metrics.wear_total,
+                  "-", "-", "-");
     } else {
-      std::snprintf(label, sizeof label, "lambda %g", *point.wear_weight);
+      std::printf("%-22s %12.4f %14.2f %14.2f %10.2f %12.4g%s\n", sweep_label(*point).c_str(),
+                  r.metrics.tracking_rmse_m, r.metrics.wear_total, -wear_reduction_pct(r.metrics, baseline_metrics),
+                  r.metrics.solve_time_p99_ms, r.effective_wear_weight, r.completed ? "" : "  (plant diverged)");
     }
-    std::printf("%-22s %12.4f %14.2f %14.2f %10.2f%s\n", label, r.metrics.tracking_rmse_m, r.metrics.wear_total,
-                -reduction, r.metrics.solve_time_p99_ms, r.completed ? "" : "  (plant diverged)");
-    nlohmann::json p = {{"wear_weight", s.controllers.front().config.mpc.wear_weight},
+    std::fflush(stdout);
+  };
+  SweepResult result = [&] {
+    try {
+      return run_sweep(loaded, overrides_of(a), sweep_points, print_row);
+    } catch (const OverrideError& error) {
+      throw UsageError(error.what());
+    }
+  }();
+  nlohmann::json points = nlohmann::json::array();
+  for (const SweepRun& point : result.points) {
+    const ControllerRun& r = point.run;
+    nlohmann::json p = {{"wear_weight", r.wear_weight},
+                        {"effective_wear_weight", r.effective_wear_weight},
                         {"tracking_rmse_m", r.metrics.tracking_rmse_m},
                         {"wear_total", r.metrics.wear_total},
-                        {"wear_reduction_pct", reduction},
+                        {"wear_reduction_pct", wear_reduction_pct(r.metrics, result.baseline.metrics)},
                         {"solve_time_p99_ms", r.metrics.solve_time_p99_ms},
                         {"completed", r.completed}};
-    if (point.tolerance) {
-      p["tolerance_position_m"] = point.tolerance->position;
-      p["tolerance_heading_rad"] = point.tolerance->heading;
+    if (point.point.tolerance) {
+      p["tolerance_position_m"] = point.point.tolerance->position;
+      p["tolerance_heading_rad"] = point.point.tolerance->heading;
     }
     points.push_back(p);
   }
@@ -191,11 +198,12 @@ int sweep(const RunArguments& a, const std::vector<SweepPoint>& sweep_points) {
       {"scenario", loaded.name},
       {"swept", sweep_points.front().tolerance ? "tracking_tolerance" : "wear_weight"},
       {"points", points},
-      {"baseline", {{"tracking_rmse_m", baseline.metrics.tracking_rmse_m}, {"wear_total", baseline.metrics.wear_total}}}};
+      {"baseline", {{"tracking_rmse_m", result.baseline.metrics.tracking_rmse_m},
+                    {"wear_total", result.baseline.metrics.wear_total}}}};
   // The plot script reads a summary beside the sweep for the scenario's name and units.
   std::ofstream(out_dir + "/sweep.json") << sweep_json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace)
                                           << "\n";
-  write_run_outputs(baseline_scenario, {baseline}, out_dir);
+  write_run_outputs(result.baseline_scenario, {result.baseline}, out_dir);
   std::cout << "written: " << out_dir << "/sweep.json\n";
   return kExitOk;
 }

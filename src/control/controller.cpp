@@ -36,7 +36,7 @@ CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout,
   }
   w.twist = o.twist_weight;
   w.terminal_scale = o.terminal_scale;
-  w.wear = o.wear_reference_mass > 0.0 ? o.wear_weight * o.wear_reference_mass / vehicle_mass : o.wear_weight;
+  w.wear = o.effective_wear_weight(vehicle_mass);
   w.tube_penalty = o.tracking_tolerance.penalty;
   if (o.parameterization == InputParameterization::kBodyTwist) {
     w.effort = Eigen::VectorXd::Zero(3);

@@ -18,7 +18,8 @@ struct ControllerRun {
   std::string name;
   ControllerKind kind = ControllerKind::kWearMpc;
   std::string backend;          // "" for the baseline
-  double wear_weight = 0.0;     // lambda (0 for the baseline)
+  double wear_weight = 0.0;     // lambda as configured (0 for the baseline)
+  double effective_wear_weight = 0.0;  // the lambda the cost used on this vehicle (reference-mass scaling)
   double solve_budget = 0.0;    // s
   std::vector<StepRecord> log;
   RunMetrics metrics;

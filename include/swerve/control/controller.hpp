@@ -87,6 +87,11 @@ struct ControllerOptions {
   TrackingTolerance tracking_tolerance;  // off by default
   MeasurementFilterOptions measurement_filter;  // off by default (gains 1)
   void validate() const;             // throws ConfigError naming the field and value
+  // The wear weight the cost uses on a vehicle of `vehicle_mass` kg: wear_weight, scaled by
+  // wear_reference_mass / vehicle_mass when wear_reference_mass > 0.
+  double effective_wear_weight(double vehicle_mass) const noexcept {
+    return wear_reference_mass > 0.0 ? wear_weight * wear_reference_mass / vehicle_mass : wear_weight;
+  }
 };
 
 class Controller final : public TrackingController {

@@ -1,0 +1,110 @@
+// The wear-versus-tracking sweep: one baseline run, then the wear-aware controller at each point,
+// reported in order with the weight the cost actually used; bad points refused before any run.
+#include "swerve/app/sweep.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace swerve {
+namespace {
+
+std::string data_file(const std::string& name) { return std::string(SWERVE_SOURCE_DIR) + "/tests/app/data/" + name; }
+
+ScenarioConfig short_scenario() {
+  ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  scenario.duration = 0.5;
+  return scenario;
+}
+
+SweepPoint lambda(double value) { return {value, std::nullopt}; }
+
+TEST(Sweep, RunsTheBaselineOnceThenEveryPointInOrder) {
+  std::vector<std::string> calls;
+  const SweepCallback record = [&calls](const SweepPoint* point, const ControllerRun& run) {
+    calls.push_back(point == nullptr ? "baseline:" + run.name : "point:" + run.name);
+  };
+  const SweepResult result = run_sweep(short_scenario(), {}, {lambda(0.1), lambda(3.0)}, record);
+  EXPECT_EQ(calls, (std::vector<std::string>{"baseline:kinematic_baseline", "point:wear_mpc", "point:wear_mpc"}));
+  EXPECT_EQ(result.baseline.name, "kinematic_baseline");
+  ASSERT_EQ(result.points.size(), 2u);
+  EXPECT_DOUBLE_EQ(result.points[0].run.wear_weight, 0.1);
+  EXPECT_DOUBLE_EQ(result.points[1].run.wear_weight, 3.0);
+  for (const SweepRun& point : result.points) {
+    EXPECT_TRUE(point.run.completed);
+    EXPECT_EQ(point.run.metrics.steps, result.baseline.metrics.steps);
+  }
+}
+
+TEST(Sweep, BaselineRunIsTheSameRunAsOnItsOwn) {
+  const ScenarioConfig scenario = short_scenario();
+  const SweepResult result = run_sweep(scenario, {}, {lambda(1.0)});
+  const ScenarioController* baseline = nullptr;
+  for (const ScenarioController& c : scenario.controllers) {
+    if (c.name == "kinematic_baseline") baseline = &c;
+  }
+  ASSERT_NE(baseline, nullptr);
+  // The baseline is deterministic for a seed, so the sweep's run must be it, bit for bit.
+  const ControllerRun alone = run_controller(scenario, *baseline);
+  EXPECT_EQ(result.baseline.metrics.wear_total, alone.metrics.wear_total);
+  EXPECT_EQ(result.baseline.metrics.tracking_rmse_m, alone.metrics.tracking_rmse_m);
+}
+
+TEST(Sweep, ReportsTheWearWeightAfterReferenceMassScaling) {
+  // The default controller gives its wear weight for an 800 kg vehicle (wear_reference_mass): on
+  // a vehicle of half that mass the cost uses twice the weight.
+  ScenarioConfig scenario = short_scenario();
+  scenario.vehicle.mass = 400.0;
+  const SweepResult result = run_sweep(scenario, {}, {lambda(0.25)});
+  EXPECT_DOUBLE_EQ(result.points[0].run.wear_weight, 0.25);
+  EXPECT_DOUBLE_EQ(result.points[0].run.effective_wear_weight, 0.5);
+  EXPECT_EQ(result.baseline.effective_wear_weight, 0.0);
+}
+
+TEST(Sweep, ToleranceSweepRunsTheTubeMode) {
+  TrackingTolerance tube;
+  tube.position = 0.05;
+  tube.heading = 0.02;
+  const SweepResult result = run_sweep(short_scenario(), {}, {{std::nullopt, tube}});
+  ASSERT_EQ(result.points.size(), 1u);
+  EXPECT_TRUE(result.points[0].run.completed);
+  ASSERT_TRUE(result.points[0].point.tolerance.has_value());
+  EXPECT_DOUBLE_EQ(result.points[0].point.tolerance->position, 0.05);
+}
+
+void expect_refused(const std::vector<SweepPoint>& points, const std::string& message_part) {
+  int runs = 0;
+  const SweepCallback count = [&runs](const SweepPoint*, const ControllerRun&) { ++runs; };
+  try {
+    run_sweep(short_scenario(), {}, points, count);
+    FAIL() << "expected a ConfigError containing: " << message_part;
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find(message_part), std::string::npos) << error.what();
+  }
+  EXPECT_EQ(runs, 0) << "a bad point must be refused before any simulation";
+}
+
+TEST(Sweep, RefusesBadPointsBeforeRunningAnything) {
+  expect_refused({}, "sweep: no points");
+  expect_refused({lambda(1.0), lambda(-1.0)}, "sweep point[1].wear_weight = -1: must be finite and >= 0");
+  expect_refused({lambda(std::nan(""))}, "sweep point[0].wear_weight = nan");
+  TrackingTolerance both;
+  both.position = 0.05;
+  expect_refused({{1.0, both}}, "sweep point[0]: give exactly one of a wear weight and a tracking tolerance");
+  expect_refused({{std::nullopt, std::nullopt}}, "give exactly one");
+  expect_refused({{std::nullopt, TrackingTolerance{}}}, "sweep point[0].tolerance.position = 0");
+}
+
+TEST(Sweep, AScenarioWithoutTheWearAwareControllerIsAnOverrideError) {
+  ScenarioConfig scenario = short_scenario();
+  std::vector<ScenarioController> baseline_only;
+  for (const ScenarioController& c : scenario.controllers) {
+    if (c.name == "kinematic_baseline") baseline_only.push_back(c);
+  }
+  scenario.controllers = baseline_only;
+  EXPECT_THROW(run_sweep(scenario, {}, {lambda(1.0)}), OverrideError);
+}
+
+}  // namespace
+}  // namespace swerve
