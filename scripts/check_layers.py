@@ -4,7 +4,9 @@
 Each layer is a folder under include/swerve/ and src/ (models/ and solvers/ keep their top-level
 folders). From the bottom up, a layer may include only itself and the layers before it:
 
-    core, kinematics, models, ocp, solvers, control, sim, app, cli
+    core, kinematics, models, ocp, solvers, control, sim, app, cli, python
+
+(cli and python are both front ends over app; neither includes the other.)
 
 and YAML (yaml-cpp) and JSON (nlohmann) are read only in app and cli. A file in none of the
 layers' folders, or an include of swerve/<folder>/ that names no layer, is a violation too, so a
@@ -18,7 +20,7 @@ import re
 import sys
 import tempfile
 
-LAYERS = ["core", "kinematics", "models", "ocp", "solvers", "control", "sim", "app", "cli"]
+LAYERS = ["core", "kinematics", "models", "ocp", "solvers", "control", "sim", "app", "cli", "python"]
 RANK = {name: i for i, name in enumerate(LAYERS)}
 # Where each layer's files live, relative to the repository root.
 ROOTS = {
@@ -31,6 +33,7 @@ ROOTS = {
     "include/swerve/sim": "sim", "src/sim": "sim",
     "include/swerve/app": "app", "src/app": "app",
     "src/cli": "cli",
+    "src/python": "python",
 }
 # Generated into the build tree by CMake (cmake/version.hpp.in).
 GENERATED = {"swerve/version.hpp": "core"}

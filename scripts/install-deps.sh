@@ -16,6 +16,7 @@ packages=(
   libcli11-dev
   nlohmann-json3-dev
   python3-matplotlib
+  pybind11-dev python3-dev python3-numpy
 )
 
 # Optional lists, named on the command line.

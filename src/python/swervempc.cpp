@@ -1,0 +1,469 @@
+// The Python module `swervempc` (pybind11): load configs, build a controller and step it with numpy
+// arrays, close the loop on the simulated plant, run scenarios and sweeps, from a notebook. A thin
+// front end over the library, like the CLI: every ConfigError surfaces as a ValueError with the
+// library's message, and every array is checked for its shape before it reaches C++.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "swerve/app/controller_config.hpp"
+#include "swerve/app/scenario_config.hpp"
+#include "swerve/app/scenario_runner.hpp"
+#include "swerve/app/sweep.hpp"
+#include "swerve/app/vehicle_config.hpp"
+#include "swerve/control/reference.hpp"
+#include "swerve/sim/simulator.hpp"
+#include "swerve/version.hpp"
+
+namespace py = pybind11;
+
+namespace swerve::python {
+namespace {
+
+using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// A 1-D array of exactly `size` values, as an Eigen vector; ValueError naming `what` otherwise.
+Eigen::VectorXd vector_of(const Array& values, py::ssize_t size, const std::string& what) {
+  if (values.ndim() != 1 || values.shape(0) != size) {
+    std::string shape = "(";
+    for (py::ssize_t d = 0; d < values.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(values.shape(d));
+    if (values.ndim() == 1) shape += ",";
+    throw py::value_error(what + ": expected a 1-D array of " + std::to_string(size) + " values, got shape " +
+                          shape + ")");
+  }
+  Eigen::VectorXd v(size);
+  for (py::ssize_t i = 0; i < size; ++i) v(i) = values.at(i);
+  return v;
+}
+
+Array array_of(const std::vector<double>& values) {
+  Array a(static_cast<py::ssize_t>(values.size()));
+  std::copy(values.begin(), values.end(), a.mutable_data());
+  return a;
+}
+
+Array array_of(const Eigen::VectorXd& values) {
+  Array a(values.size());
+  std::copy(values.data(), values.data() + values.size(), a.mutable_data());
+  return a;
+}
+
+// The state layout every controller and the plant use, for error messages.
+std::string state_layout(int modules) {
+  return "state (x, y, psi, vx, vy, r, then " + std::to_string(modules) + " steering angles)";
+}
+
+// ---- controller output ----------------------------------------------------------------------------
+// One step's answer, copied out of the controller (whose own output is overwritten next step).
+struct PyControlOutput {
+  Array steering_angle, steering_rate, wheel_speed;  // per module: rad, rad/s, wheel rad/s
+  std::string source, reason, solve_status, solve_reason;
+  int solve_iterations = -1;
+  double cost = -1.0, solve_time = -1.0, step_time = -1.0;
+  bool measurement_stale = false;
+
+  explicit PyControlOutput(const ControlOutput& out) {
+    const int n = out.modules.size();
+    steering_angle = Array(n);
+    steering_rate = Array(n);
+    wheel_speed = Array(n);
+    for (int i = 0; i < n; ++i) {
+      steering_angle.mutable_at(i) = out.modules[i].steering_angle;
+      steering_rate.mutable_at(i) = out.modules[i].steering_rate;
+      wheel_speed.mutable_at(i) = out.modules[i].wheel_speed;
+    }
+    source = to_string(out.source);
+    reason = out.reason;
+    solve_status = to_string(out.solve.status);
+    solve_reason = out.solve.reason;
+    solve_iterations = out.solve.iterations;
+    cost = out.solve.status == SolveStatus::kNotRun ? -1.0 : out.solve.cost.total();
+    solve_time = out.solve.solve_time_s;
+    step_time = out.step_time_s;
+    measurement_stale = out.measurement_stale;
+  }
+};
+
+ModuleArray<ModuleCommand> commands_of(const Array& steering_angle, const Array& steering_rate,
+                                       const Array& wheel_speed, int modules) {
+  const Eigen::VectorXd angle = vector_of(steering_angle, modules, "steering_angle");
+  const Eigen::VectorXd rate = vector_of(steering_rate, modules, "steering_rate");
+  const Eigen::VectorXd speed = vector_of(wheel_speed, modules, "wheel_speed");
+  ModuleArray<ModuleCommand> commands(modules);
+  for (int i = 0; i < modules; ++i) commands[i] = {angle(i), rate(i), speed(i)};
+  return commands;
+}
+
+// ---- controller -----------------------------------------------------------------------------------
+// A controller with the reference it tracks kept alive beside it.
+class PyController {
+ public:
+  PyController(std::unique_ptr<TrackingController> controller, std::shared_ptr<const Reference> reference,
+               int modules)
+      : controller_(std::move(controller)), reference_(std::move(reference)), modules_(modules) {}
+
+  PyControlOutput step(const Array& measured_state, double t, std::optional<double> measured_at) {
+    const Eigen::VectorXd state = vector_of(measured_state, 6 + modules_, state_layout(modules_));
+    if (!std::isfinite(t)) throw py::value_error("t = " + std::to_string(t) + ": must be finite");
+    // A non-finite measurement is the controller's to judge (it stops safely and says why).
+    return PyControlOutput(controller_->step(state, t, measured_at.value_or(t)));
+  }
+  void set_reference(std::shared_ptr<TrajectoryReference> reference) {
+    if (!reference) throw py::value_error("reference: must not be None");
+    controller_->set_reference(reference);
+    reference_ = std::move(reference);
+  }
+  void reset() { controller_->reset(); }
+  std::string name() const { return controller_->name(); }
+  int modules() const { return modules_; }
+
+ private:
+  std::unique_ptr<TrackingController> controller_;
+  std::shared_ptr<const Reference> reference_;
+  int modules_;
+};
+
+std::shared_ptr<const Reference> reference_or_throw(std::shared_ptr<TrajectoryReference> reference) {
+  if (!reference) throw py::value_error("reference: must not be None");
+  return reference;
+}
+
+// ---- runs -----------------------------------------------------------------------------------------
+py::dict metrics_dict(const RunMetrics& m) {
+  py::dict d;
+  d["steps"] = m.steps;
+  d["tracking_rmse_m"] = m.tracking_rmse_m;
+  d["tracking_max_m"] = m.tracking_max_m;
+  d["heading_rmse_rad"] = m.heading_rmse_rad;
+  d["heading_max_rad"] = m.heading_max_rad;
+  d["wear_total"] = m.wear_total;
+  d["wear_per_module"] = array_of(m.wear_per_module);
+  d["wear_imbalance"] = m.wear_imbalance;
+  d["frictional_energy_J"] = m.frictional_energy_J;
+  d["steering_effort"] = m.steering_effort;
+  d["solve_time_mean_ms"] = m.solve_time_mean_ms;
+  d["solve_time_p50_ms"] = m.solve_time_p50_ms;
+  d["solve_time_p99_ms"] = m.solve_time_p99_ms;
+  d["solve_time_max_ms"] = m.solve_time_max_ms;
+  d["step_time_p99_ms"] = m.step_time_p99_ms;
+  d["step_time_max_ms"] = m.step_time_max_ms;
+  d["deadline_misses"] = m.deadline_misses;
+  d["fallbacks"] = m.fallbacks;
+  d["tracking_first_steps"] = m.tracking_first_steps;
+  d["solve_iterations_mean"] = m.solve_iterations_mean;
+  return d;
+}
+
+// The per-step log as columns: 1-D arrays of one value per step, (steps, modules) arrays per module.
+py::dict log_dict(const std::vector<StepRecord>& log) {
+  const auto steps = static_cast<py::ssize_t>(log.size());
+  const py::ssize_t modules = log.empty() ? 0 : static_cast<py::ssize_t>(log.front().commands.size());
+  const auto column = [&](auto value_of) {
+    Array a(steps);
+    for (py::ssize_t k = 0; k < steps; ++k) a.mutable_at(k) = value_of(log[static_cast<std::size_t>(k)]);
+    return a;
+  };
+  const auto per_module = [&](auto value_of) {
+    Array a({steps, modules});
+    for (py::ssize_t k = 0; k < steps; ++k) {
+      const StepRecord& r = log[static_cast<std::size_t>(k)];
+      for (py::ssize_t i = 0; i < modules; ++i) a.mutable_at(k, i) = value_of(r, static_cast<std::size_t>(i));
+    }
+    return a;
+  };
+  py::dict d;
+  d["t"] = column([](const StepRecord& r) { return r.t; });
+  d["x"] = column([](const StepRecord& r) { return r.pose_world.x(); });
+  d["y"] = column([](const StepRecord& r) { return r.pose_world.y(); });
+  d["psi"] = column([](const StepRecord& r) { return r.pose_world.z(); });
+  d["vx"] = column([](const StepRecord& r) { return r.twist_body.x(); });
+  d["vy"] = column([](const StepRecord& r) { return r.twist_body.y(); });
+  d["r"] = column([](const StepRecord& r) { return r.twist_body.z(); });
+  d["x_ref"] = column([](const StepRecord& r) { return r.reference_pose_world.x(); });
+  d["y_ref"] = column([](const StepRecord& r) { return r.reference_pose_world.y(); });
+  d["psi_ref"] = column([](const StepRecord& r) { return r.reference_pose_world.z(); });
+  d["position_error"] = column([](const StepRecord& r) { return r.position_error(); });
+  d["heading_error"] = column([](const StepRecord& r) { return r.heading_error(); });
+  d["solve_time"] = column([](const StepRecord& r) { return r.solve_time_s; });
+  d["step_time"] = column([](const StepRecord& r) { return r.step_time_s; });
+  d["solve_iterations"] = column([](const StepRecord& r) { return static_cast<double>(r.solve_iterations); });
+  py::list source, status;
+  for (const StepRecord& r : log) {
+    source.append(to_string(r.source));
+    status.append(to_string(r.solve_status));
+  }
+  d["source"] = source;
+  d["solve_status"] = status;
+  d["steering_angle"] = per_module([](const StepRecord& r, std::size_t i) { return r.modules[i].steering_angle; });
+  d["wheel_speed"] = per_module([](const StepRecord& r, std::size_t i) { return r.modules[i].wheel_speed; });
+  d["slip_angle"] = per_module([](const StepRecord& r, std::size_t i) { return r.modules[i].slip_angle; });
+  d["slip_ratio"] = per_module([](const StepRecord& r, std::size_t i) { return r.modules[i].slip_ratio; });
+  d["wear"] = per_module([](const StepRecord& r, std::size_t i) { return r.modules[i].wear; });
+  d["command_steering_rate"] =
+      per_module([](const StepRecord& r, std::size_t i) { return r.commands[i].steering_rate; });
+  d["command_wheel_speed"] = per_module([](const StepRecord& r, std::size_t i) { return r.commands[i].wheel_speed; });
+  return d;
+}
+
+py::dict run_dict(const ControllerRun& run, bool with_log) {
+  py::dict d;
+  d["name"] = run.name;
+  d["type"] = to_string(run.kind);
+  d["backend"] = run.backend.empty() ? py::object(py::none()) : py::object(py::str(run.backend));
+  d["wear_weight"] = run.wear_weight;
+  d["effective_wear_weight"] = run.effective_wear_weight;
+  d["solve_budget"] = run.solve_budget;
+  d["completed"] = run.completed;
+  d["failure"] = run.failure.empty() ? py::object(py::none()) : py::object(py::str(run.failure));
+  d["metrics"] = metrics_dict(run.metrics);
+  if (with_log) d["log"] = log_dict(run.log);
+  return d;
+}
+
+RunOverrides overrides_of(std::optional<std::vector<std::string>> controllers, std::optional<std::uint64_t> seed,
+                          std::optional<std::string> backend) {
+  RunOverrides o;
+  if (controllers) o.controllers = *controllers;
+  o.seed = seed;
+  o.backend = std::move(backend);
+  return o;
+}
+
+py::dict run_scenario_file(const std::string& path, std::optional<std::vector<std::string>> controllers,
+                           std::optional<std::uint64_t> seed, std::optional<std::string> backend,
+                           std::optional<double> wear_weight) {
+  RunOverrides o = overrides_of(std::move(controllers), seed, std::move(backend));
+  o.wear_weight = wear_weight;
+  std::vector<ControllerRun> runs;
+  std::string name;
+  {
+    py::gil_scoped_release release;  // minutes of simulation: let other Python threads run
+    const ScenarioConfig scenario = apply_overrides(load_scenario_config_file(path), o);
+    name = scenario.name;
+    runs = run_scenario(scenario);
+  }
+  py::dict result;
+  for (const ControllerRun& run : runs) result[py::str(run.name)] = run_dict(run, true);
+  return result;
+}
+
+py::dict sweep_file(const std::string& path, std::optional<std::vector<double>> wear_weights,
+                    std::optional<std::vector<double>> tolerances, double heading_tolerance,
+                    std::optional<std::uint64_t> seed, std::optional<std::string> backend, bool logs) {
+  if (wear_weights.has_value() == tolerances.has_value()) {
+    throw py::value_error("sweep: give exactly one of wear_weights and tolerances");
+  }
+  std::vector<SweepPoint> points;
+  if (wear_weights) {
+    for (const double w : *wear_weights) points.push_back({w, std::nullopt});
+  } else {
+    for (const double position : *tolerances) {
+      TrackingTolerance t;
+      t.position = position;
+      t.heading = heading_tolerance;
+      points.push_back({std::nullopt, t});
+    }
+  }
+  std::optional<SweepResult> result;
+  {
+    py::gil_scoped_release release;
+    const ScenarioConfig scenario = load_scenario_config_file(path);
+    result.emplace(run_sweep(scenario, overrides_of(std::nullopt, seed, std::move(backend)), points));
+  }
+  py::list point_list;
+  for (const SweepRun& p : result->points) {
+    py::dict d = run_dict(p.run, logs);
+    if (p.point.tolerance) {
+      d["tolerance_position_m"] = p.point.tolerance->position;
+      d["tolerance_heading_rad"] = p.point.tolerance->heading;
+    }
+    point_list.append(d);
+  }
+  py::dict out;
+  out["scenario"] = result->baseline_scenario.name;
+  out["swept"] = wear_weights ? "wear_weight" : "tracking_tolerance";
+  out["baseline"] = run_dict(result->baseline, logs);
+  out["points"] = point_list;
+  return out;
+}
+
+}  // namespace
+}  // namespace swerve::python
+
+PYBIND11_MODULE(swervempc, m) {
+  using namespace swerve;
+  using namespace swerve::python;
+  m.doc() = "SwerveMPC: tire-wear-aware model-predictive trajectory tracking for swerve-drive vehicles";
+  m.attr("__version__") = kVersion;
+  // The library's own message, unchanged: "file.yaml: controller.horizon = 0: must be >= 1".
+  py::register_exception_translator([](std::exception_ptr error) {
+    try {
+      if (error) std::rethrow_exception(error);
+    } catch (const ConfigError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    }
+  });
+
+  py::class_<VehicleParams>(m, "Vehicle", "A vehicle: mass, inertia and the module layout (load_vehicle)")
+      .def_readonly("name", &VehicleParams::name)
+      .def_readonly("mass", &VehicleParams::mass, "kg")
+      .def_readonly("yaw_inertia", &VehicleParams::yaw_inertia, "kg m^2")
+      .def_property_readonly("module_count", [](const VehicleParams& v) { return v.layout.size(); })
+      .def_property_readonly("module_positions",
+                             [](const VehicleParams& v) {
+                               const auto n = static_cast<py::ssize_t>(v.layout.size());
+                               Array a({n, py::ssize_t{2}});
+                               for (py::ssize_t i = 0; i < n; ++i) {
+                                 a.mutable_at(i, 0) = v.layout.position_body(static_cast<int>(i)).x();
+                                 a.mutable_at(i, 1) = v.layout.position_body(static_cast<int>(i)).y();
+                               }
+                               return a;
+                             },
+                             "(modules, 2) body-frame positions, m")
+      .def_property_readonly("wheel_radius", [](const VehicleParams& v) { return v.layout.wheel_radius(); })
+      .def_property_readonly("max_drive_speed",
+                             [](const VehicleParams& v) { return v.layout.limits().max_drive_speed; });
+  m.def("load_vehicle", &load_vehicle_config_file, py::arg("path"), "Loads a vehicle file (its `vehicle:` section)");
+
+  py::class_<ControllerConfig>(m, "ControllerConfig",
+                               "A controller file's settings; change them, then make_controller validates them")
+      .def_readonly("name", &ControllerConfig::name)
+      .def_property_readonly("type", [](const ControllerConfig& c) { return std::string(to_string(c.kind)); })
+      .def_property(
+          "horizon", [](const ControllerConfig& c) { return c.mpc.horizon; },
+          [](ControllerConfig& c, int n) { c.mpc.horizon = n; })
+      .def_property(
+          "dt", [](const ControllerConfig& c) { return c.mpc.dt; }, [](ControllerConfig& c, double dt) { c.mpc.dt = dt; })
+      .def_property(
+          "solve_budget", [](const ControllerConfig& c) { return c.mpc.solve_budget; },
+          [](ControllerConfig& c, double s) { c.mpc.solve_budget = s; })
+      .def_property(
+          "wear_weight", [](const ControllerConfig& c) { return c.mpc.wear_weight; },
+          [](ControllerConfig& c, double w) { c.mpc.wear_weight = w; })
+      .def_property(
+          "backend", [](const ControllerConfig& c) { return c.solver.backend; },
+          [](ControllerConfig& c, const std::string& b) { c.solver.backend = b; })
+      .def_property(
+          "tracking_tolerance",
+          [](const ControllerConfig& c) -> std::optional<std::pair<double, double>> {
+            if (!c.mpc.tracking_tolerance.enabled()) return std::nullopt;
+            return std::make_pair(c.mpc.tracking_tolerance.position, c.mpc.tracking_tolerance.heading);
+          },
+          [](ControllerConfig& c, std::optional<std::pair<double, double>> tube) {
+            c.mpc.tracking_tolerance.position = tube ? tube->first : 0.0;
+            c.mpc.tracking_tolerance.heading = tube ? tube->second : 0.0;
+          },
+          "(position m, heading rad), or None for the wear-weight mode")
+      .def("validate", &ControllerConfig::validate, "Raises ValueError naming the field and value");
+  m.def("load_controller_config", &load_controller_config_file, py::arg("path"),
+        "Loads a controller file (its `controller:` section)");
+
+  py::class_<TrajectoryReference, std::shared_ptr<TrajectoryReference>>(
+      m, "TrajectoryReference", "A planner-fed reference: publish time-stamped samples, the controller tracks the newest")
+      .def(py::init<int, double>(), py::arg("capacity"), py::arg("max_age") = std::numeric_limits<double>::infinity())
+      .def(
+          "publish",
+          [](TrajectoryReference& reference, const Array& samples) {
+            if (samples.ndim() != 2) {
+              throw py::value_error("samples: expected a 2-D array (rows t, x, y, psi[, vx, vy, r]), got " +
+                                    std::to_string(samples.ndim()) + " dimensions");
+            }
+            Eigen::MatrixXd rows(samples.shape(0), samples.shape(1));
+            for (py::ssize_t i = 0; i < samples.shape(0); ++i) {
+              for (py::ssize_t j = 0; j < samples.shape(1); ++j) rows(i, j) = samples.at(i, j);
+            }
+            const TrajectoryCheck check = reference.publish(rows);
+            if (!check.accepted()) throw py::value_error("samples: " + check.describe());
+          },
+          py::arg("samples"),
+          "Rows (t, x, y, psi[, vx, vy, r]) on the controller's clock; ValueError naming the sample if refused "
+          "(the previous trajectory stays active)")
+      .def_property_readonly("duration", &TrajectoryReference::duration);
+
+  py::class_<PyControlOutput>(m, "ControlOutput", "One controller step's module commands and status")
+      .def_readonly("steering_angle", &PyControlOutput::steering_angle, "rad, per module")
+      .def_readonly("steering_rate", &PyControlOutput::steering_rate, "rad/s, per module")
+      .def_readonly("wheel_speed", &PyControlOutput::wheel_speed, "wheel rad/s, per module")
+      .def_readonly("source", &PyControlOutput::source, "optimizer, tracking_first, previous_plan, baseline, safe_stop")
+      .def_readonly("reason", &PyControlOutput::reason)
+      .def_readonly("solve_status", &PyControlOutput::solve_status)
+      .def_readonly("solve_reason", &PyControlOutput::solve_reason)
+      .def_readonly("solve_iterations", &PyControlOutput::solve_iterations)
+      .def_readonly("cost", &PyControlOutput::cost, "of the returned plan; -1 when no solve ran")
+      .def_readonly("solve_time", &PyControlOutput::solve_time, "s")
+      .def_readonly("step_time", &PyControlOutput::step_time, "s")
+      .def_readonly("measurement_stale", &PyControlOutput::measurement_stale);
+
+  py::class_<PyController>(m, "Controller", "A tracking controller (make_controller)")
+      .def("step", &PyController::step, py::arg("measured_state"), py::arg("t"), py::arg("measured_at") = py::none(),
+           "One control period: the measured state (x, y, psi, vx, vy, r, steering angles) at time t")
+      .def("set_reference", &PyController::set_reference, py::arg("reference"))
+      .def("reset", &PyController::reset)
+      .def_property_readonly("name", &PyController::name)
+      .def_property_readonly("module_count", &PyController::modules);
+  m.def(
+      "make_controller",
+      [](const std::string& vehicle_yaml, const std::string& controller_yaml,
+         std::shared_ptr<TrajectoryReference> reference) {
+        const std::shared_ptr<const Reference> tracked = reference_or_throw(std::move(reference));
+        const int modules = load_vehicle_config_file(vehicle_yaml).layout.size();
+        return PyController(make_controller(vehicle_yaml, controller_yaml, tracked), tracked, modules);
+      },
+      py::arg("vehicle_yaml"), py::arg("controller_yaml"), py::arg("reference"),
+      "A controller from a vehicle file and a controller file, tracking `reference`");
+  m.def(
+      "make_controller",
+      [](const ControllerConfig& config, const VehicleParams& vehicle, std::shared_ptr<TrajectoryReference> reference) {
+        config.validate();
+        const std::shared_ptr<const Reference> tracked = reference_or_throw(std::move(reference));
+        return PyController(make_controller(config, vehicle, tracked), tracked, vehicle.layout.size());
+      },
+      py::arg("config"), py::arg("vehicle"), py::arg("reference"),
+      "A controller from loaded (and possibly changed) settings");
+
+  py::class_<Simulator>(m, "Simulator", "The plant: rigid body, Magic Formula tires, wear, actuator lags")
+      .def(py::init([](const VehicleParams& vehicle, double control_period, std::uint64_t seed) {
+             SimulatorOptions options;
+             options.control_period = control_period;
+             options.seed = seed;
+             return std::make_unique<Simulator>(vehicle, options);
+           }),
+           py::arg("vehicle"), py::arg("control_period") = 0.05, py::arg("seed") = 1)
+      .def(
+          "reset",
+          [](Simulator& plant, const Array& initial_state) {
+            plant.reset(vector_of(initial_state, 6 + plant.modules(), "initial " + state_layout(plant.modules())));
+          },
+          py::arg("initial_state"))
+      .def(
+          "advance",
+          [](Simulator& plant, const PyControlOutput& out) {
+            return plant.advance(commands_of(out.steering_angle, out.steering_rate, out.wheel_speed, plant.modules()));
+          },
+          py::arg("output"), "One control period under a controller's commands; False when the plant diverged")
+      .def(
+          "advance",
+          [](Simulator& plant, const Array& steering_angle, const Array& steering_rate, const Array& wheel_speed) {
+            return plant.advance(commands_of(steering_angle, steering_rate, wheel_speed, plant.modules()));
+          },
+          py::arg("steering_angle"), py::arg("steering_rate"), py::arg("wheel_speed"))
+      .def_property_readonly("measurement", [](const Simulator& plant) { return array_of(plant.measurement()); })
+      .def_property_readonly("time", &Simulator::time)
+      .def_property_readonly("module_wear", [](const Simulator& plant) { return array_of(plant.module_wear()); })
+      .def_property_readonly("module_count", &Simulator::modules);
+
+  m.def("run_scenario", &run_scenario_file, py::arg("path"), py::arg("controllers") = py::none(),
+        py::arg("seed") = py::none(), py::arg("backend") = py::none(), py::arg("wear_weight") = py::none(),
+        "Runs a scenario file's controllers on the plant: {name: {metrics, log, ...}} (swerve-mpc run)");
+  m.def("sweep", &sweep_file, py::arg("path"), py::arg("wear_weights") = py::none(),
+        py::arg("tolerances") = py::none(), py::arg("heading_tolerance") = 0.5 * kPi / 180.0,
+        py::arg("seed") = py::none(), py::arg("backend") = py::none(), py::arg("logs") = false,
+        "The baseline once, then the wear-aware controller at each wear weight or tolerance (swerve-mpc sweep)");
+}

@@ -1,0 +1,155 @@
+"""The Python module swervempc against the library's own behaviour: configs load, a controller
+steps on numpy arrays and closes the loop on the plant, a scenario run's log agrees with its
+metrics, the sweep runs, and every bad input is a ValueError carrying the library's message."""
+import math
+import os
+import unittest
+
+import numpy as np
+
+import swervempc as sm
+
+SOURCE = os.environ.get("SWERVE_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
+CONFIGS = os.path.join(SOURCE, "configs")
+TEST_DATA = os.path.join(SOURCE, "tests", "app", "data")
+VEHICLE = os.path.join(CONFIGS, "vehicles", "agv_4wheel.yaml")
+CONTROLLER = os.path.join(CONFIGS, "controllers", "default.yaml")
+BASELINE = os.path.join(CONFIGS, "controllers", "kinematic_baseline.yaml")
+
+
+def straight_line(t0, seconds, speed=0.5):
+    """Rows (t, x, y, psi): a line along x at `speed`, as a planner would publish it."""
+    t = t0 + np.arange(0.0, seconds, 0.1)
+    return np.column_stack([t, speed * t, np.zeros_like(t), np.zeros_like(t)])
+
+
+class Configs(unittest.TestCase):
+    def test_vehicle_loads_with_its_layout(self):
+        vehicle = sm.load_vehicle(VEHICLE)
+        self.assertEqual(vehicle.module_count, 4)
+        self.assertEqual(vehicle.module_positions.shape, (4, 2))
+        self.assertGreater(vehicle.mass, 0.0)
+        self.assertTrue(sm.__version__.count(".") == 2)
+
+    def test_controller_config_loads_and_its_settings_change(self):
+        config = sm.load_controller_config(CONTROLLER)
+        self.assertEqual(config.type, "wear_mpc")
+        config.horizon = 10
+        config.wear_weight = 0.1
+        self.assertEqual(config.horizon, 10)
+        config.validate()
+
+    def test_a_missing_file_is_a_value_error_naming_it(self):
+        with self.assertRaisesRegex(ValueError, "no_such_vehicle.yaml"):
+            sm.load_vehicle(os.path.join(CONFIGS, "no_such_vehicle.yaml"))
+
+    def test_an_invalid_setting_is_a_value_error_naming_the_field(self):
+        config = sm.load_controller_config(CONTROLLER)
+        config.horizon = 0
+        with self.assertRaisesRegex(ValueError, "horizon = 0"):
+            config.validate()
+        with self.assertRaisesRegex(ValueError, "horizon = 0"):
+            sm.make_controller(config, sm.load_vehicle(VEHICLE), sm.TrajectoryReference(16))
+
+
+class TrajectoryReference(unittest.TestCase):
+    def test_refused_samples_name_the_sample_and_keep_the_previous_trajectory(self):
+        reference = sm.TrajectoryReference(64)
+        reference.publish(straight_line(0.0, 4.0))
+        bad = straight_line(0.0, 4.0)
+        bad[3, 0] = bad[2, 0]  # time not increasing at sample 3
+        with self.assertRaisesRegex(ValueError, "sample 3"):
+            reference.publish(bad)
+        nan = straight_line(0.0, 4.0)
+        nan[5, 1] = float("nan")
+        with self.assertRaisesRegex(ValueError, "sample 5"):
+            reference.publish(nan)
+        with self.assertRaisesRegex(ValueError, "2-D"):
+            reference.publish(np.zeros(4))
+        # The first trajectory (0 to 3.9 s) is still the one the controller would take up.
+        controller = sm.make_controller(VEHICLE, BASELINE, reference)
+        self.assertNotEqual(controller.step(np.zeros(10), 0.0).source, "safe_stop")
+        self.assertAlmostEqual(reference.duration, 3.9)
+        with self.assertRaisesRegex(ValueError, "capacity"):
+            sm.TrajectoryReference(1)
+
+
+class ClosedLoop(unittest.TestCase):
+    def test_controller_tracks_a_published_line_on_the_plant(self):
+        vehicle = sm.load_vehicle(VEHICLE)
+        reference = sm.TrajectoryReference(128, max_age=5.0)
+        reference.publish(straight_line(0.0, 8.0))
+        controller = sm.make_controller(VEHICLE, BASELINE, reference)
+        plant = sm.Simulator(vehicle, control_period=0.05, seed=3)
+        plant.reset(np.zeros(6 + vehicle.module_count))
+        errors = []
+        for k in range(60):
+            t = 0.05 * k
+            out = controller.step(plant.measurement, t)
+            self.assertEqual(out.wheel_speed.shape, (4,))
+            self.assertNotEqual(out.source, "safe_stop", out.reason)
+            self.assertTrue(plant.advance(out))
+            x, y = plant.measurement[0], plant.measurement[1]
+            errors.append(math.hypot(x - 0.5 * plant.time, y))
+        # Three seconds along a 0.5 m/s line: the vehicle moved and stayed on it.
+        self.assertGreater(plant.measurement[0], 1.0)
+        self.assertLess(max(errors[20:]), 0.05)
+        self.assertTrue(np.all(plant.module_wear >= 0.0))
+
+    def test_wear_aware_controller_steps_and_reports_its_solve(self):
+        reference = sm.TrajectoryReference(128)
+        reference.publish(straight_line(0.0, 8.0))
+        controller = sm.make_controller(VEHICLE, CONTROLLER, reference)
+        state = np.zeros(10)
+        out = controller.step(state, 0.0)
+        self.assertEqual(out.steering_angle.shape, (4,))
+        self.assertTrue(np.all(np.isfinite(out.wheel_speed)))
+        self.assertNotEqual(out.solve_status, "not_run")
+
+    def test_a_wrong_state_shape_is_a_value_error_and_nan_is_a_safe_stop(self):
+        reference = sm.TrajectoryReference(16)
+        reference.publish(straight_line(0.0, 1.0))
+        controller = sm.make_controller(VEHICLE, BASELINE, reference)
+        with self.assertRaisesRegex(ValueError, r"expected a 1-D array of 10 values, got shape \(7,\)"):
+            controller.step(np.zeros(7), 0.0)
+        out = controller.step(np.full(10, np.nan), 0.0)
+        self.assertEqual(out.source, "safe_stop")
+        self.assertTrue(np.all(out.wheel_speed == 0.0))
+
+    def test_no_trajectory_yet_is_a_safe_stop_with_the_reason(self):
+        controller = sm.make_controller(VEHICLE, BASELINE, sm.TrajectoryReference(16))
+        out = controller.step(np.zeros(10), 0.0)
+        self.assertEqual(out.source, "safe_stop")
+        self.assertIn("trajectory", out.reason)
+
+
+class Runs(unittest.TestCase):
+    def test_scenario_log_agrees_with_its_metrics(self):
+        runs = sm.run_scenario(os.path.join(TEST_DATA, "short_curve_baseline.yaml"))
+        self.assertIn("kinematic_baseline", runs)
+        for name, run in runs.items():
+            self.assertTrue(run["completed"], run["failure"])
+            log, metrics = run["log"], run["metrics"]
+            self.assertEqual(len(log["t"]), metrics["steps"])
+            self.assertEqual(log["wheel_speed"].shape[0], metrics["steps"])
+            # The RMSE recomputed here from the logged positions is the library's.
+            rmse = math.sqrt(np.mean((log["x"] - log["x_ref"]) ** 2 + (log["y"] - log["y_ref"]) ** 2))
+            self.assertAlmostEqual(rmse, metrics["tracking_rmse_m"], places=9, msg=name)
+
+    def test_overrides_are_checked(self):
+        with self.assertRaisesRegex(ValueError, "nope"):
+            sm.run_scenario(os.path.join(TEST_DATA, "short_curve_baseline.yaml"), controllers=["nope"])
+
+    def test_sweep_runs_the_baseline_and_each_point(self):
+        result = sm.sweep(os.path.join(TEST_DATA, "short_offset60.yaml"), wear_weights=[0.1, 1.0])
+        self.assertEqual(result["swept"], "wear_weight")
+        self.assertEqual(result["baseline"]["type"], "kinematic_baseline")
+        self.assertEqual([p["wear_weight"] for p in result["points"]], [0.1, 1.0])
+        with self.assertRaisesRegex(ValueError, "exactly one"):
+            sm.sweep(os.path.join(TEST_DATA, "short_offset60.yaml"))
+        with self.assertRaisesRegex(ValueError, r"sweep point\[0\].wear_weight = -1"):
+            sm.sweep(os.path.join(TEST_DATA, "short_offset60.yaml"), wear_weights=[-1.0])
+
+
+if __name__ == "__main__":
+    unittest.main()
