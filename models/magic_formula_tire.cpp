@@ -21,6 +21,7 @@ void check_channel(const std::string& name, const MagicFormulaCoefficients& k) {
     reject(name + ".C", k.c, "must be in (0, 2) (the force must not reverse sign at large slip)");
   }
   if (!std::isfinite(k.e) || k.e > 1.0) reject(name + ".E", k.e, "must be finite and <= 1");
+  if (k.mu && (!std::isfinite(*k.mu) || *k.mu <= 0.0)) reject(name + ".mu", *k.mu, "must be finite and > 0");
 }
 
 }  // namespace

@@ -58,13 +58,13 @@ MagicFormulaTire<T>::MagicFormulaTire(const MagicFormulaParams& params)
 template <typename T>
 T MagicFormulaTire<T>::pure_longitudinal(T slip_ratio, T fz) const {
   const T load = scalar_value(fz) > 0.0 ? fz : T(0.0);
-  return params_.mu * load * detail::magic_formula_curve(params_.longitudinal, slip_ratio);
+  return params_.mu_longitudinal() * load * detail::magic_formula_curve(params_.longitudinal, slip_ratio);
 }
 
 template <typename T>
 T MagicFormulaTire<T>::pure_lateral(T slip_angle, T fz) const {
   const T load = scalar_value(fz) > 0.0 ? fz : T(0.0);
-  return params_.mu * load * detail::magic_formula_curve(params_.lateral, slip_angle);
+  return params_.mu_lateral() * load * detail::magic_formula_curve(params_.lateral, slip_angle);
 }
 
 template <typename T>
@@ -72,17 +72,19 @@ TireForces<T> MagicFormulaTire<T>::forces(T slip_ratio, T slip_angle, T fz) cons
   using std::sqrt;
   TireForces<T> out;
   const T load = scalar_value(fz) > 0.0 ? fz : T(0.0);
-  const T d = params_.mu * load;  // D, the same for both channels (one mu)
+  // D per channel; the combined forces stay inside the friction ellipse with semi-axes dx, dy.
+  const T dx = params_.mu_longitudinal() * load;
+  const T dy = params_.mu_lateral() * load;
   switch (params_.combined_slip) {
     case CombinedSlipMethod::kNone:
-      out.fx_wheel = d * detail::magic_formula_curve(params_.longitudinal, slip_ratio);
-      out.fy_wheel = d * detail::magic_formula_curve(params_.lateral, slip_angle);
+      out.fx_wheel = dx * detail::magic_formula_curve(params_.longitudinal, slip_ratio);
+      out.fy_wheel = dy * detail::magic_formula_curve(params_.lateral, slip_angle);
       return out;
     case CombinedSlipMethod::kEllipseCap: {
-      out.fx_wheel = d * detail::magic_formula_curve(params_.longitudinal, slip_ratio);
-      out.fy_wheel = d * detail::magic_formula_curve(params_.lateral, slip_angle);
-      if (scalar_value(d) <= 0.0) return out;
-      const T rho_sq = (out.fx_wheel * out.fx_wheel + out.fy_wheel * out.fy_wheel) / (d * d);
+      out.fx_wheel = dx * detail::magic_formula_curve(params_.longitudinal, slip_ratio);
+      out.fy_wheel = dy * detail::magic_formula_curve(params_.lateral, slip_angle);
+      if (scalar_value(load) <= 0.0) return out;
+      const T rho_sq = out.fx_wheel * out.fx_wheel / (dx * dx) + out.fy_wheel * out.fy_wheel / (dy * dy);
       if (scalar_value(rho_sq) > 1.0) {
         const T scale = T(1.0) / sqrt(rho_sq);
         out.fx_wheel *= scale;
@@ -106,8 +108,8 @@ TireForces<T> MagicFormulaTire<T>::forces(T slip_ratio, T slip_angle, T fz) cons
         gx = detail::magic_formula_curve(params_.longitudinal, T(peak_x_ * s)) / s;
         gy = detail::magic_formula_curve(params_.lateral, T(peak_y_ * s)) / s;
       }
-      out.fx_wheel = d * gx * sx;
-      out.fy_wheel = d * gy * sy;
+      out.fx_wheel = dx * gx * sx;
+      out.fy_wheel = dy * gy * sy;
       return out;
     }
   }

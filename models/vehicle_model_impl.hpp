@@ -43,7 +43,8 @@ VehicleModel<T>::VehicleModel(const VehicleParams& params, Fidelity fidelity)
   {
     const MagicFormulaParams& tire = params_.tire;
     const double slope =
-        tire.mu * std::max(tire.longitudinal.b * tire.longitudinal.c, tire.lateral.b * tire.lateral.c);
+        std::max(tire.mu_longitudinal() * tire.longitudinal.b * tire.longitudinal.c,
+                 tire.mu_lateral() * tire.lateral.b * tire.lateral.c);
     Eigen::Matrix3d stiffness = Eigen::Matrix3d::Zero();
     for (int i = 0; i < modules_; ++i) {
       const Eigen::Vector2d arm = params_.layout.position_body(i) - params_.center_of_mass_body;

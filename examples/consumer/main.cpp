@@ -1,7 +1,8 @@
-// A vehicle program against the installed SwerveMPC: the loop a user writes. One call builds the
-// controller from a vehicle file and a controller file; a planner thread publishes a new trajectory
-// every second into a TrajectoryReference; the control loop measures, steps the controller and
-// sends its module commands, here to the library's simulated plant standing in for the drives.
+// A vehicle program against the installed SwerveMPC: the loop a user writes. The controller is
+// built from a vehicle file and the shipped controller file, resampled for a 50 Hz loop; a planner
+// thread publishes a new trajectory every second into a TrajectoryReference; the control loop
+// measures, steps the controller and sends its module commands, here to the library's simulated
+// plant standing in for the drives.
 //
 //   swerve_consumer CONFIG_DIR [SECONDS]   (CONFIG_DIR: the installed share/swerve_mpc/configs)
 #include <algorithm>
@@ -21,6 +22,10 @@
 #include "swerve/version.hpp"
 
 namespace {
+
+constexpr double kControlPeriod = 0.02;  // s: a 50 Hz control loop
+constexpr int kHorizon = 50;             // steps: the shipped config's 1 s of look-ahead
+constexpr double kSolveBudget = 0.015;   // s of each 20 ms period for the whole controller step
 
 // The planner: from the time it plans at, the next 4 s of one gentle left arc (radius 4 m at
 // 0.5 m/s, from the origin at t = 0), heading along the path. Every replan continues the same arc,
@@ -48,8 +53,14 @@ int main(int argc, char** argv) {
     const swerve::VehicleParams vehicle = swerve::load_vehicle_config_file(configs + "/vehicles/agv_4wheel.yaml");
     auto trajectory = std::make_shared<swerve::TrajectoryReference>(64, /*max_age=*/2.0);
     if (!trajectory->publish(plan_from(0.0)).accepted()) return 1;
-    const std::unique_ptr<swerve::TrackingController> controller = swerve::make_controller(
-        configs + "/vehicles/agv_4wheel.yaml", configs + "/controllers/default.yaml", trajectory);
+    // The shipped controller steps at 20 Hz; this vehicle's loop runs at 50 Hz, so the config is
+    // loaded as a struct and resampled before the controller is built (the one-call form,
+    // make_controller(vehicle_yaml, controller_yaml, trajectory), takes the file as it is).
+    swerve::ControllerConfig config = swerve::load_controller_config_file(configs + "/controllers/default.yaml");
+    config.set_sampling(kHorizon, kControlPeriod);
+    config.mpc.solve_budget = kSolveBudget;
+    const std::unique_ptr<swerve::TrackingController> controller =
+        swerve::make_controller(config, vehicle, trajectory);
 
     // The planner thread replans once a second of vehicle time; the control loop never waits for it.
     std::atomic<double> vehicle_time{0.0};
@@ -68,7 +79,7 @@ int main(int argc, char** argv) {
     });
 
     swerve::SimulatorOptions plant_options;
-    plant_options.control_period = 0.05;  // the default controller's 20 Hz
+    plant_options.control_period = kControlPeriod;
     swerve::Simulator plant(vehicle, plant_options);
     plant.reset(Eigen::VectorXd::Zero(6 + vehicle.layout.size()));
     double squared_error = 0.0;

@@ -78,6 +78,11 @@ void ControllerConfig::set_measurement_filter(const MeasurementFilterOptions& fi
   mpc.measurement_filter = baseline.measurement_filter = filter;
 }
 
+void ControllerConfig::set_sampling(int horizon, double dt) {
+  mpc.horizon = baseline.horizon = horizon;
+  mpc.dt = baseline.dt = dt;
+}
+
 const char* to_string(ControllerKind kind) noexcept {
   return kind == ControllerKind::kWearMpc ? "wear_mpc" : "kinematic_baseline";
 }
@@ -98,8 +103,7 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
                                                                                       : ControllerKind::kKinematicBaseline;
   const int horizon = node.get_int_or("horizon", c.mpc.horizon, 1, 1000);
   const double dt = node.get_double_or("dt", c.mpc.dt, Bound::positive());
-  c.mpc.horizon = c.baseline.horizon = horizon;
-  c.mpc.dt = c.baseline.dt = dt;
+  c.set_sampling(horizon, dt);
   if (c.kind == ControllerKind::kWearMpc) {
     c.mpc.solve_budget = node.get_double_or("solve_budget", c.mpc.solve_budget, Bound::positive());
     c.mpc.overrun_grace = node.get_double_or("overrun_grace", c.mpc.overrun_grace, Bound::non_negative());

@@ -13,14 +13,20 @@ MagicFormulaCoefficients load_channel(const ConfigNode& node) {
   k.b = node.get_double("B", Bound::positive());
   k.c = node.get_double("C", Bound{0.0, 2.0, true, true});
   k.e = node.get_double_or("E", 0.0, Bound{-1e308, 1.0, false, false});
+  if (node.has("mu")) k.mu = node.get_double("mu", Bound::positive());
   return k;
 }
 
 MagicFormulaParams load_tire(const ConfigNode& node) {
   MagicFormulaParams tire;
-  tire.mu = node.get_double("mu", Bound::positive());
   tire.longitudinal = load_channel(node.child("longitudinal"));
   tire.lateral = load_channel(node.child("lateral"));
+  // The common mu serves every channel without its own; with both set it may be left out.
+  if (tire.longitudinal.mu && tire.lateral.mu && !node.has("mu")) {
+    tire.mu = *tire.longitudinal.mu;  // unused: both channels have their own
+  } else {
+    tire.mu = node.get_double("mu", Bound::positive());
+  }
   const std::string method =
       node.get_choice_or("combined_slip", {"none", "ellipse_cap", "normalized_slip"}, "normalized_slip");
   tire.combined_slip = method == "none"          ? CombinedSlipMethod::kNone

@@ -47,6 +47,8 @@ nlohmann::json load_vehicle(const config::ConfigNode& section) {
             {"drive_time_constant_s", vehicle.actuators.drive_time_constant}}},
           {"tire",
            {{"mu", vehicle.tire.mu},
+            {"mu_longitudinal", vehicle.tire.mu_longitudinal()},
+            {"mu_lateral", vehicle.tire.mu_lateral()},
             {"longitudinal", {{"B", vehicle.tire.longitudinal.b}, {"C", vehicle.tire.longitudinal.c},
                               {"E", vehicle.tire.longitudinal.e},
                               {"peak_slip", magic_formula_peak_slip(vehicle.tire.longitudinal)}}},

@@ -338,9 +338,10 @@ PYBIND11_MODULE(swervempc, m) {
       .def_property_readonly("type", [](const ControllerConfig& c) { return std::string(to_string(c.kind)); })
       .def_property(
           "horizon", [](const ControllerConfig& c) { return c.mpc.horizon; },
-          [](ControllerConfig& c, int n) { c.mpc.horizon = n; })
+          [](ControllerConfig& c, int n) { c.set_sampling(n, c.mpc.dt); })
       .def_property(
-          "dt", [](const ControllerConfig& c) { return c.mpc.dt; }, [](ControllerConfig& c, double dt) { c.mpc.dt = dt; })
+          "dt", [](const ControllerConfig& c) { return c.mpc.dt; },
+          [](ControllerConfig& c, double dt) { c.set_sampling(c.mpc.horizon, dt); }, "s; the control period too")
       .def_property(
           "solve_budget", [](const ControllerConfig& c) { return c.mpc.solve_budget; },
           [](ControllerConfig& c, double s) { c.mpc.solve_budget = s; })

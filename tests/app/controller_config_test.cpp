@@ -184,5 +184,14 @@ TEST(MakeController, BuildsAReadyControllerFromAVehicleFileAndAControllerFile) {
   }
 }
 
+TEST(ControllerConfig, SetSamplingMovesTheBaselinePlannerWithTheController) {
+  ControllerConfig config;
+  config.set_sampling(40, 0.02);
+  EXPECT_EQ(config.mpc.horizon, 40);
+  EXPECT_EQ(config.baseline.horizon, 40);
+  EXPECT_DOUBLE_EQ(config.mpc.dt, 0.02);
+  EXPECT_DOUBLE_EQ(config.baseline.dt, 0.02);
+}
+
 }  // namespace
 }  // namespace swerve

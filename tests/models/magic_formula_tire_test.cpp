@@ -296,5 +296,87 @@ TEST(MagicFormulaParams, RejectsEachBadFieldNamingItAndItsValue) {
   EXPECT_THROW(MagicFormulaTire<double>(MagicFormulaParams{0.0}), ConfigError);
 }
 
+// Per-channel friction (Pacejka's mu_x, mu_y): each channel peaks at its own D = mu Fz, pure slip
+// scales with it alone, and combined slip stays inside the ellipse with those semi-axes.
+MagicFormulaParams per_channel_params(CombinedSlipMethod method) {
+  MagicFormulaParams p;
+  p.mu = 0.8;
+  p.longitudinal.mu = 1.0;
+  p.lateral.mu = 0.5;
+  p.combined_slip = method;
+  return p;
+}
+
+TEST(MagicFormulaTire, EachChannelPeaksAtItsOwnMu) {
+  const MagicFormulaTire<double> tire(per_channel_params(CombinedSlipMethod::kNone));
+  EXPECT_NEAR(tire.pure_longitudinal(tire.peak_slip_ratio(), kFz), 1.0 * kFz, 1e-9);
+  EXPECT_NEAR(tire.pure_lateral(tire.peak_slip_angle(), kFz), 0.5 * kFz, 1e-9);
+  // Pure slip through forces() is the pure curve of its own channel, for every combined method.
+  for (const CombinedSlipMethod method :
+       {CombinedSlipMethod::kNone, CombinedSlipMethod::kEllipseCap, CombinedSlipMethod::kNormalizedSlip}) {
+    const MagicFormulaTire<double> t(per_channel_params(method));
+    EXPECT_NEAR(t.forces(0.05, 0.0, kFz).fx_wheel, t.pure_longitudinal(0.05, kFz), 1e-9) << to_string(method);
+    EXPECT_NEAR(t.forces(0.0, 0.05, kFz).fy_wheel, t.pure_lateral(0.05, kFz), 1e-9) << to_string(method);
+  }
+}
+
+TEST(MagicFormulaTire, PerChannelMuScalesOnlyItsOwnChannel) {
+  MagicFormulaParams common;
+  common.combined_slip = CombinedSlipMethod::kNone;
+  const MagicFormulaTire<double> base(common);
+  const MagicFormulaTire<double> split(per_channel_params(CombinedSlipMethod::kNone));
+  for (const double slip : {-0.3, -0.02, 0.01, 0.1, 0.5}) {
+    EXPECT_NEAR(split.pure_longitudinal(slip, kFz), base.pure_longitudinal(slip, kFz) * 1.0 / 0.8, 1e-9);
+    EXPECT_NEAR(split.pure_lateral(slip, kFz), base.pure_lateral(slip, kFz) * 0.5 / 0.8, 1e-9);
+  }
+}
+
+TEST(MagicFormulaTire, UnsetChannelMuIsTheCommonMuBitForBit) {
+  MagicFormulaParams common;
+  MagicFormulaParams explicit_channels = common;
+  explicit_channels.longitudinal.mu = common.mu;
+  explicit_channels.lateral.mu = common.mu;
+  for (const CombinedSlipMethod method :
+       {CombinedSlipMethod::kNone, CombinedSlipMethod::kEllipseCap, CombinedSlipMethod::kNormalizedSlip}) {
+    common.combined_slip = explicit_channels.combined_slip = method;
+    const TireForces<double> a = MagicFormulaTire<double>(common).forces(0.2, -0.15, kFz);
+    const TireForces<double> b = MagicFormulaTire<double>(explicit_channels).forces(0.2, -0.15, kFz);
+    EXPECT_EQ(a.fx_wheel, b.fx_wheel) << to_string(method);
+    EXPECT_EQ(a.fy_wheel, b.fy_wheel) << to_string(method);
+  }
+}
+
+TEST(MagicFormulaTire, CombinedSlipStaysInsideTheEllipseOfTheChannelMus) {
+  for (const CombinedSlipMethod method : {CombinedSlipMethod::kEllipseCap, CombinedSlipMethod::kNormalizedSlip}) {
+    const MagicFormulaTire<double> tire(per_channel_params(method));
+    double largest = 0.0;
+    for (const double kappa : {-0.8, -0.2, -0.05, 0.0, 0.03, 0.15, 0.6}) {
+      for (const double alpha : {-0.6, -0.1, 0.0, 0.02, 0.2, 0.9}) {
+        const TireForces<double> f = tire.forces(kappa, alpha, kFz);
+        const double rho = std::hypot(f.fx_wheel / (1.0 * kFz), f.fy_wheel / (0.5 * kFz));
+        EXPECT_LE(rho, 1.0 + 1e-9) << to_string(method) << " kappa " << kappa << " alpha " << alpha;
+        largest = std::max(largest, rho);
+      }
+    }
+    // The ellipse is reached, not merely respected (a cap far inside it would pass the bound too).
+    EXPECT_GT(largest, 0.95) << to_string(method);
+  }
+}
+
+TEST(MagicFormulaTire, RejectsANonPositiveChannelMuNamingIt) {
+  MagicFormulaParams p;
+  p.lateral.mu = 0.0;
+  try {
+    p.validate();
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("MagicFormulaParams.lateral.mu = 0: must be finite and > 0"),
+              std::string::npos)
+        << error.what();
+  }
+  p.lateral.mu = std::nan("");
+  EXPECT_THROW(p.validate(), ConfigError);
+}
+
 }  // namespace
 }  // namespace swerve

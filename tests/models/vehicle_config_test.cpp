@@ -114,6 +114,30 @@ TEST(VehicleConfig, ErrorsNameFileKeyPathAndValue) {
                "vehicle.tire: required key is missing");
 }
 
+TEST(VehicleConfig, EachTireChannelMayHaveItsOwnMu) {
+  const VehicleParams common = load_text(kMinimal);
+  EXPECT_FALSE(common.tire.longitudinal.mu.has_value());
+  EXPECT_DOUBLE_EQ(common.tire.mu_lateral(), 0.9);
+  const VehicleParams one = load_text(with("lateral: {B: 12, C: 1.2}", "lateral: {B: 12, C: 1.2, mu: 0.6}"));
+  EXPECT_DOUBLE_EQ(one.tire.mu_longitudinal(), 0.9);
+  EXPECT_DOUBLE_EQ(one.tire.mu_lateral(), 0.6);
+  // Both channels with their own: the common mu may be left out.
+  const VehicleParams both = load_text(with("{mu: 0.9, longitudinal: {B: 8, C: 1.6}, lateral: {B: 12, C: 1.2}}",
+                                            "{longitudinal: {B: 8, C: 1.6, mu: 1.1}, lateral: {B: 12, C: 1.2, mu: 0.7}}"));
+  EXPECT_DOUBLE_EQ(both.tire.mu_longitudinal(), 1.1);
+  EXPECT_DOUBLE_EQ(both.tire.mu_lateral(), 0.7);
+}
+
+TEST(VehicleConfig, ChannelMuErrorsNameTheKey) {
+  expect_error(with("lateral: {B: 12, C: 1.2}", "lateral: {B: 12, C: 1.2, mu: -0.6}"),
+               "vehicle.tire.lateral.mu = -0.6: must be > 0");
+  expect_error(with("lateral: {B: 12, C: 1.2}", "lateral: {B: 12, C: 1.2, mu: grippy}"), "vehicle.tire.lateral.mu");
+  // Only one channel with its own mu: the common one is still needed for the other.
+  expect_error(with("{mu: 0.9, longitudinal: {B: 8, C: 1.6}, lateral: {B: 12, C: 1.2}}",
+                    "{longitudinal: {B: 8, C: 1.6, mu: 1.1}, lateral: {B: 12, C: 1.2}}"),
+               "vehicle.tire.mu: required key is missing");
+}
+
 TEST(VehicleConfig, MissingFileIsAClearError) {
   EXPECT_THROW(load_vehicle_config_file(kVehicles + "no_such_vehicle.yaml"), ConfigError);
 }

@@ -26,6 +26,9 @@ struct ControllerConfig {
   double dt() const { return kind == ControllerKind::kWearMpc ? mpc.dt : baseline.dt; }
   // The observer in front of either controller (and of the wear_mpc's initial-guess planner).
   void set_measurement_filter(const MeasurementFilterOptions& filter);
+  // Horizon N and step dt (s) of both the wear-aware controller and the baseline (its own, or the
+  // wear-aware controller's initial-guess planner): the controller is stepped every dt.
+  void set_sampling(int horizon, double dt);
   void validate() const;       // throws ConfigError naming the field and value
 };
 

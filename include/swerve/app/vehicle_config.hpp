@@ -15,7 +15,8 @@ namespace swerve {
 //   gravity [9.81], wheel_radius, modules, limits  (see load_module_layout)
 //   casters [none]: [{position: [x, y], rolling_resistance [0.02]}]
 //   actuators [all defaults]: {steering_time_constant [0.05], drive_time_constant [0.05]}
-//   tire: {mu, longitudinal: {B, C, E [0]}, lateral: {B, C, E [0]},
+//   tire: {mu, longitudinal: {B, C, E [0], mu [tire.mu]}, lateral: {B, C, E [0], mu [tire.mu]},
+//          (mu may be left out when both channels give their own)
 //          combined_slip [normalized_slip] (none | ellipse_cap | normalized_slip),
 //          slip_speed_epsilon [0.05], smooth_slip [true]}
 //   wear [frictional_power, k = 1]: {model (frictional_power | archard), coefficient [1], smoothing [0]}

@@ -3,6 +3,8 @@
 // ceres::Jet gives exact derivatives; instantiated for double and swerve::ModelJet (models/jet.hpp).
 #pragma once
 
+#include <optional>
+
 #include <string>
 
 namespace swerve {
@@ -34,10 +36,13 @@ struct MagicFormulaCoefficients {
   double b = 10.0;   // stiffness factor (1/unit of slip)
   double c = 1.65;   // shape factor; (0, 2) so the force never reverses sign
   double e = 0.0;    // curvature factor; finite and <= 1 (Pacejka's condition for a single peak)
+  // This channel's own peak friction coefficient (Pacejka's mu_x or mu_y, D = mu Fz), e.g. for a
+  // tread that grips differently along and across; unset: MagicFormulaParams::mu.
+  std::optional<double> mu{};  // (braced, so {B, C, E} aggregate initialisation stays warning-free)
 };
 
 struct MagicFormulaParams {
-  double mu = 0.8;   // peak friction coefficient, D = mu Fz (paper-notes assumption 4)
+  double mu = 0.8;   // peak friction coefficient, D = mu Fz, of both channels unless one sets its own (assumption 4)
   MagicFormulaCoefficients longitudinal{10.0, 1.65, 0.0};  // x = slip ratio kappa (assumption 4)
   MagicFormulaCoefficients lateral{15.0, 1.3, 0.0};        // x = slip angle alpha, rad (assumption 4)
   CombinedSlipMethod combined_slip = CombinedSlipMethod::kNormalizedSlip;
@@ -46,6 +51,10 @@ struct MagicFormulaParams {
   // true: the smooth regularisation of the slip denominators (see compute_wheel_slip); false: the
   // exact max() form of assumption 3 (kinks at |u| = eps and |V_r| = |u|).
   bool smooth_slip = true;
+
+  // Each channel's peak friction coefficient: its own mu, or the common one.
+  double mu_longitudinal() const { return longitudinal.mu.value_or(mu); }
+  double mu_lateral() const { return lateral.mu.value_or(mu); }
 
   // Throws ConfigError naming the field, its value and the rule ("MagicFormulaParams.mu = 0: must
   // be finite and > 0").

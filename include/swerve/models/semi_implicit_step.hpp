@@ -264,9 +264,9 @@ class SemiImplicitStep {
     slip_speed_epsilon_ = params.tire.slip_speed_epsilon;
     // Sum over the tyres of their slip stiffness B C D (mean of the longitudinal and lateral
     // curves at the static loads), in N per unit slip: the damping the body's velocity sees.
-    const double stiffness_per_newton = 0.5 * params.tire.mu *
-                                        (params.tire.longitudinal.b * params.tire.longitudinal.c +
-                                         params.tire.lateral.b * params.tire.lateral.c);
+    const double stiffness_per_newton =
+        0.5 * (params.tire.mu_longitudinal() * params.tire.longitudinal.b * params.tire.longitudinal.c +
+               params.tire.mu_lateral() * params.tire.lateral.b * params.tire.lateral.c);
     for (int i = 0; i < modules_; ++i) {
       slip_stiffness_sum_ += stiffness_per_newton * model_.static_normal_loads()[static_cast<std::size_t>(i)];
     }
