@@ -101,7 +101,7 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
   (void)node.get_string_or("description", "");
   c.kind = node.get_choice("type", {"wear_mpc", "kinematic_baseline"}) == "wear_mpc" ? ControllerKind::kWearMpc
                                                                                       : ControllerKind::kKinematicBaseline;
-  const int horizon = node.get_int_or("horizon", c.mpc.horizon, 1, 1000);
+  const int horizon = node.get_int_or("horizon", c.mpc.horizon, 1, kMaxHorizon);
   const double dt = node.get_double_or("dt", c.mpc.dt, Bound::positive());
   c.set_sampling(horizon, dt);
   if (c.kind == ControllerKind::kWearMpc) {

@@ -9,7 +9,9 @@ namespace swerve {
 void TuningOptions::validate() const {
   if (horizons.empty()) throw ConfigError("TuningOptions.horizons: empty: give at least one horizon");
   for (const int n : horizons) {
-    if (n < 1 || n > 1000) throw_invalid_field("TuningOptions", "horizons[]", n, "must be in [1, 1000]");
+    if (n < 1 || n > kMaxHorizon) {
+      throw_invalid_field("TuningOptions", "horizons[]", n, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
+    }
   }
   if (cycles < 1 || cycles > kMaxScenarioSteps) {
     throw_invalid_field("TuningOptions", "cycles", cycles, "must be in [1, " + std::to_string(kMaxScenarioSteps) + "]");

@@ -11,7 +11,7 @@ namespace swerve {
 namespace {
 
 template <typename Value>
-[[noreturn]] void reject(const std::string& field, const Value& value, const char* rule) {
+[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
   throw_invalid_field("ControllerOptions", field, value, rule);
 }
 
@@ -113,7 +113,9 @@ void TrackingTolerance::validate() const {
 }
 
 void ControllerOptions::validate() const {
-  if (horizon < 1) reject("horizon", horizon, "must be >= 1");
+  if (horizon < 1 || horizon > kMaxHorizon) {
+    reject("horizon", horizon, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
+  }
   if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
   if (!std::isfinite(solve_budget) || solve_budget <= 0.0) reject("solve_budget", solve_budget, "must be finite and > 0");
   require_non_negative("overrun_grace", overrun_grace);

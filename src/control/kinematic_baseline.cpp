@@ -11,7 +11,7 @@ namespace swerve {
 namespace {
 
 template <typename Value>
-[[noreturn]] void reject(const std::string& field, const Value& value, const char* rule) {
+[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
   throw_invalid_field("BaselineOptions", field, value, rule);
 }
 
@@ -31,7 +31,9 @@ BaselineOptions validated(BaselineOptions options) {
 }  // namespace
 
 void BaselineOptions::validate() const {
-  if (horizon < 1) reject("horizon", horizon, "must be >= 1");
+  if (horizon < 1 || horizon > kMaxHorizon) {
+    reject("horizon", horizon, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
+  }
   if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
   for (int i = 0; i < 3; ++i) {
     if (!std::isfinite(pose_weight[i]) || pose_weight[i] < 0) reject("pose_weight", pose_weight.transpose(), "must be >= 0");

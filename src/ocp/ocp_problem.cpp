@@ -33,7 +33,9 @@ Eigen::VectorXd expand(const Eigen::VectorXd& given, int size, double fallback, 
 OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, CostWeights weights, InputBounds bounds)
     : model_(&model), horizon_(horizon), nx_(model.state_size()), nu_(model.input_size()), dt_(dt),
       weights_(std::move(weights)), bounds_(std::move(bounds)) {
-  if (horizon_ < 1) reject("horizon", horizon_, "must be >= 1");
+  if (horizon_ < 1 || horizon_ > kMaxHorizon) {
+    reject("horizon", horizon_, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
+  }
   if (!std::isfinite(dt_) || dt_ <= 0.0) reject("dt", dt_, "must be finite and > 0");
   if (nx_ < 6) reject("state_size", nx_, "must be >= 6 (pose and body twist first)");
   if (nu_ < 1) reject("input_size", nu_, "must be >= 1");

@@ -302,7 +302,7 @@ PYBIND11_MODULE(swervempc, m) {
   using namespace swerve::python;
   m.doc() = "SwerveMPC: tire-wear-aware model-predictive trajectory tracking for swerve-drive vehicles";
   m.attr("__version__") = kVersion;
-  // The library's own message, unchanged: "file.yaml: controller.horizon = 0: must be >= 1".
+  // The library's own message, unchanged: "file.yaml: controller.horizon = 0: must be in [1, 1000]".
   py::register_exception_translator([](std::exception_ptr error) {
     try {
       if (error) std::rethrow_exception(error);

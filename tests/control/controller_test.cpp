@@ -336,6 +336,7 @@ TEST(Controller, RejectsEveryInvalidOptionNamingTheField) {
   const std::vector<BadOption> cases = {
       {"horizon", [](ControllerOptions& o) { o.horizon = 0; }},
       {"horizon", [](ControllerOptions& o) { o.horizon = -3; }},
+      {"horizon", [](ControllerOptions& o) { o.horizon = kMaxHorizon + 1; }},  // built from structs, not YAML
       {"dt", [](ControllerOptions& o) { o.dt = 0.0; }},
       {"dt", [](ControllerOptions& o) { o.dt = -0.05; }},
       {"dt", [](ControllerOptions& o) { o.dt = kNaN; }},

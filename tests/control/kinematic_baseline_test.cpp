@@ -375,6 +375,8 @@ TEST(KinematicBaseline, RejectsInvalidOptionsNamingTheField) {
   BaselineOptions o;
   o.horizon = 0;
   expect_named(o, "horizon");
+  o.horizon = kMaxHorizon + 1;
+  expect_named(o, "horizon");
   o = {};
   o.dt = -1.0;
   expect_named(o, "dt");

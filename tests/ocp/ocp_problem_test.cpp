@@ -229,7 +229,7 @@ TEST(OcpProblem, TheTubeGradientMatchesFiniteDifferencesOutsideTheTube) {
 
 TEST(OcpProblem, ConstructionValidatesEveryField) {
   const DoubleIntegratorModel model;
-  EXPECT_EQ(error_of([&] { OcpProblem(model, 0, 0.1, {}, {}); }), "OcpProblem.horizon = 0: must be >= 1");
+  EXPECT_EQ(error_of([&] { OcpProblem(model, 0, 0.1, {}, {}); }), "OcpProblem.horizon = 0: must be in [1, 1000]");
   EXPECT_EQ(error_of([&] { OcpProblem(model, 5, -0.1, {}, {}); }), "OcpProblem.dt = -0.1: must be finite and > 0");
   CostWeights negative;
   negative.wear = -1.0;

@@ -20,6 +20,10 @@
 
 namespace swerve {
 
+// The longest horizon any problem, controller or baseline accepts (steps): far beyond a real-time
+// horizon, and small enough that a typo cannot make a controller allocate gigabytes.
+inline constexpr int kMaxHorizon = 1000;
+
 struct CostWeights {
   Eigen::Vector3d pose{10.0, 10.0, 5.0};  // Q on x, y, psi
   Eigen::Vector3d twist{0.0, 0.0, 0.0};   // Qv on vx, vy, r
