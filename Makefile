@@ -12,6 +12,8 @@ RELEASE_DIR := $(BUILD_DIR)/release
 TEST_DIR    := $(BUILD_DIR)/test
 ASAN_DIR    := $(BUILD_DIR)/asan
 FUZZ_DIR    := $(BUILD_DIR)/fuzz
+ARM64_DIR   := $(BUILD_DIR)/arm64
+ARM64_SYSROOT := $(abspath $(ARM64_DIR))/sysroot
 
 # `make fuzz`: executions per fuzz target, CI-sized (each well under a minute here; a controller
 # step solves an OCP, so that target runs ~30x fewer inputs a second), and libFuzzer's other flags.
@@ -20,7 +22,7 @@ FUZZ_RUNS_controller_step ?= 2000
 FUZZ_ARGS ?= -max_len=4096 -timeout=10 -rss_limit_mb=4096 -print_final_stats=1
 FUZZERS   := config controller_step
 
-.PHONY: all deps fuzz-deps demo test bench asan fuzz install clean format
+.PHONY: all deps fuzz-deps cross-deps demo test bench asan fuzz cross-arm64 install clean format
 
 all: test
 
@@ -30,6 +32,12 @@ deps:
 # clang and its libFuzzer runtime, needed by `make fuzz` only.
 fuzz-deps:
 	@scripts/install-deps.sh fuzz
+
+# The aarch64 cross toolchain and qemu-user, and the arm64 libraries unpacked into a sysroot,
+# needed by `make cross-arm64` only.
+cross-deps:
+	@scripts/install-deps.sh cross-arm64
+	@scripts/arm64-sysroot.sh $(ARM64_SYSROOT)
 
 # Release build for the demo, the benchmarks and install.
 $(RELEASE_DIR)/CMakeCache.txt: | deps
@@ -51,6 +59,15 @@ $(ASAN_DIR)/CMakeCache.txt: | deps
 $(FUZZ_DIR)/CMakeCache.txt: | fuzz-deps
 	CC=clang CXX=clang++ $(CMAKE) -S . -B $(FUZZ_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSWERVE_BUILD_FUZZERS=ON \
 	  -DSWERVE_ENABLE_DCHECKS=ON -DSWERVE_BUILD_TESTS=OFF -DSWERVE_BUILD_BENCHMARKS=OFF -DSWERVE_BUILD_CLI=OFF
+
+# Cross-built for aarch64 (the Raspberry Pi 4 and Jetson targets' architecture) with the test
+# build's settings: the core library, the SA and NLopt backends, the CLI and the test suites
+# (Ipopt's and Ceres' arm64 packages cannot be installed beside the host's; see the README).
+$(ARM64_DIR)/CMakeCache.txt: | cross-deps
+	$(CMAKE) -S . -B $(ARM64_DIR) -DCMAKE_TOOLCHAIN_FILE=$(CURDIR)/cmake/toolchains/aarch64-linux-gnu.cmake \
+	  -DSWERVE_ARM64_SYSROOT=$(ARM64_SYSROOT) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSWERVE_ENABLE_DCHECKS=ON \
+	  -DSWERVE_BUILD_BENCHMARKS=OFF -DSWERVE_BUILD_PYTHON=OFF -DSWERVE_WARNINGS_AS_ERRORS=ON \
+	  -DCMAKE_DISABLE_FIND_PACKAGE_Ceres=ON -DCMAKE_DISABLE_FIND_PACKAGE_PkgConfig=ON
 
 demo: deps $(RELEASE_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(RELEASE_DIR) -j $(JOBS)
@@ -82,6 +99,12 @@ endef
 fuzz: fuzz-deps $(FUZZ_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(FUZZ_DIR) -j $(JOBS) --target $(addsuffix _fuzzer,$(FUZZERS))
 	$(foreach name,$(FUZZERS),$(call run_fuzzer,$(name)))
+# Under qemu-aarch64: the unit tests, the CLI tests and the cross-architecture scenario check
+# (cli.ShortScenarioMatchesTheReferenceSummary). The layer check needs no emulation and runs too.
+cross-arm64: cross-deps $(ARM64_DIR)/CMakeCache.txt
+	$(CMAKE) --build $(ARM64_DIR) -j $(JOBS)
+	cd $(ARM64_DIR) && ctest --output-on-failure -j $(JOBS)
+
 install: deps $(RELEASE_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(RELEASE_DIR) -j $(JOBS)
 	$(CMAKE) --install $(RELEASE_DIR) --prefix $(PREFIX)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages SwerveMPC needs, and only those that are missing. Quiet and
 # idempotent when everything is present; runs `apt-get update` only when it has to install.
-# Usage: install-deps.sh [fuzz]   (fuzz: also clang and its libFuzzer runtime, for `make fuzz` only)
+# Usage: install-deps.sh [fuzz] [cross-arm64]   (fuzz: also clang and its libFuzzer runtime, for
+# `make fuzz` only; cross-arm64: the aarch64 cross toolchain and qemu-user, for `make cross-arm64`)
 set -euo pipefail
 
 packages=(
@@ -21,10 +22,14 @@ packages=(
 
 # Optional lists, named on the command line.
 fuzz_packages=(clang libclang-rt-dev)
+# `make cross-arm64`: the aarch64 cross compiler and the user-mode emulator (the arm64 libraries
+# are unpacked into a sysroot by scripts/arm64-sysroot.sh, not installed).
+cross_arm64_packages=(g++-aarch64-linux-gnu qemu-user)
 for list in "$@"; do
   case "$list" in
     fuzz) packages+=("${fuzz_packages[@]}") ;;
-    *) echo "install-deps: unknown package list '$list' (known: fuzz)" >&2; exit 2 ;;
+    cross-arm64) packages+=("${cross_arm64_packages[@]}") ;;
+    *) echo "install-deps: unknown package list '$list' (known: fuzz, cross-arm64)" >&2; exit 2 ;;
   esac
 done
 
