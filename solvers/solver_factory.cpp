@@ -36,8 +36,13 @@ void SolverConfig::validate() const {
   }
   if (backend == "sa") sa.validate();
   if (backend == "nlopt") nlopt.validate();
+  // An unbuilt backend was refused above; its options' rules live in its own library.
+#ifdef SWERVE_HAS_IPOPT
   if (backend == "ipopt") ipopt.validate();
+#endif
+#ifdef SWERVE_HAS_CERES
   if (backend == "ceres") ceres.validate();
+#endif
 }
 
 std::unique_ptr<Solver> make_solver(const SolverConfig& config, const OcpProblem& problem) {

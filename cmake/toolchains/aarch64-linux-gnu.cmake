@@ -21,7 +21,10 @@ set(CMAKE_FIND_ROOT_PATH_MODE_LIBRARY ONLY)
 set(CMAKE_FIND_ROOT_PATH_MODE_INCLUDE BOTH)
 set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE BOTH)
 
-# The emulator: the cross toolchain's C and C++ runtimes (-L), the sysroot's shared libraries.
+# The emulator: the cross toolchain's loader (-L) and its C and C++ runtimes first on the library
+# path, then the sysroot's shared libraries. The runtimes must be the loader's own: with a
+# multiarch libc6:arm64 of another build in /lib/aarch64-linux-gnu (apt installs one beside some
+# :arm64 packages), ld.so and libc mismatched and every program that started a thread spun forever.
 set(CMAKE_CROSSCOMPILING_EMULATOR
     qemu-aarch64 -L /usr/aarch64-linux-gnu
-    -E LD_LIBRARY_PATH=${SWERVE_ARM64_SYSROOT}/usr/lib/aarch64-linux-gnu)
+    -E LD_LIBRARY_PATH=/usr/aarch64-linux-gnu/lib:${SWERVE_ARM64_SYSROOT}/usr/lib/aarch64-linux-gnu)

@@ -172,8 +172,11 @@ TEST(TrajectoryReference, APlannerThreadPublishingWhileTheControlThreadSamplesNe
     ++cycles;
     if (reference.unusable(0.0) != nullptr) continue;
     const double y = reference.sample(0.0).pose_world.y();
+    // Torn: a pose of another trajectory (an integer away). Not bit equality: between samples the
+    // spline's interpolation of a constant returns it only to rounding where the compiler
+    // contracts it into fused multiply-adds (aarch64 does: 906 "tears" of 1 ulp under qemu).
     for (int k = 1; k <= 20; ++k) {
-      if (reference.sample(0.05 * k).pose_world.y() != y) ++torn;
+      if (std::abs(reference.sample(0.05 * k).pose_world.y() - y) > 0.25) ++torn;
     }
     if (y != std::round(y) || y < previous_y || reference.version() < previous_version) ++backwards;
     previous_y = y;
