@@ -101,6 +101,11 @@ ModuleArray<ModuleCommand> commands_of(const Array& steering_angle, const Array&
   return commands;
 }
 
+std::shared_ptr<const Reference> reference_or_throw(std::shared_ptr<TrajectoryReference> reference) {
+  if (!reference) throw py::value_error("reference: must not be None");
+  return reference;
+}
+
 // ---- controller -----------------------------------------------------------------------------------
 // A controller with the reference it tracks kept alive beside it.
 class PyController {
@@ -116,9 +121,9 @@ class PyController {
     return PyControlOutput(controller_->step(state, t, measured_at.value_or(t)));
   }
   void set_reference(std::shared_ptr<TrajectoryReference> reference) {
-    if (!reference) throw py::value_error("reference: must not be None");
-    controller_->set_reference(reference);
-    reference_ = std::move(reference);
+    std::shared_ptr<const Reference> tracked = reference_or_throw(std::move(reference));
+    controller_->set_reference(tracked);
+    reference_ = std::move(tracked);
   }
   void reset() { controller_->reset(); }
   std::string name() const { return controller_->name(); }
@@ -129,11 +134,6 @@ class PyController {
   std::shared_ptr<const Reference> reference_;
   int modules_;
 };
-
-std::shared_ptr<const Reference> reference_or_throw(std::shared_ptr<TrajectoryReference> reference) {
-  if (!reference) throw py::value_error("reference: must not be None");
-  return reference;
-}
 
 // ---- runs -----------------------------------------------------------------------------------------
 py::dict metrics_dict(const RunMetrics& m) {
@@ -242,12 +242,9 @@ py::dict run_scenario_file(const std::string& path, std::optional<std::vector<st
   RunOverrides o = overrides_of(std::move(controllers), seed, std::move(backend));
   o.wear_weight = wear_weight;
   std::vector<ControllerRun> runs;
-  std::string name;
   {
     py::gil_scoped_release release;  // minutes of simulation: let other Python threads run
-    const ScenarioConfig scenario = apply_overrides(load_scenario_config_file(path), o);
-    name = scenario.name;
-    runs = run_scenario(scenario);
+    runs = run_scenario(apply_overrides(load_scenario_config_file(path), o));
   }
   py::dict result;
   for (const ControllerRun& run : runs) result[py::str(run.name)] = run_dict(run, true);

@@ -15,6 +15,15 @@ function(run_step)
   endif()
   set(last_output "${out}" PARENT_SCOPE)
 endfunction()
+# build_example(<name> [cmake args...]): configures and builds examples/<name> against the
+# installed prefix, in a fresh WORK_DIR/<name>.
+function(build_example name)
+  set(build ${WORK_DIR}/${name})
+  file(REMOVE_RECURSE ${build})
+  run_step(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/${name} -B ${build}
+           -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=${BUILD_TYPE} ${ARGN})
+  run_step(${CMAKE_COMMAND} --build ${build})
+endfunction()
 # unfindable(<package>...): sets `unfindable` to the -D flags under which find_package fails for them.
 function(unfindable)
   set(flags "")
@@ -32,13 +41,9 @@ if(MODE STREQUAL "install")
   endif()
 
 elseif(MODE STREQUAL "consumer")
-  set(build ${WORK_DIR}/consumer)
-  file(REMOVE_RECURSE ${build})
-  run_step(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/consumer -B ${build}
-           -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=${BUILD_TYPE})
-  run_step(${CMAKE_COMMAND} --build ${build})
+  build_example(consumer)
   # Three seconds of the closed loop with a replan every second (two land after the first plan).
-  run_step(${build}/swerve_consumer ${prefix}/share/swerve_mpc/configs 3)
+  run_step(${WORK_DIR}/consumer/swerve_consumer ${prefix}/share/swerve_mpc/configs 3)
   if(NOT last_output MATCHES "SwerveMPC [0-9]+\\.[0-9]+\\.[0-9]+" OR
      NOT last_output MATCHES "closed loop: [0-9]+ steps, [12] replans, 0 safe stops, position RMSE")
     message(FATAL_ERROR "consumer printed:\n${last_output}")
@@ -46,14 +51,10 @@ elseif(MODE STREQUAL "consumer")
   message(STATUS "consumer output:\n${last_output}")
 
 elseif(MODE STREQUAL "kinematics_only")
-  set(build ${WORK_DIR}/kinematics_only)
-  file(REMOVE_RECURSE ${build})
   unfindable(yaml-cpp Ceres NLopt PkgConfig nlohmann_json)
-  run_step(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/kinematics_only -B ${build}
-           -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=${BUILD_TYPE} ${unfindable})
-  run_step(${CMAKE_COMMAND} --build ${build})
+  build_example(kinematics_only ${unfindable})
   # The program checks its own odometry against the commanded motion and exits non-zero if not.
-  run_step(${build}/swerve_kinematics_only)
+  run_step(${WORK_DIR}/kinematics_only/swerve_kinematics_only)
   if(NOT last_output MATCHES "kinematics only: pose after 4 s")
     message(FATAL_ERROR "kinematics_only printed:\n${last_output}")
   endif()
