@@ -31,6 +31,7 @@ struct RunArguments {
   std::vector<std::string> controllers;
   std::string seed;  // checked by seed_value(); kept as text so no conversion can clamp or wrap it
   std::string backend;
+  double work_clock = 0.0;  // s per clock read; 0: the steady clock (run only)
   bool quiet = false;
 };
 
@@ -63,6 +64,18 @@ const CLI::Validator kBackendRule(
       return "'" + printable_value(name) + "' was not built (built: " + listing + ")";
     },
     "BACKEND");
+
+// A work clock's cost per read: positive and at most a second (a larger one would end every solve at
+// its first read).
+const CLI::Validator kWorkClockRule(
+    [](std::string& text) -> std::string {
+      double value = 0.0;
+      const char* end = text.data() + text.size();
+      const auto [stop, error] = std::from_chars(text.data(), end, value);
+      if (!text.empty() && error == std::errc() && stop == end && value > 0.0 && value <= 1.0) return "";
+      return "'" + printable_value(text) + "': must be a number of seconds in (0, 1]";
+    },
+    "SECONDS");
 
 void declare_common(CLI::App& app, RunArguments* a) {
   app.add_option("scenario", a->scenario_file, "Scenario YAML (configs/scenarios/)")->required();
@@ -126,11 +139,18 @@ int run(const RunArguments& a) {
   std::vector<ControllerRun> runs;
   const ProgressCallback progress = progress_bar(scenario, a.quiet);
   for (std::size_t i = 0; i < scenario.controllers.size(); ++i) {
-    runs.push_back(run_controller(scenario, scenario.controllers[i], progress, i));
+    // Each controller on its own work clock, from the same start, when one is asked for.
+    std::optional<WorkClock> work_clock;
+    if (a.work_clock > 0.0) work_clock.emplace(a.work_clock);
+    runs.push_back(run_controller(scenario, scenario.controllers[i], progress, i, work_clock ? &*work_clock : nullptr));
   }
   write_run_outputs(scenario, runs, out_dir);
-  std::cout << comparison_table(scenario, runs) << "written: " << out_dir << "/summary.json and "
-            << runs.size() << " per-step CSV logs\n";
+  std::cout << comparison_table(scenario, runs);
+  if (a.work_clock > 0.0) {
+    std::cout << "deadlines and solve times are on a work clock (" << a.work_clock
+              << " s per read), not the wall clock\n";
+  }
+  std::cout << "written: " << out_dir << "/summary.json and " << runs.size() << " per-step CSV logs\n";
   for (const ControllerRun& r : runs) {
     if (!r.completed) {
       std::cerr << "swerve-mpc run: " << r.name << ": " << r.failure << "\n";
@@ -217,6 +237,10 @@ Command make_run_command() {
             declare_common(app, a.get());
             app.add_option("--controllers", a->controllers, "Run only these controllers (comma-separated)")
                 ->delimiter(',');
+            app.add_option("--work-clock", a->work_clock,
+                           "Keep deadlines on a clock that advances this many s per read instead of the wall clock: "
+                           "the same work on every machine and under an emulator (profiling, instruction counts)")
+                ->check(kWorkClockRule);
             return [a]() { return run(*a); };
           }};
 }

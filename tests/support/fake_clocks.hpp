@@ -1,8 +1,7 @@
 // Clocks for deterministic deadline tests (no wall-clock bound in ctest):
 //   ManualClock: time moves only when the test (or a scripted solver) advances it.
-//   WorkClock:   time moves by a fixed cost per unit of work: each model evaluation through
-//                ClockedModel, and optionally each read (the solvers read the clock once per
-//                proposal or iteration), so a solve's "duration" is a count of work, identical on
+//   WorkClock:   the library's clock that moves by a fixed cost per read; with ClockedModel, also by
+//                each model evaluation, so a solve's "duration" is a count of work, identical on
 //                every machine and under any load.
 #pragma once
 
@@ -24,22 +23,7 @@ class ManualClock final : public Clock {
   TimePoint now_{};  // the epoch: deadlines in tests are relative anyway
 };
 
-class WorkClock final : public Clock {
- public:
-  explicit WorkClock(double per_read_s = 0.0) : per_read_(to_duration(per_read_s)) {}
-  TimePoint now() const noexcept override {
-    now_ += per_read_;
-    ++reads_;
-    return now_;
-  }
-  void advance(Duration by) noexcept { now_ += by; }
-  long reads() const noexcept { return reads_; }
-
- private:
-  Duration per_read_;
-  mutable TimePoint now_{};
-  mutable long reads_ = 0;
-};
+using ::swerve::WorkClock;  // the library's (swerve/ocp/deadline.hpp)
 
 // A PredictionModel that charges every evaluation to a WorkClock: `step_cost_s` per step(),
 // `jacobian_cost_s` per step_jacobians(). The wrapped model does the real work.

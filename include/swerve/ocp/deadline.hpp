@@ -26,6 +26,29 @@ inline Duration to_duration(double seconds) noexcept {
 }
 inline double to_seconds(Duration duration) noexcept { return std::chrono::duration<double>(duration).count(); }
 
+// A clock that advances by the work done rather than the time taken: `per_read` at every read
+// (the solvers read once per proposal or iteration, the controller a few times per step), plus
+// whatever advance() adds. A run on it does the same work on every machine, under any load and
+// under an emulator, so it is repeatable bit for bit and its instructions can be counted
+// (`swerve-mpc run --work-clock`, scripts/cpu_slowdown.py); deadline tests use it too. Not
+// thread-safe: one per controller.
+class WorkClock final : public Clock {
+ public:
+  explicit WorkClock(double per_read_s = 0.0) noexcept : per_read_(to_duration(per_read_s)) {}
+  TimePoint now() const noexcept override {
+    now_ += per_read_;
+    ++reads_;
+    return now_;
+  }
+  void advance(Duration by) noexcept { now_ += by; }
+  long reads() const noexcept { return reads_; }
+
+ private:
+  Duration per_read_;
+  mutable TimePoint now_{};
+  mutable long reads_ = 0;
+};
+
 // A point in time on a given clock. Built implicitly from a steady-clock time point, so
 // `SolverClock::now() + 20ms` still reads as a deadline; `Deadline(at, clock)` names another clock.
 class Deadline {

@@ -1,0 +1,37 @@
+// The clocks deadlines are kept on: the work clock advances by its cost per read and by advance()
+// only, so a deadline on it passes after a known number of reads on every machine.
+#include "swerve/ocp/deadline.hpp"
+
+#include <gtest/gtest.h>
+
+namespace swerve {
+namespace {
+
+TEST(WorkClock, AdvancesByItsCostAtEveryReadAndByWhatIsAdded) {
+  WorkClock clock(1e-3);
+  const TimePoint first = clock.now();
+  const TimePoint second = clock.now();
+  EXPECT_EQ(second - first, to_duration(1e-3));
+  clock.advance(to_duration(5e-3));
+  EXPECT_EQ(clock.now() - second, to_duration(6e-3));
+  EXPECT_EQ(clock.reads(), 3);
+}
+
+TEST(WorkClock, ADeadlineOnItPassesAfterAFixedNumberOfReads) {
+  WorkClock clock(2e-3);
+  const Deadline deadline = Deadline::in(to_duration(10e-3), clock);  // read 1: t = 2 ms, deadline 12 ms
+  int reads_before_passing = 0;
+  while (!deadline.passed()) ++reads_before_passing;  // reads 2.. at 4, 6, 8, 10, 12 ms
+  EXPECT_EQ(reads_before_passing, 4);
+  EXPECT_EQ(clock.reads(), 6);
+}
+
+TEST(WorkClock, WithoutACostTimeStandsStill) {
+  WorkClock clock;
+  const TimePoint start = clock.now();
+  for (int i = 0; i < 100; ++i) EXPECT_EQ(clock.now(), start);
+  EXPECT_FALSE(Deadline(start + to_duration(1e-9), clock).passed());
+}
+
+}  // namespace
+}  // namespace swerve
