@@ -1,6 +1,12 @@
 #include "swerve/app/tuning.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <numeric>
+#include <stdexcept>
 
 #include "swerve/app/scenario_runner.hpp"
 
@@ -65,6 +71,206 @@ TuningResult tune_horizon(const VehicleParams& vehicle, const ControllerConfig& 
     result.rows.push_back(row);
   }
   return result;
+}
+
+void QualityTuningOptions::validate() const {
+  if (horizons.empty()) throw ConfigError("QualityTuningOptions.horizons: empty: give at least one horizon");
+  for (const int n : horizons) {
+    if (n < 1 || n > kMaxHorizon) {
+      throw_invalid_field("QualityTuningOptions", "horizons[]", n, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
+    }
+  }
+  if (knots.empty()) throw ConfigError("QualityTuningOptions.knots: empty: give at least one knot count");
+  for (const int k : knots) {
+    if (k < 1 || k > kMaxHorizon) {
+      throw_invalid_field("QualityTuningOptions", "knots[]", k, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
+    }
+  }
+}
+
+bool ScenarioScore::acceptable() const {
+  constexpr double kHalfDegree = 0.5 * 3.14159265358979323846 / 180.0;
+  return completed && deadline_misses == 0 && rmse_m <= std::max(1.1 * baseline_rmse_m, baseline_rmse_m + 0.02) &&
+         heading_rmse_rad <= std::max(1.1 * baseline_heading_rmse_rad, baseline_heading_rmse_rad + kHalfDegree);
+}
+
+const char* QualityTuningResult::rule() {
+  return "the least geometric-mean wear ratio among candidates that ran every scenario with position and heading "
+         "RMSE within max(1.1x, +0.02 m / +0.5 deg) of the baseline's and no deadline miss";
+}
+
+namespace {
+
+// The scenario at the target's control period.
+ScenarioConfig at_period(const ScenarioConfig& scenario, double period) {
+  ScenarioConfig copy = scenario;
+  copy.simulator.control_period = period;
+  return copy;
+}
+
+const ScenarioController& baseline_of(const ScenarioConfig& scenario) {
+  for (const ScenarioController& c : scenario.controllers) {
+    if (c.config.kind == ControllerKind::kKinematicBaseline) return c;
+  }
+  throw ConfigError("tune: scenario '" + scenario.name + "' (" + scenario.file +
+                    ") has no kinematic_baseline controller to compare against");
+}
+
+void summarise(CandidateScore* score) {
+  double log_sum = 0.0;
+  score->unacceptable = 0;
+  for (const ScenarioScore& s : score->scenarios) {
+    log_sum += std::log(std::max(s.wear_ratio, 1e-12));
+    if (!s.acceptable()) ++score->unacceptable;
+  }
+  score->geomean_wear_ratio = score->scenarios.empty() ? 0.0 : std::exp(log_sum / static_cast<double>(score->scenarios.size()));
+}
+
+bool better(const CandidateScore& a, const CandidateScore& b) {
+  if (a.unacceptable != b.unacceptable) return a.unacceptable < b.unacceptable;
+  return a.geomean_wear_ratio < b.geomean_wear_ratio;
+}
+
+}  // namespace
+
+QualityTuningResult tune_by_quality(const ControllerConfig& controller, const TargetConfig& target,
+                                    const std::vector<ScenarioConfig>& scenarios, const QualityTuningOptions& options,
+                                    const TuningProgress& progress) {
+  options.validate();
+  target.validate();
+  if (controller.kind != ControllerKind::kWearMpc) {
+    throw ConfigError("tune: controller '" + controller.name + "' is a " + to_string(controller.kind) +
+                      "; tuning sizes the wear_mpc controller");
+  }
+  if (scenarios.empty()) throw ConfigError("tune: no scenario to score the candidates on");
+  QualityTuningResult result;
+  result.budget_here_s = target.solve_budget / target.cpu_slowdown;
+  const double period = target.control_period;
+
+  // The baselines, once per scenario, at the target's period.
+  std::vector<ScenarioConfig> runs_at_period;
+  std::vector<RunMetrics> baselines;
+  for (const ScenarioConfig& scenario : scenarios) {
+    runs_at_period.push_back(at_period(scenario, period));
+    ScenarioController baseline = baseline_of(scenario);
+    baseline.config.set_sampling(baseline.config.baseline.horizon, period);
+    const ControllerRun run = run_controller(runs_at_period.back(), baseline, {}, 0, options.clock);
+    if (!run.completed) throw ConfigError("tune: the baseline failed on '" + scenario.name + "': " + run.failure);
+    baselines.push_back(run.metrics);
+  }
+
+  const auto score_on = [&](const TuningCandidate& candidate, std::size_t index) {
+    ScenarioController entry{"wear_mpc", "", controller};
+    entry.config.set_sampling(candidate.horizon, period);
+    entry.config.mpc.solve_budget = result.budget_here_s;
+    entry.config.solver.sa.knots = candidate.knots;
+    const ControllerRun run = run_controller(runs_at_period[index], entry, {}, 0, options.clock);
+    const RunMetrics& b = baselines[index];
+    ScenarioScore s;
+    s.scenario = scenarios[index].name;
+    s.completed = run.completed;
+    s.wear_ratio = b.wear_total > 0.0 ? run.metrics.wear_total / b.wear_total : 1.0;
+    s.rmse_m = run.metrics.tracking_rmse_m;
+    s.baseline_rmse_m = b.tracking_rmse_m;
+    s.heading_rmse_rad = run.metrics.heading_rmse_rad;
+    s.baseline_heading_rmse_rad = b.heading_rmse_rad;
+    s.step_p99_ms = run.metrics.step_time_p99_ms;
+    s.deadline_misses = run.metrics.deadline_misses;
+    s.fallbacks = run.metrics.fallbacks;
+    return s;
+  };
+
+  // Round 1: every candidate on the first scenario; the controller's own setting is one of them.
+  const auto add = [&](int horizon, int knots) {
+    const TuningCandidate candidate{horizon, std::min(knots, horizon)};
+    for (std::size_t i = 0; i < result.candidates.size(); ++i) {
+      const TuningCandidate& c = result.candidates[i].candidate;
+      if (c.horizon == candidate.horizon && c.knots == candidate.knots) return static_cast<int>(i);
+    }
+    CandidateScore score;
+    score.candidate = candidate;
+    result.candidates.push_back(score);
+    return static_cast<int>(result.candidates.size()) - 1;
+  };
+  for (const int horizon : options.horizons) {
+    for (const int knots : options.knots) add(horizon, knots);
+  }
+  const int knots_given = controller.solver.sa.knots > 0 ? controller.solver.sa.knots : controller.mpc.horizon;
+  result.incumbent = add(controller.mpc.horizon, knots_given);
+  const int total = static_cast<int>(result.candidates.size());
+  for (int i = 0; i < total; ++i) {
+    CandidateScore& score = result.candidates[static_cast<std::size_t>(i)];
+    score.scenarios.push_back(score_on(score.candidate, 0));
+    summarise(&score);
+    if (progress) progress(i + 1, total, 1);
+  }
+  // Round 2: the better half on every scenario.
+  std::vector<int> order(static_cast<std::size_t>(total));
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return better(result.candidates[static_cast<std::size_t>(a)], result.candidates[static_cast<std::size_t>(b)]);
+  });
+  // Round 2: the better half, and the controller's own setting (the comparison), on every scenario.
+  std::vector<int> finalists(order.begin(), order.begin() + std::max(1, (total + 1) / 2));
+  if (std::find(finalists.begin(), finalists.end(), result.incumbent) == finalists.end()) {
+    finalists.push_back(result.incumbent);
+  }
+  for (std::size_t rank = 0; rank < finalists.size(); ++rank) {
+    CandidateScore& score = result.candidates[static_cast<std::size_t>(finalists[rank])];
+    for (std::size_t index = 1; index < scenarios.size(); ++index) score.scenarios.push_back(score_on(score.candidate, index));
+    score.finalist = true;
+    summarise(&score);
+    if (progress) progress(static_cast<int>(rank) + 1, static_cast<int>(finalists.size()), 2);
+  }
+  const auto choose = [&] {
+    for (int i = 0; i < total; ++i) {
+      const CandidateScore& score = result.candidates[static_cast<std::size_t>(i)];
+      if (!score.finalist || score.unacceptable > 0) continue;
+      if (result.best < 0 || better(score, result.candidates[static_cast<std::size_t>(result.best)])) result.best = i;
+    }
+  };
+  choose();
+  // Round 3, only when no finalist was acceptable everywhere (one scenario is a rough predictor of
+  // the others): the rest, in round 1's order, on every scenario, until one is.
+  const int rest = total - static_cast<int>(finalists.size());
+  int done = 0;
+  for (std::size_t rank = 0; rank < order.size() && result.best < 0; ++rank) {
+    CandidateScore& score = result.candidates[static_cast<std::size_t>(order[rank])];
+    if (score.finalist) continue;
+    for (std::size_t index = 1; index < scenarios.size(); ++index) score.scenarios.push_back(score_on(score.candidate, index));
+    score.finalist = true;
+    summarise(&score);
+    if (progress) progress(++done, rest, 3);
+    choose();
+  }
+  return result;
+}
+
+void write_tuned_controller(const std::string& base_file, const TuningCandidate& candidate, const TargetConfig& target,
+                            const std::string& header, const std::string& path) {
+  YAML::Node document;
+  try {
+    document = YAML::LoadFile(base_file);
+  } catch (const YAML::Exception& error) {
+    throw ConfigError(base_file + ": cannot read the controller to tune: " + error.what());
+  }
+  YAML::Node controller = document["controller"];
+  if (!controller.IsMap()) throw ConfigError(base_file + ": no controller: map to tune");
+  controller["horizon"] = candidate.horizon;
+  controller["dt"] = target.control_period;
+  controller["solve_budget"] = target.solve_budget;
+  controller["solver"]["sa"]["knots"] = candidate.knots;
+  controller["description"] = "wear-aware MPC tuned for " + target.name + " (swerve-mpc tune)";
+  YAML::Emitter emitter;
+  emitter.SetDoublePrecision(12);
+  emitter << document;
+  {
+    std::ofstream out(path);
+    if (!out) throw std::runtime_error(path + ": cannot write the tuned controller");
+    out << header << emitter.c_str() << "\n";
+    if (!out) throw std::runtime_error(path + ": cannot write the tuned controller");
+  }
+  (void)load_controller_config_file(path);  // what was written loads as a controller
 }
 
 }  // namespace swerve

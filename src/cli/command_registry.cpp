@@ -1,5 +1,11 @@
 #include "command_registry.hpp"
 
+#include <CLI/CLI.hpp>
+
+#include <charconv>
+
+#include "swerve/core/error_text.hpp"
+
 namespace swerve::cli {
 
 const std::vector<Command>& all_commands() {
@@ -10,6 +16,23 @@ const std::vector<Command>& all_commands() {
       make_check_config_command(),
   };
   return commands;
+}
+
+void add_work_clock_option(CLI::App& app, double* seconds_per_read) {
+  // Positive and at most a second (a larger cost would end every solve at its first read).
+  static const CLI::Validator rule(
+      [](std::string& text) -> std::string {
+        double value = 0.0;
+        const char* end = text.data() + text.size();
+        const auto [stop, error] = std::from_chars(text.data(), end, value);
+        if (!text.empty() && error == std::errc() && stop == end && value > 0.0 && value <= 1.0) return "";
+        return "'" + printable_value(text) + "': must be a number of seconds in (0, 1]";
+      },
+      "SECONDS");
+  app.add_option("--work-clock", *seconds_per_read,
+                 "Keep deadlines on a clock that advances this many s per read instead of the wall clock: the "
+                 "same work on every machine and under an emulator (repeatable runs, instruction counts)")
+      ->check(rule);
 }
 
 }  // namespace swerve::cli

@@ -65,18 +65,6 @@ const CLI::Validator kBackendRule(
     },
     "BACKEND");
 
-// A work clock's cost per read: positive and at most a second (a larger one would end every solve at
-// its first read).
-const CLI::Validator kWorkClockRule(
-    [](std::string& text) -> std::string {
-      double value = 0.0;
-      const char* end = text.data() + text.size();
-      const auto [stop, error] = std::from_chars(text.data(), end, value);
-      if (!text.empty() && error == std::errc() && stop == end && value > 0.0 && value <= 1.0) return "";
-      return "'" + printable_value(text) + "': must be a number of seconds in (0, 1]";
-    },
-    "SECONDS");
-
 void declare_common(CLI::App& app, RunArguments* a) {
   app.add_option("scenario", a->scenario_file, "Scenario YAML (configs/scenarios/)")->required();
   app.add_option("-o,--out", a->out_dir, "Output directory [out/<scenario name>]");
@@ -237,10 +225,7 @@ Command make_run_command() {
             declare_common(app, a.get());
             app.add_option("--controllers", a->controllers, "Run only these controllers (comma-separated)")
                 ->delimiter(',');
-            app.add_option("--work-clock", a->work_clock,
-                           "Keep deadlines on a clock that advances this many s per read instead of the wall clock: "
-                           "the same work on every machine and under an emulator (profiling, instruction counts)")
-                ->check(kWorkClockRule);
+            add_work_clock_option(app, &a->work_clock);
             return [a]() { return run(*a); };
           }};
 }

@@ -1,12 +1,23 @@
-// `swerve-mpc tune`: sizes the wear-aware controller's horizon for an embedded target (see
-// swerve/app/tuning.hpp) and prints one row per horizon and the largest one that qualifies.
+// `swerve-mpc tune`: tunes the wear-aware controller for an embedded target (swerve/app/tuning.hpp).
+// With --scenarios: by closed-loop quality against the kinematic baseline (horizon and SA knots),
+// printing every candidate and the winner, and writing its YAML (--write). Without: sizing only,
+// the optimiser proposals per solve at each horizon.
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
+#include <unistd.h>
+
+#include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <memory>
+#include <optional>
+#include <sstream>
 
 #include "command_registry.hpp"
 #include "swerve/app/vehicle_config.hpp"
+#include "swerve/app/run_report.hpp"
+#include "swerve/app/scenario_config.hpp"
 #include "swerve/app/tuning.hpp"
 
 namespace swerve::cli {
@@ -17,9 +28,128 @@ struct TuneArguments {
   std::string controller_file = "configs/controllers/default.yaml";
   std::string target_file = "configs/targets/default.yaml";
   TuningOptions options;
+  std::vector<std::string> scenario_files;  // quality mode when given
+  std::vector<int> knots{3, 6};
+  std::string write_file;                   // the winner's controller YAML
+  std::string out_dir;                      // tune.json
+  double work_clock = 0.0;                  // s per read; 0: the steady clock
+  bool horizons_given = false;
+  bool quiet = false;
 };
 
+
+nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& target) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const CandidateScore& c : result.candidates) {
+    nlohmann::json scenarios = nlohmann::json::array();
+    for (const ScenarioScore& s : c.scenarios) {
+      scenarios.push_back({{"scenario", s.scenario}, {"wear_ratio", s.wear_ratio}, {"rmse_m", s.rmse_m},
+                           {"baseline_rmse_m", s.baseline_rmse_m}, {"heading_rmse_rad", s.heading_rmse_rad},
+                           {"baseline_heading_rmse_rad", s.baseline_heading_rmse_rad},
+                           {"step_p99_target_ms", s.step_p99_ms * target.cpu_slowdown},
+                           {"deadline_misses", s.deadline_misses}, {"fallbacks", s.fallbacks},
+                           {"acceptable", s.acceptable()}});
+    }
+    rows.push_back({{"horizon", c.candidate.horizon}, {"knots", c.candidate.knots}, {"finalist", c.finalist},
+                    {"geomean_wear_ratio", c.geomean_wear_ratio}, {"unacceptable", c.unacceptable},
+                    {"scenarios", scenarios}});
+  }
+  return {{"target", target.name}, {"control_period_s", target.control_period}, {"solve_budget_s", target.solve_budget},
+          {"cpu_slowdown", target.cpu_slowdown}, {"budget_here_s", result.budget_here_s},
+          {"rule", QualityTuningResult::rule()}, {"best", result.best}, {"incumbent", result.incumbent}, {"candidates", rows}};
+}
+
+int tune_by_quality_command(const TuneArguments& a) {
+  QualityTuningOptions options;
+  options.horizons = a.horizons_given ? a.options.horizons : std::vector<int>{10, 15, 20, 30};
+  options.knots = a.knots;
+  std::optional<WorkClock> work_clock;
+  if (a.work_clock > 0.0) {
+    work_clock.emplace(a.work_clock);
+    options.clock = &*work_clock;
+  }
+  try {
+    options.validate();
+  } catch (const ConfigError& error) {
+    throw UsageError(std::string("tune: ") + error.what());
+  }
+  std::vector<ScenarioConfig> scenarios;
+  for (const std::string& file : a.scenario_files) scenarios.push_back(load_scenario_config_file(file));
+  const ControllerConfig controller = load_controller_config_file(a.controller_file);
+  const TargetConfig target = load_target_config_file(a.target_file);
+  std::printf("tune: controller %s, target %s: %.0f ms of every %.0f ms cycle at %.2fx this machine's time "
+              "(%.2f ms here), %zu candidates on %zu scenarios\n",
+              controller.name.c_str(), target.name.c_str(), 1e3 * target.solve_budget, 1e3 * target.control_period,
+              target.cpu_slowdown, 1e3 * target.solve_budget / target.cpu_slowdown,
+              options.horizons.size() * options.knots.size(), scenarios.size());
+  if (work_clock) std::printf("deadlines are on a work clock (%g s per read), not the wall clock\n", a.work_clock);
+  std::fflush(stdout);
+  const bool bar = !a.quiet && isatty(STDERR_FILENO);
+  const QualityTuningResult result =
+      tune_by_quality(controller, target, scenarios, options, [bar](int done, int total, int round) {
+        if (!bar) return;
+        std::fprintf(stderr, "\r  round %d: %d/%d candidates", round, done, total);
+        if (done == total) std::fprintf(stderr, "\n");
+        std::fflush(stderr);
+      });
+  // One row per candidate: per scenario wear ratio and RMSE ratio, then the summary.
+  std::printf("%7s %5s", "horizon", "knots");
+  for (const ScenarioConfig& s : scenarios) std::printf("  %-22.22s", s.name.c_str());
+  std::printf(" %10s %8s %14s\n", "geo. wear", "misses", "unacceptable");
+  for (std::size_t i = 0; i < result.candidates.size(); ++i) {
+    const CandidateScore& c = result.candidates[i];
+    std::printf("%7d %5d", c.candidate.horizon, c.candidate.knots);
+    int misses = 0;
+    for (std::size_t k = 0; k < scenarios.size(); ++k) {
+      if (k < c.scenarios.size()) {
+        const ScenarioScore& s = c.scenarios[k];
+        misses += s.deadline_misses;
+        std::printf("  %6.3f / %5.2f%-9s", s.wear_ratio, s.baseline_rmse_m > 0.0 ? s.rmse_m / s.baseline_rmse_m : 0.0,
+                    s.acceptable() ? "" : " (no)");
+      } else {
+        std::printf("  %-22s", "-");
+      }
+    }
+    std::printf(" %10.3f %8d %14d%s%s\n", c.geomean_wear_ratio, misses, c.unacceptable,
+                static_cast<int>(i) == result.best ? "   <- best" : "",
+                static_cast<int>(i) == result.incumbent ? "   (the controller file's own)" : "");
+  }
+  std::printf("per scenario: wear / RMSE, each as a ratio to the kinematic baseline's; (no): outside the bounds\n");
+  std::printf("rule: %s\n", QualityTuningResult::rule());
+  if (!a.out_dir.empty()) {
+    prepare_output_directory(a.out_dir);
+    std::ofstream(a.out_dir + "/tune.json") << to_json(result, target).dump(2) << "\n";
+    std::printf("written: %s/tune.json\n", a.out_dir.c_str());
+  }
+  if (result.best < 0) {
+    std::printf("no candidate kept the baseline's tracking without a deadline miss on every scenario: raise the budget, "
+                "or try other horizons and knots\n");
+    return kExitFailure;
+  }
+  const CandidateScore& best = result.candidates[static_cast<std::size_t>(result.best)];
+  std::printf("best: horizon %d (%.2f s of lookahead at %.0f ms), %d SA knots: geometric-mean wear %.3f of the "
+              "baseline's\n",
+              best.candidate.horizon, best.candidate.horizon * target.control_period, 1e3 * target.control_period,
+              best.candidate.knots, best.geomean_wear_ratio);
+  if (!a.write_file.empty()) {
+    std::ostringstream header;
+    header << "# Tuned by `swerve-mpc tune` for target " << target.name << " (" << target.description << ") from "
+           << a.controller_file << ":\n# horizon " << best.candidate.horizon << ", dt " << target.control_period
+           << " s, SA knots " << best.candidate.knots << ", solve budget " << target.solve_budget
+           << " s; geometric-mean wear " << best.geomean_wear_ratio << " of the kinematic baseline's on";
+    for (const ScenarioScore& s : best.scenarios) header << " " << s.scenario;
+    const CandidateScore& own = result.candidates[static_cast<std::size_t>(result.incumbent)];
+    header << "\n# (the controller file's own horizon " << own.candidate.horizon << " and " << own.candidate.knots
+           << " knots: " << own.geomean_wear_ratio << "), at " << target.cpu_slowdown
+           << "x this machine's time.\n# Rule: " << QualityTuningResult::rule() << ".\n";
+    write_tuned_controller(a.controller_file, best.candidate, target, header.str(), a.write_file);
+    std::printf("written: %s\n", a.write_file.c_str());
+  }
+  return kExitOk;
+}
+
 int tune(const TuneArguments& a) {
+  if (!a.scenario_files.empty()) return tune_by_quality_command(a);
   // The options come from the command line only: breaking their rules is a command-line error.
   try {
     a.options.validate();
@@ -61,15 +191,30 @@ Command make_tune_command() {
             app.add_option("--vehicle", a->vehicle_file, "Vehicle YAML")->capture_default_str();
             app.add_option("--controller", a->controller_file, "wear_mpc controller YAML")->capture_default_str();
             app.add_option("--target", a->target_file, "Embedded target YAML")->capture_default_str();
-            app.add_option("--horizons", a->options.horizons, "Candidate horizons, comma-separated")
+            CLI::Option* horizons =
+                app.add_option("--horizons", a->options.horizons,
+                               "Candidate horizons, comma-separated [sizing 5,10,20,30,40; quality 10,15,20,30]")
+                    ->delimiter(',');
+            app.add_option("--scenarios", a->scenario_files,
+                           "Scenario YAMLs (comma-separated, each with a kinematic_baseline): choose by closed-loop "
+                           "quality on them")
+                ->delimiter(',');
+            app.add_option("--knots", a->knots, "Candidate SA knot counts (quality), comma-separated")
                 ->delimiter(',')
                 ->capture_default_str();
+            app.add_option("--write", a->write_file, "Write the best candidate's controller YAML here (quality)");
+            app.add_option("--out", a->out_dir, "Write tune.json here (quality)");
+            app.add_flag("-q,--quiet", a->quiet, "No progress bar");
+            add_work_clock_option(app, &a->work_clock);
             app.add_option("--cycles", a->options.cycles, "Closed-loop cycles measured per horizon")
                 ->capture_default_str();
             app.add_option("--min-proposals", a->options.min_proposals,
                            "Median optimiser proposals per solve a horizon needs")
                 ->capture_default_str();
-            return [a]() { return tune(*a); };
+            return [a, horizons]() {
+              a->horizons_given = horizons->count() > 0;
+              return tune(*a);
+            };
           }};
 }
 

@@ -1,7 +1,13 @@
-// Horizon sizing for a target: rows per horizon, the recommendation rule, and bad input.
+// Tuning for a target. Sizing: rows per horizon, the recommendation rule, and bad input. Quality:
+// the rounds, the selection rule, the bounds of an acceptable run, the written YAML, and bad input.
 #include "swerve/app/tuning.hpp"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
 
 #include "support/fake_clocks.hpp"
 #include "swerve/app/vehicle_config.hpp"
@@ -91,6 +97,162 @@ TEST(TuneHorizon, RejectsTheBaselineAndBadOptionsNamingTheField) {
   TargetConfig slow = f.target;
   slow.solve_budget = 1.0;  // more than the control period
   EXPECT_THROW(tune_horizon(f.vehicle, f.controller, slow, TuningOptions{}), ConfigError);
+}
+
+// --- Tuning by closed-loop quality ---
+
+std::string test_data(const std::string& name) { return std::string(SWERVE_SOURCE_DIR) + "/tests/app/data/" + name; }
+
+// Two short 60 deg offset runs (1.5 s, different noise seeds), with the wear-aware controller at a
+// 2 ms budget here on a clock that advances 10 us per read: the same proposals on any machine.
+struct QualityFixture {
+  ControllerConfig controller = load_controller_config_file(config_file("controllers/default.yaml"));
+  TargetConfig target;
+  std::vector<ScenarioConfig> scenarios;
+  testing::WorkClock clock{10e-6};
+  QualityTuningOptions options;
+  QualityFixture() {
+    target.name = "test";
+    target.control_period = 0.05;
+    target.solve_budget = 0.004;
+    target.cpu_slowdown = 2.0;
+    scenarios.push_back(load_scenario_config_file(test_data("short_offset60.yaml")));
+    scenarios.push_back(scenarios.front());
+    scenarios.back().name = "short_offset60_seed8";
+    scenarios.back().simulator.seed = 8;
+    options.horizons = {5, 10};
+    options.knots = {3};
+    options.clock = &clock;
+  }
+};
+
+TEST(TuneByQuality, RunsEveryCandidateOnTheFirstScenarioThenTheBetterHalfAndTheIncumbentOnAll) {
+  QualityFixture f;
+  const QualityTuningResult result = tune_by_quality(f.controller, f.target, f.scenarios, f.options);
+  EXPECT_DOUBLE_EQ(result.budget_here_s, 0.002);
+  // (5, 3), (10, 3) and the controller file's own (20, 3).
+  ASSERT_EQ(result.candidates.size(), 3u);
+  ASSERT_EQ(result.incumbent, 2);
+  EXPECT_EQ(result.candidates[2].candidate.horizon, 20);
+  EXPECT_EQ(result.candidates[2].candidate.knots, 3);
+  int finalists = 0;
+  for (const CandidateScore& c : result.candidates) {
+    SCOPED_TRACE(c.candidate.horizon);
+    ASSERT_FALSE(c.scenarios.empty());
+    EXPECT_EQ(c.scenarios.front().scenario, "short_offset60");
+    EXPECT_EQ(c.scenarios.size(), c.finalist ? 2u : 1u);
+    finalists += c.finalist ? 1 : 0;
+    // The geometric mean of what it ran, and the count of runs outside the bounds.
+    double log_sum = 0.0;
+    int unacceptable = 0;
+    for (const ScenarioScore& s : c.scenarios) {
+      EXPECT_TRUE(s.completed);
+      EXPECT_GT(s.wear_ratio, 0.0);
+      EXPECT_GT(s.baseline_rmse_m, 0.0);
+      log_sum += std::log(s.wear_ratio);
+      unacceptable += s.acceptable() ? 0 : 1;
+    }
+    EXPECT_NEAR(c.geomean_wear_ratio, std::exp(log_sum / static_cast<double>(c.scenarios.size())), 1e-12);
+    EXPECT_EQ(c.unacceptable, unacceptable);
+  }
+  EXPECT_TRUE(result.candidates[2].finalist);  // the incumbent always is
+  EXPECT_GE(finalists, 2);                     // the better half of three, and the incumbent
+}
+
+TEST(TuneByQuality, ChoosesTheLeastWearAmongFinalistsAcceptableOnEveryScenario) {
+  QualityFixture f;
+  const QualityTuningResult result = tune_by_quality(f.controller, f.target, f.scenarios, f.options);
+  for (std::size_t i = 0; i < result.candidates.size(); ++i) {
+    const CandidateScore& c = result.candidates[i];
+    if (!c.finalist || c.unacceptable > 0) continue;
+    ASSERT_GE(result.best, 0) << "an acceptable finalist was not chosen";
+    EXPECT_LE(result.candidates[static_cast<std::size_t>(result.best)].geomean_wear_ratio, c.geomean_wear_ratio);
+  }
+  if (result.best >= 0) {
+    const CandidateScore& best = result.candidates[static_cast<std::size_t>(result.best)];
+    EXPECT_TRUE(best.finalist);
+    EXPECT_EQ(best.unacceptable, 0);
+  }
+}
+
+TEST(TuneByQuality, AcceptsARunWithinTheBaselinesTrackingBoundsAndWithoutMisses) {
+  ScenarioScore s;
+  s.completed = true;
+  s.baseline_rmse_m = 0.5;
+  s.rmse_m = 0.55;  // 1.1 x 0.5: the relative bound
+  s.baseline_heading_rmse_rad = 0.1;
+  s.heading_rmse_rad = 0.11;
+  EXPECT_TRUE(s.acceptable());
+  s.rmse_m = 0.5501;
+  EXPECT_FALSE(s.acceptable());
+  s.baseline_rmse_m = 0.01;  // small: the absolute bound, + 0.02 m
+  s.rmse_m = 0.03;
+  EXPECT_TRUE(s.acceptable());
+  s.rmse_m = 0.0301;
+  EXPECT_FALSE(s.acceptable());
+  s.rmse_m = 0.01;
+  s.baseline_heading_rmse_rad = 0.001;  // small: + 0.5 deg
+  s.heading_rmse_rad = 0.001 + 0.5 * 3.14159265358979323846 / 180.0 - 1e-9;
+  EXPECT_TRUE(s.acceptable());
+  s.heading_rmse_rad += 2e-9;
+  EXPECT_FALSE(s.acceptable());
+  s.heading_rmse_rad = 0.001;
+  s.deadline_misses = 1;
+  EXPECT_FALSE(s.acceptable());
+  s.deadline_misses = 0;
+  s.completed = false;
+  EXPECT_FALSE(s.acceptable());
+}
+
+TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsTheRest) {
+  const std::string base = config_file("controllers/default.yaml");
+  const std::string path = ::testing::TempDir() + "tuned_controller.yaml";
+  TargetConfig target;
+  target.name = "test";
+  target.control_period = 0.02;
+  target.solve_budget = 0.01;
+  write_tuned_controller(base, TuningCandidate{30, 6}, target, "# tuned for a test\n", path);
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str().rfind("# tuned for a test\n", 0), 0u) << text.str();
+  const ControllerConfig tuned = load_controller_config_file(path);
+  const ControllerConfig original = load_controller_config_file(base);
+  EXPECT_EQ(tuned.mpc.horizon, 30);
+  EXPECT_EQ(tuned.baseline.horizon, 30);
+  EXPECT_DOUBLE_EQ(tuned.mpc.dt, 0.02);
+  EXPECT_DOUBLE_EQ(tuned.mpc.solve_budget, 0.01);
+  EXPECT_EQ(tuned.solver.sa.knots, 6);
+  EXPECT_DOUBLE_EQ(tuned.mpc.wear_weight, original.mpc.wear_weight);
+  EXPECT_EQ(tuned.mpc.pose_weight, original.mpc.pose_weight);
+  EXPECT_DOUBLE_EQ(tuned.solver.sa.polish_share, original.solver.sa.polish_share);
+  std::remove(path.c_str());
+}
+
+TEST(TuneByQuality, RejectsAScenarioWithoutABaselineAndBadOptionsNamingThem) {
+  QualityFixture f;
+  std::vector<ScenarioConfig> without = {f.scenarios.front()};
+  without.front().controllers.erase(without.front().controllers.end() - 1);  // the kinematic_baseline
+  try {
+    tune_by_quality(f.controller, f.target, without, f.options);
+    FAIL() << "tuned without a baseline to compare against";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("'short_offset60'"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("kinematic_baseline"), std::string::npos) << error.what();
+  }
+  EXPECT_THROW(tune_by_quality(f.controller, f.target, {}, f.options), ConfigError);
+  QualityTuningOptions bad = f.options;
+  bad.knots = {0};
+  try {
+    tune_by_quality(f.controller, f.target, f.scenarios, bad);
+    FAIL() << "accepted 0 knots";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("knots[] = 0"), std::string::npos) << error.what();
+  }
+  const ControllerConfig baseline = load_controller_config_file(config_file("controllers/kinematic_baseline.yaml"));
+  EXPECT_THROW(tune_by_quality(baseline, f.target, f.scenarios, f.options), ConfigError);
+  EXPECT_THROW(write_tuned_controller(test_data("does_not_exist.yaml"), TuningCandidate{}, f.target, "", "/dev/null"),
+               ConfigError);
 }
 
 }  // namespace

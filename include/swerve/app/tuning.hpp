@@ -1,14 +1,17 @@
-// Sizing the wear-aware controller for an embedded target: for each candidate horizon, run the
-// controller in closed loop on the simulated plant with the target's budget translated to this
-// machine (budget / cpu_slowdown) and count how many optimiser proposals fit in a solve. SA always
-// spends its whole budget, so solve time alone says nothing; proposals per solve say how much
-// search the target's budget buys at that horizon.
+// Tuning the wear-aware controller for an embedded target, in two parts. Sizing (tune_horizon):
+// per candidate horizon, how many optimiser proposals fit in a solve at the target's budget
+// translated to this machine (budget / cpu_slowdown); SA always spends its whole budget, so solve
+// time alone says nothing. Quality (tune_by_quality): candidates (horizon, SA knots) run the given
+// scenarios in closed loop at that budget against the kinematic baseline, and the winner is the
+// least wear that keeps the baseline's tracking and misses no deadline (issue 19).
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "swerve/app/controller_config.hpp"
+#include "swerve/app/scenario_config.hpp"
 #include "swerve/app/target_config.hpp"
 #include "swerve/models/vehicle_params.hpp"
 #include "swerve/ocp/deadline.hpp"
@@ -43,5 +46,68 @@ struct TuningResult {
 // The closed loop follows a straight line at half the drive speed limit, starting on it at that speed.
 TuningResult tune_horizon(const VehicleParams& vehicle, const ControllerConfig& controller, const TargetConfig& target,
                           const TuningOptions& options);
+
+// --- Tuning by closed-loop quality ---
+
+struct TuningCandidate {
+  int horizon = 20;  // steps of the target's control period
+  int knots = 3;     // SA move-blocking knots
+};
+
+struct QualityTuningOptions {
+  std::vector<int> horizons{10, 15, 20, 30};
+  std::vector<int> knots{3, 6};
+  const Clock* clock = nullptr;  // the controllers' clock (nullptr: the steady clock; tests inject one)
+  void validate() const;         // ConfigError naming the field and value
+};
+
+// One candidate on one scenario, against the scenario's kinematic baseline at the same period.
+struct ScenarioScore {
+  std::string scenario;
+  double wear_ratio = 0.0;                 // wear / the baseline's
+  double rmse_m = 0.0, baseline_rmse_m = 0.0;
+  double heading_rmse_rad = 0.0, baseline_heading_rmse_rad = 0.0;
+  double step_p99_ms = 0.0;                // on this machine
+  int deadline_misses = 0, fallbacks = 0;
+  bool completed = false;
+  // Issue 15's bounds: position RMSE <= max(1.1 b, b + 0.02 m), heading RMSE <= max(1.1 b,
+  // b + 0.5 deg), no deadline miss, the run completed.
+  bool acceptable() const;
+};
+
+struct CandidateScore {
+  TuningCandidate candidate;
+  std::vector<ScenarioScore> scenarios;  // those it ran (all of them if it reached the last round)
+  double geomean_wear_ratio = 0.0;       // over `scenarios`
+  int unacceptable = 0;                  // scenarios failing ScenarioScore::acceptable()
+  bool finalist = false;                 // ran every scenario (round 2 or 3)
+};
+
+struct QualityTuningResult {
+  double budget_here_s = 0.0;            // the target's budget / cpu_slowdown
+  std::vector<CandidateScore> candidates;
+  int best = -1;                         // index into candidates; -1 when no finalist is acceptable everywhere
+  int incumbent = -1;                    // the controller's own horizon and knots (always a finalist)
+  static const char* rule();             // the selection rule, as printed
+};
+
+// (candidates done, candidates in this round, round) after each candidate's round.
+using TuningProgress = std::function<void(int, int, int)>;
+
+// Every scenario needs a kinematic_baseline controller; `controller` is the wear_mpc config whose
+// horizon, step (the target's control period), budget (translated) and SA knots are varied; its own
+// horizon and knots are a candidate too (the incumbent). Round 1 runs every candidate on the first
+// scenario; round 2 runs the better half (fewest unacceptable runs, then least wear) and the
+// incumbent on all; only if none of those is acceptable everywhere, round 3 runs the rest on all,
+// in round 1's order, until one is. Scenarios run at the target's control period.
+QualityTuningResult tune_by_quality(const ControllerConfig& controller, const TargetConfig& target,
+                                    const std::vector<ScenarioConfig>& scenarios, const QualityTuningOptions& options,
+                                    const TuningProgress& progress = {});
+
+// Writes `base_file` (a controller YAML) with the candidate's horizon, dt (the target's control
+// period), solve budget (the target's) and SA knots to `path`, headed by `header` (comment lines),
+// and loads it back to check it. Throws ConfigError / std::runtime_error naming the file.
+void write_tuned_controller(const std::string& base_file, const TuningCandidate& candidate, const TargetConfig& target,
+                            const std::string& header, const std::string& path);
 
 }  // namespace swerve
