@@ -86,6 +86,10 @@ void QualityTuningOptions::validate() const {
       throw_invalid_field("QualityTuningOptions", "knots[]", k, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
     }
   }
+  for (const double m : deadline_margins) {
+    // The controller's own rule for deadline_margin (its loader's Bound::closed(0, 0.5)).
+    if (!(m >= 0.0 && m <= 0.5)) throw_invalid_field("QualityTuningOptions", "deadline_margins[]", m, "must be in [0, 0.5]");
+  }
 }
 
 bool ScenarioScore::acceptable() const {
@@ -164,6 +168,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     entry.config.set_sampling(candidate.horizon, period);
     entry.config.mpc.solve_budget = result.budget_here_s;
     entry.config.solver.sa.knots = candidate.knots;
+    entry.config.mpc.deadline_margin = candidate.deadline_margin;
     const ControllerRun run = run_controller(runs_at_period[index], entry, {}, 0, options.clock);
     const RunMetrics& b = baselines[index];
     ScenarioScore s;
@@ -181,22 +186,28 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   };
 
   // Round 1: every candidate on the first scenario; the controller's own setting is one of them.
-  const auto add = [&](int horizon, int knots) {
-    const TuningCandidate candidate{horizon, std::min(knots, horizon)};
+  const auto add = [&](int horizon, int knots, double margin) {
+    const TuningCandidate candidate{horizon, std::min(knots, horizon), margin};
     for (std::size_t i = 0; i < result.candidates.size(); ++i) {
       const TuningCandidate& c = result.candidates[i].candidate;
-      if (c.horizon == candidate.horizon && c.knots == candidate.knots) return static_cast<int>(i);
+      if (c.horizon == candidate.horizon && c.knots == candidate.knots && c.deadline_margin == candidate.deadline_margin) {
+        return static_cast<int>(i);
+      }
     }
     CandidateScore score;
     score.candidate = candidate;
     result.candidates.push_back(score);
     return static_cast<int>(result.candidates.size()) - 1;
   };
+  const std::vector<double> margins =
+      options.deadline_margins.empty() ? std::vector<double>{controller.mpc.deadline_margin} : options.deadline_margins;
   for (const int horizon : options.horizons) {
-    for (const int knots : options.knots) add(horizon, knots);
+    for (const int knots : options.knots) {
+      for (const double margin : margins) add(horizon, knots, margin);
+    }
   }
   const int knots_given = controller.solver.sa.knots > 0 ? controller.solver.sa.knots : controller.mpc.horizon;
-  result.incumbent = add(controller.mpc.horizon, knots_given);
+  result.incumbent = add(controller.mpc.horizon, knots_given, controller.mpc.deadline_margin);
   const int total = static_cast<int>(result.candidates.size());
   for (int i = 0; i < total; ++i) {
     CandidateScore& score = result.candidates[static_cast<std::size_t>(i)];
@@ -260,6 +271,7 @@ void write_tuned_controller(const std::string& base_file, const TuningCandidate&
   controller["dt"] = target.control_period;
   controller["solve_budget"] = target.solve_budget;
   controller["solver"]["sa"]["knots"] = candidate.knots;
+  controller["deadline_margin"] = candidate.deadline_margin;
   controller["description"] = "wear-aware MPC tuned for " + target.name + " (swerve-mpc tune)";
   YAML::Emitter emitter;
   emitter.SetDoublePrecision(12);

@@ -30,6 +30,7 @@ struct TuneArguments {
   TuningOptions options;
   std::vector<std::string> scenario_files;  // quality mode when given
   std::vector<int> knots{3, 6};
+  std::vector<double> margins;              // deadline margins (quality); empty: the file's own
   std::string write_file;                   // the winner's controller YAML
   std::string out_dir;                      // tune.json
   double work_clock = 0.0;                  // s per read; 0: the steady clock
@@ -50,7 +51,8 @@ nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& ta
                            {"deadline_misses", s.deadline_misses}, {"fallbacks", s.fallbacks},
                            {"acceptable", s.acceptable()}});
     }
-    rows.push_back({{"horizon", c.candidate.horizon}, {"knots", c.candidate.knots}, {"finalist", c.finalist},
+    rows.push_back({{"horizon", c.candidate.horizon}, {"knots", c.candidate.knots},
+                    {"deadline_margin", c.candidate.deadline_margin}, {"finalist", c.finalist},
                     {"geomean_wear_ratio", c.geomean_wear_ratio}, {"unacceptable", c.unacceptable},
                     {"scenarios", scenarios}});
   }
@@ -63,6 +65,7 @@ int tune_by_quality_command(const TuneArguments& a) {
   QualityTuningOptions options;
   options.horizons = a.horizons_given ? a.options.horizons : std::vector<int>{10, 15, 20, 30};
   options.knots = a.knots;
+  options.deadline_margins = a.margins;
   std::optional<WorkClock> work_clock;
   if (a.work_clock > 0.0) {
     work_clock.emplace(a.work_clock);
@@ -81,7 +84,8 @@ int tune_by_quality_command(const TuneArguments& a) {
               "(%.2f ms here), %zu candidates on %zu scenarios\n",
               controller.name.c_str(), target.name.c_str(), 1e3 * target.solve_budget, 1e3 * target.control_period,
               target.cpu_slowdown, 1e3 * target.solve_budget / target.cpu_slowdown,
-              options.horizons.size() * options.knots.size(), scenarios.size());
+              options.horizons.size() * options.knots.size() * std::max<std::size_t>(1, options.deadline_margins.size()),
+              scenarios.size());
   if (work_clock) std::printf("deadlines are on a work clock (%g s per read), not the wall clock\n", a.work_clock);
   std::fflush(stdout);
   const bool bar = !a.quiet && isatty(STDERR_FILENO);
@@ -93,12 +97,12 @@ int tune_by_quality_command(const TuneArguments& a) {
         std::fflush(stderr);
       });
   // One row per candidate: per scenario wear ratio and RMSE ratio, then the summary.
-  std::printf("%7s %5s", "horizon", "knots");
+  std::printf("%7s %5s %6s", "horizon", "knots", "margin");
   for (const ScenarioConfig& s : scenarios) std::printf("  %-22.22s", s.name.c_str());
   std::printf(" %10s %8s %14s\n", "geo. wear", "misses", "unacceptable");
   for (std::size_t i = 0; i < result.candidates.size(); ++i) {
     const CandidateScore& c = result.candidates[i];
-    std::printf("%7d %5d", c.candidate.horizon, c.candidate.knots);
+    std::printf("%7d %5d %6.2f", c.candidate.horizon, c.candidate.knots, c.candidate.deadline_margin);
     int misses = 0;
     for (std::size_t k = 0; k < scenarios.size(); ++k) {
       if (k < c.scenarios.size()) {
@@ -127,15 +131,16 @@ int tune_by_quality_command(const TuneArguments& a) {
     return kExitFailure;
   }
   const CandidateScore& best = result.candidates[static_cast<std::size_t>(result.best)];
-  std::printf("best: horizon %d (%.2f s of lookahead at %.0f ms), %d SA knots: geometric-mean wear %.3f of the "
-              "baseline's\n",
+  std::printf("best: horizon %d (%.2f s of lookahead at %.0f ms), %d SA knots, deadline margin %.2f: geometric-mean "
+              "wear %.3f of the baseline's\n",
               best.candidate.horizon, best.candidate.horizon * target.control_period, 1e3 * target.control_period,
-              best.candidate.knots, best.geomean_wear_ratio);
+              best.candidate.knots, best.candidate.deadline_margin, best.geomean_wear_ratio);
   if (!a.write_file.empty()) {
     std::ostringstream header;
     header << "# Tuned by `swerve-mpc tune` for target " << target.name << " (" << target.description << ") from "
            << a.controller_file << ":\n# horizon " << best.candidate.horizon << ", dt " << target.control_period
-           << " s, SA knots " << best.candidate.knots << ", solve budget " << target.solve_budget
+           << " s, SA knots " << best.candidate.knots << ", deadline margin " << best.candidate.deadline_margin
+           << ", solve budget " << target.solve_budget
            << " s; geometric-mean wear " << best.geomean_wear_ratio << " of the kinematic baseline's on";
     for (const ScenarioScore& s : best.scenarios) header << " " << s.scenario;
     const CandidateScore& own = result.candidates[static_cast<std::size_t>(result.incumbent)];
@@ -202,6 +207,10 @@ Command make_tune_command() {
             app.add_option("--knots", a->knots, "Candidate SA knot counts (quality), comma-separated")
                 ->delimiter(',')
                 ->capture_default_str();
+            app.add_option("--margins", a->margins,
+                           "Candidate deadline margins (quality; share of the budget kept free), comma-separated "
+                           "[the controller file's own]")
+                ->delimiter(',');
             app.add_option("--write", a->write_file, "Write the best candidate's controller YAML here (quality)");
             app.add_option("--out", a->out_dir, "Write tune.json here (quality)");
             app.add_flag("-q,--quiet", a->quiet, "No progress bar");

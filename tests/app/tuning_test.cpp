@@ -130,11 +130,12 @@ TEST(TuneByQuality, RunsEveryCandidateOnTheFirstScenarioThenTheBetterHalfAndTheI
   QualityFixture f;
   const QualityTuningResult result = tune_by_quality(f.controller, f.target, f.scenarios, f.options);
   EXPECT_DOUBLE_EQ(result.budget_here_s, 0.002);
-  // (5, 3), (10, 3) and the controller file's own (20, 3).
+  // (5, 3), (10, 3) and the controller file's own (20, 3), all at the file's own margin.
   ASSERT_EQ(result.candidates.size(), 3u);
   ASSERT_EQ(result.incumbent, 2);
   EXPECT_EQ(result.candidates[2].candidate.horizon, 20);
   EXPECT_EQ(result.candidates[2].candidate.knots, 3);
+  for (const CandidateScore& c : result.candidates) EXPECT_DOUBLE_EQ(c.candidate.deadline_margin, f.controller.mpc.deadline_margin);
   int finalists = 0;
   for (const CandidateScore& c : result.candidates) {
     SCOPED_TRACE(c.candidate.horizon);
@@ -211,7 +212,7 @@ TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsT
   target.name = "test";
   target.control_period = 0.02;
   target.solve_budget = 0.01;
-  write_tuned_controller(base, TuningCandidate{30, 6}, target, "# tuned for a test\n", path);
+  write_tuned_controller(base, TuningCandidate{30, 6, 0.3}, target, "# tuned for a test\n", path);
   std::ifstream in(path);
   std::stringstream text;
   text << in.rdbuf();
@@ -223,6 +224,7 @@ TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsT
   EXPECT_DOUBLE_EQ(tuned.mpc.dt, 0.02);
   EXPECT_DOUBLE_EQ(tuned.mpc.solve_budget, 0.01);
   EXPECT_EQ(tuned.solver.sa.knots, 6);
+  EXPECT_DOUBLE_EQ(tuned.mpc.deadline_margin, 0.3);
   EXPECT_DOUBLE_EQ(tuned.mpc.wear_weight, original.mpc.wear_weight);
   EXPECT_EQ(tuned.mpc.pose_weight, original.mpc.pose_weight);
   EXPECT_DOUBLE_EQ(tuned.solver.sa.polish_share, original.solver.sa.polish_share);
@@ -248,6 +250,14 @@ TEST(TuneByQuality, RejectsAScenarioWithoutABaselineAndBadOptionsNamingThem) {
     FAIL() << "accepted 0 knots";
   } catch (const ConfigError& error) {
     EXPECT_NE(std::string(error.what()).find("knots[] = 0"), std::string::npos) << error.what();
+  }
+  bad = f.options;
+  bad.deadline_margins = {0.15, 0.6};
+  try {
+    tune_by_quality(f.controller, f.target, f.scenarios, bad);
+    FAIL() << "accepted a margin of 0.6";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("deadline_margins[] = 0.6"), std::string::npos) << error.what();
   }
   const ControllerConfig baseline = load_controller_config_file(config_file("controllers/kinematic_baseline.yaml"));
   EXPECT_THROW(tune_by_quality(baseline, f.target, f.scenarios, f.options), ConfigError);

@@ -50,13 +50,15 @@ TuningResult tune_horizon(const VehicleParams& vehicle, const ControllerConfig& 
 // --- Tuning by closed-loop quality ---
 
 struct TuningCandidate {
-  int horizon = 20;  // steps of the target's control period
-  int knots = 3;     // SA move-blocking knots
+  int horizon = 20;              // steps of the target's control period
+  int knots = 3;                 // SA move-blocking knots
+  double deadline_margin = 0.15; // share of the budget kept free for the OS and the step's own variation
 };
 
 struct QualityTuningOptions {
   std::vector<int> horizons{10, 15, 20, 30};
   std::vector<int> knots{3, 6};
+  std::vector<double> deadline_margins;  // empty: the controller's own only
   const Clock* clock = nullptr;  // the controllers' clock (nullptr: the steady clock; tests inject one)
   void validate() const;         // ConfigError naming the field and value
 };
@@ -95,8 +97,8 @@ struct QualityTuningResult {
 using TuningProgress = std::function<void(int, int, int)>;
 
 // Every scenario needs a kinematic_baseline controller; `controller` is the wear_mpc config whose
-// horizon, step (the target's control period), budget (translated) and SA knots are varied; its own
-// horizon and knots are a candidate too (the incumbent). Round 1 runs every candidate on the first
+// horizon, step (the target's control period), budget (translated), SA knots and deadline margin are
+// varied; its own horizon, knots and margin are a candidate too (the incumbent). Round 1 runs every candidate on the first
 // scenario; round 2 runs the better half (fewest unacceptable runs, then least wear) and the
 // incumbent on all; only if none of those is acceptable everywhere, round 3 runs the rest on all,
 // in round 1's order, until one is. Scenarios run at the target's control period.
@@ -105,7 +107,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
                                     const TuningProgress& progress = {});
 
 // Writes `base_file` (a controller YAML) with the candidate's horizon, dt (the target's control
-// period), solve budget (the target's) and SA knots to `path`, headed by `header` (comment lines),
+// period), solve budget (the target's), SA knots and deadline margin to `path`, headed by `header` (comment lines),
 // and loads it back to check it. Throws ConfigError / std::runtime_error naming the file.
 void write_tuned_controller(const std::string& base_file, const TuningCandidate& candidate, const TargetConfig& target,
                             const std::string& header, const std::string& path);
