@@ -11,14 +11,30 @@
 #include "swerve/app/scenario_runner.hpp"
 
 namespace swerve {
+namespace {
 
-void TuningOptions::validate() const {
-  if (horizons.empty()) throw ConfigError("TuningOptions.horizons: empty: give at least one horizon");
-  for (const int n : horizons) {
-    if (n < 1 || n > kMaxHorizon) {
-      throw_invalid_field("TuningOptions", "horizons[]", n, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
+// Each of `values` in [1, upper], else ConfigError naming `owner`.`field`[].
+void require_each_in_range(const char* owner, const std::string& field, const std::vector<int>& values, int upper) {
+  if (values.empty()) throw ConfigError(std::string(owner) + "." + field + ": empty: give at least one");
+  for (const int value : values) {
+    if (value < 1 || value > upper) {
+      throw_invalid_field(owner, field + "[]", value, "must be in [1, " + std::to_string(upper) + "]");
     }
   }
+}
+
+// Tuning and the real-time report are about the wear-aware controller.
+void require_wear_mpc(const ControllerConfig& controller, const char* command) {
+  if (controller.kind != ControllerKind::kWearMpc) {
+    throw ConfigError(std::string(command) + ": controller '" + controller.name + "' is a " + to_string(controller.kind) +
+                      "; it needs the wear_mpc controller");
+  }
+}
+
+}  // namespace
+
+void TuningOptions::validate() const {
+  require_each_in_range("TuningOptions", "horizons", horizons, kMaxHorizon);
   if (cycles < 1 || cycles > kMaxScenarioSteps) {
     throw_invalid_field("TuningOptions", "cycles", cycles, "must be in [1, " + std::to_string(kMaxScenarioSteps) + "]");
   }
@@ -29,10 +45,7 @@ TuningResult tune_horizon(const VehicleParams& vehicle, const ControllerConfig& 
                           const TuningOptions& options) {
   options.validate();
   target.validate();
-  if (controller.kind != ControllerKind::kWearMpc) {
-    throw ConfigError("tune: controller '" + controller.name + "' is a " + to_string(controller.kind) +
-                      "; tuning sizes the wear_mpc controller");
-  }
+  require_wear_mpc(controller, "tune");
   // One scenario per horizon: on a straight line at half the drive speed limit, already moving at
   // that speed (the common case), run through the same closed loop as `swerve-mpc run`.
   SpeedProfile profile;
@@ -74,18 +87,9 @@ TuningResult tune_horizon(const VehicleParams& vehicle, const ControllerConfig& 
 }
 
 void QualityTuningOptions::validate() const {
-  if (horizons.empty()) throw ConfigError("QualityTuningOptions.horizons: empty: give at least one horizon");
-  for (const int n : horizons) {
-    if (n < 1 || n > kMaxHorizon) {
-      throw_invalid_field("QualityTuningOptions", "horizons[]", n, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
-    }
-  }
-  if (knots.empty()) throw ConfigError("QualityTuningOptions.knots: empty: give at least one knot count");
-  for (const int k : knots) {
-    if (k < 1 || k > kMaxHorizon) {
-      throw_invalid_field("QualityTuningOptions", "knots[]", k, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
-    }
-  }
+  require_each_in_range("QualityTuningOptions", "horizons", horizons, kMaxHorizon);
+  require_each_in_range("QualityTuningOptions", "knots", knots, kMaxHorizon);
+  if (seeds.size() > 100) throw_invalid_field("QualityTuningOptions", "seeds.size()", seeds.size(), "must be <= 100");
   for (const double m : deadline_margins) {
     // The controller's own rule for deadline_margin (its loader's Bound::closed(0, 0.5)).
     if (!(m >= 0.0 && m <= 0.5)) throw_invalid_field("QualityTuningOptions", "deadline_margins[]", m, "must be in [0, 0.5]");
@@ -142,46 +146,71 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
                                     const TuningProgress& progress) {
   options.validate();
   target.validate();
-  if (controller.kind != ControllerKind::kWearMpc) {
-    throw ConfigError("tune: controller '" + controller.name + "' is a " + to_string(controller.kind) +
-                      "; tuning sizes the wear_mpc controller");
-  }
+  require_wear_mpc(controller, "tune");
   if (scenarios.empty()) throw ConfigError("tune: no scenario to score the candidates on");
   QualityTuningResult result;
   result.budget_here_s = target.solve_budget / target.cpu_slowdown;
   const double period = target.control_period;
 
-  // The baselines, once per scenario, at the target's period.
-  std::vector<ScenarioConfig> runs_at_period;
-  std::vector<RunMetrics> baselines;
+  // Every scenario at the target's period, once per seed (the scenario's own when none is given),
+  // and its baseline there, run once.
+  std::vector<std::vector<ScenarioConfig>> runs;     // [scenario][seed]
+  std::vector<std::vector<RunMetrics>> baselines;    // [scenario][seed]
   for (const ScenarioConfig& scenario : scenarios) {
-    runs_at_period.push_back(at_period(scenario, period));
+    runs.emplace_back();
+    baselines.emplace_back();
     ScenarioController baseline = baseline_of(scenario);
     baseline.config.set_sampling(baseline.config.baseline.horizon, period);
-    const ControllerRun run = run_controller(runs_at_period.back(), baseline, {}, 0, options.clock);
-    if (!run.completed) throw ConfigError("tune: the baseline failed on '" + scenario.name + "': " + run.failure);
-    baselines.push_back(run.metrics);
+    const std::vector<std::uint64_t> seeds =
+        options.seeds.empty() ? std::vector<std::uint64_t>{scenario.simulator.seed} : options.seeds;
+    for (const std::uint64_t seed : seeds) {
+      runs.back().push_back(at_period(scenario, period));
+      runs.back().back().simulator.seed = seed;
+      const ControllerRun run = run_controller(runs.back().back(), baseline, {}, 0, options.clock);
+      if (!run.completed) {
+        throw ConfigError("tune: the baseline failed on '" + scenario.name + "' (seed " + std::to_string(seed) +
+                          "): " + run.failure);
+      }
+      baselines.back().push_back(run.metrics);
+    }
   }
 
+  // A candidate on one scenario: the median over the seeds of each ratio and error (a run's noise
+  // is larger than many candidates' differences), the misses and fallbacks summed.
+  const auto median = [](std::vector<double> values) {
+    std::sort(values.begin(), values.end());
+    const std::size_t n = values.size();
+    return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+  };
   const auto score_on = [&](const TuningCandidate& candidate, std::size_t index) {
     ScenarioController entry{"wear_mpc", "", controller};
     entry.config.set_sampling(candidate.horizon, period);
     entry.config.mpc.solve_budget = result.budget_here_s;
     entry.config.solver.sa.knots = candidate.knots;
     entry.config.mpc.deadline_margin = candidate.deadline_margin;
-    const ControllerRun run = run_controller(runs_at_period[index], entry, {}, 0, options.clock);
-    const RunMetrics& b = baselines[index];
     ScenarioScore s;
     s.scenario = scenarios[index].name;
-    s.completed = run.completed;
-    s.wear_ratio = b.wear_total > 0.0 ? run.metrics.wear_total / b.wear_total : 1.0;
-    s.rmse_m = run.metrics.tracking_rmse_m;
-    s.baseline_rmse_m = b.tracking_rmse_m;
-    s.heading_rmse_rad = run.metrics.heading_rmse_rad;
-    s.baseline_heading_rmse_rad = b.heading_rmse_rad;
-    s.step_p99_ms = run.metrics.step_time_p99_ms;
-    s.deadline_misses = run.metrics.deadline_misses;
-    s.fallbacks = run.metrics.fallbacks;
+    s.completed = true;
+    std::vector<double> wear, rmse, baseline_rmse, heading, baseline_heading, step_p99;
+    for (std::size_t k = 0; k < runs[index].size(); ++k) {
+      const ControllerRun run = run_controller(runs[index][k], entry, {}, 0, options.clock);
+      const RunMetrics& b = baselines[index][k];
+      s.completed = s.completed && run.completed;
+      wear.push_back(b.wear_total > 0.0 ? run.metrics.wear_total / b.wear_total : 1.0);
+      rmse.push_back(run.metrics.tracking_rmse_m);
+      baseline_rmse.push_back(b.tracking_rmse_m);
+      heading.push_back(run.metrics.heading_rmse_rad);
+      baseline_heading.push_back(b.heading_rmse_rad);
+      step_p99.push_back(run.metrics.step_time_p99_ms);
+      s.deadline_misses += run.metrics.deadline_misses;
+      s.fallbacks += run.metrics.fallbacks;
+    }
+    s.wear_ratio = median(wear);
+    s.rmse_m = median(rmse);
+    s.baseline_rmse_m = median(baseline_rmse);
+    s.heading_rmse_rad = median(heading);
+    s.baseline_heading_rmse_rad = median(baseline_heading);
+    s.step_p99_ms = *std::max_element(step_p99.begin(), step_p99.end());
     return s;
   };
 
@@ -283,6 +312,38 @@ void write_tuned_controller(const std::string& base_file, const TuningCandidate&
     if (!out) throw std::runtime_error(path + ": cannot write the tuned controller");
   }
   (void)load_controller_config_file(path);  // what was written loads as a controller
+}
+
+bool RealTimeRow::passes() const { return completed && deadline_misses == 0 && step_p99_ms <= budget_ms; }
+
+std::vector<RealTimeRow> measure_real_time(const ControllerConfig& controller, const TargetConfig& target,
+                                           const std::vector<ScenarioConfig>& scenarios, const Clock* clock) {
+  target.validate();
+  require_wear_mpc(controller, "bench-targets");
+  std::vector<RealTimeRow> rows;
+  for (const ScenarioConfig& scenario : scenarios) {
+    ScenarioController entry{"wear_mpc", "", controller};
+    entry.config.set_sampling(controller.mpc.horizon, target.control_period);
+    entry.config.mpc.solve_budget = target.solve_budget / target.cpu_slowdown;
+    const ControllerRun run = run_controller(at_period(scenario, target.control_period), entry, {}, 0, clock);
+    std::vector<double> steps_ms, proposals;
+    for (const StepRecord& record : run.log) {
+      if (record.step_time_s >= 0.0) steps_ms.push_back(1e3 * record.step_time_s * target.cpu_slowdown);
+      if (record.solve_time_s >= 0.0) proposals.push_back(std::max(0, record.solve_iterations));
+    }
+    RealTimeRow row;
+    row.scenario = scenario.name;
+    row.budget_ms = 1e3 * target.solve_budget;
+    row.step_p50_ms = percentile(steps_ms, 50.0);
+    row.step_p99_ms = percentile(steps_ms, 99.0);
+    row.step_max_ms = steps_ms.empty() ? 0.0 : *std::max_element(steps_ms.begin(), steps_ms.end());
+    row.proposals_median = percentile(proposals, 50.0);
+    row.deadline_misses = run.metrics.deadline_misses;
+    row.fallbacks = run.metrics.fallbacks;
+    row.completed = run.completed;
+    rows.push_back(row);
+  }
+  return rows;
 }
 
 }  // namespace swerve

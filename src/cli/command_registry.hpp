@@ -24,9 +24,9 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// --work-clock SECONDS (run, tune): keep the controllers' deadlines on a clock that advances this
-// much per read instead of the wall clock, so the same work is done on every machine. Rejects
-// anything but a number in (0, 1] as a command-line error.
+// --work-clock SECONDS (run, tune, bench-targets): keep the controllers' deadlines on a clock that
+// advances this much per read instead of the wall clock, so the same work is done on every
+// machine. Rejects anything but a number in (0, 1] as a command-line error.
 void add_work_clock_option(CLI::App& app, double* seconds_per_read);
 
 struct Command {
@@ -44,5 +44,6 @@ Command make_check_config_command();
 Command make_run_command();
 Command make_sweep_command();
 Command make_tune_command();
+Command make_bench_targets_command();
 
 }  // namespace swerve::cli

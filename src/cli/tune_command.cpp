@@ -31,6 +31,7 @@ struct TuneArguments {
   std::vector<std::string> scenario_files;  // quality mode when given
   std::vector<int> knots{3, 6};
   std::vector<double> margins;              // deadline margins (quality); empty: the file's own
+  std::vector<std::uint64_t> seeds;         // simulator seeds (quality); empty: each scenario's own
   std::string write_file;                   // the winner's controller YAML
   std::string out_dir;                      // tune.json
   double work_clock = 0.0;                  // s per read; 0: the steady clock
@@ -66,6 +67,7 @@ int tune_by_quality_command(const TuneArguments& a) {
   options.horizons = a.horizons_given ? a.options.horizons : std::vector<int>{10, 15, 20, 30};
   options.knots = a.knots;
   options.deadline_margins = a.margins;
+  options.seeds = a.seeds;
   std::optional<WorkClock> work_clock;
   if (a.work_clock > 0.0) {
     work_clock.emplace(a.work_clock);
@@ -86,6 +88,7 @@ int tune_by_quality_command(const TuneArguments& a) {
               target.cpu_slowdown, 1e3 * target.solve_budget / target.cpu_slowdown,
               options.horizons.size() * options.knots.size() * std::max<std::size_t>(1, options.deadline_margins.size()),
               scenarios.size());
+  if (!options.seeds.empty()) std::printf("each on %zu seeds: medians per scenario\n", options.seeds.size());
   if (work_clock) std::printf("deadlines are on a work clock (%g s per read), not the wall clock\n", a.work_clock);
   std::fflush(stdout);
   const bool bar = !a.quiet && isatty(STDERR_FILENO);
@@ -210,6 +213,10 @@ Command make_tune_command() {
             app.add_option("--margins", a->margins,
                            "Candidate deadline margins (quality; share of the budget kept free), comma-separated "
                            "[the controller file's own]")
+                ->delimiter(',');
+            app.add_option("--seeds", a->seeds,
+                           "Simulator seeds each candidate runs every scenario with (quality; medians over them), "
+                           "comma-separated [each scenario's own]")
                 ->delimiter(',');
             app.add_option("--write", a->write_file, "Write the best candidate's controller YAML here (quality)");
             app.add_option("--out", a->out_dir, "Write tune.json here (quality)");

@@ -176,6 +176,30 @@ TEST(TuneByQuality, ChoosesTheLeastWearAmongFinalistsAcceptableOnEveryScenario) 
   }
 }
 
+// With seeds, a candidate's score on a scenario is the median over them (two seeds: the mean) and
+// its misses the sum; each seed alone gives that seed's run (the work clock makes runs repeatable).
+TEST(TuneByQuality, ScoresEachScenarioByTheMedianOverTheSeeds) {
+  QualityFixture f;
+  f.scenarios.pop_back();  // the first scenario only
+  f.options.horizons = {5};
+  const auto score_with = [&](std::vector<std::uint64_t> seeds) {
+    QualityTuningOptions options = f.options;
+    options.seeds = std::move(seeds);
+    const QualityTuningResult result = tune_by_quality(f.controller, f.target, f.scenarios, options);
+    return result.candidates.at(0).scenarios.at(0);  // (5, 3)
+  };
+  const ScenarioScore both = score_with({7, 8});
+  const ScenarioScore seven = score_with({7});
+  const ScenarioScore eight = score_with({8});
+  EXPECT_NE(seven.rmse_m, eight.rmse_m);  // the seeds do change the run
+  EXPECT_NEAR(both.wear_ratio, 0.5 * (seven.wear_ratio + eight.wear_ratio), 1e-12);
+  EXPECT_NEAR(both.rmse_m, 0.5 * (seven.rmse_m + eight.rmse_m), 1e-12);
+  EXPECT_NEAR(both.baseline_rmse_m, 0.5 * (seven.baseline_rmse_m + eight.baseline_rmse_m), 1e-12);
+  EXPECT_NEAR(both.heading_rmse_rad, 0.5 * (seven.heading_rmse_rad + eight.heading_rmse_rad), 1e-12);
+  EXPECT_EQ(both.deadline_misses, seven.deadline_misses + eight.deadline_misses);
+  EXPECT_DOUBLE_EQ(both.step_p99_ms, std::max(seven.step_p99_ms, eight.step_p99_ms));
+}
+
 TEST(TuneByQuality, AcceptsARunWithinTheBaselinesTrackingBoundsAndWithoutMisses) {
   ScenarioScore s;
   s.completed = true;
@@ -263,6 +287,48 @@ TEST(TuneByQuality, RejectsAScenarioWithoutABaselineAndBadOptionsNamingThem) {
   EXPECT_THROW(tune_by_quality(baseline, f.target, f.scenarios, f.options), ConfigError);
   EXPECT_THROW(write_tuned_controller(test_data("does_not_exist.yaml"), TuningCandidate{}, f.target, "", "/dev/null"),
                ConfigError);
+}
+
+// --- The real-time report ---
+
+TEST(MeasureRealTime, ReportsStepTimesInTheTargetsMillisecondsAgainstItsBudget) {
+  QualityFixture f;
+  const std::vector<RealTimeRow> rows = measure_real_time(f.controller, f.target, f.scenarios, &f.clock);
+  ASSERT_EQ(rows.size(), 2u);
+  for (const RealTimeRow& row : rows) {
+    SCOPED_TRACE(row.scenario);
+    EXPECT_TRUE(row.completed);
+    EXPECT_DOUBLE_EQ(row.budget_ms, 4.0);
+    EXPECT_GT(row.step_p50_ms, 0.0);
+    EXPECT_LE(row.step_p50_ms, row.step_p99_ms);
+    EXPECT_LE(row.step_p99_ms, row.step_max_ms);
+    // On the work clock a step stops at its deadline: 2 ms here, 4 ms on a target twice as slow,
+    // less the controller's margin (15 %).
+    EXPECT_LE(row.step_p99_ms, 4.0);
+    EXPECT_GT(row.step_p99_ms, 0.5 * 4.0);
+    EXPECT_GT(row.proposals_median, 10.0);
+    EXPECT_EQ(row.deadline_misses, 0);
+    EXPECT_TRUE(row.passes());
+  }
+}
+
+TEST(MeasureRealTime, PassesOnlyWithAP99WithinTheBudgetNoMissAndACompletedRun) {
+  RealTimeRow row;
+  row.completed = true;
+  row.budget_ms = 10.0;
+  row.step_p99_ms = 10.0;
+  EXPECT_TRUE(row.passes());
+  row.step_p99_ms = 10.01;
+  EXPECT_FALSE(row.passes());
+  row.step_p99_ms = 5.0;
+  row.deadline_misses = 1;
+  EXPECT_FALSE(row.passes());
+  row.deadline_misses = 0;
+  row.completed = false;
+  EXPECT_FALSE(row.passes());
+  QualityFixture f;
+  const ControllerConfig baseline = load_controller_config_file(config_file("controllers/kinematic_baseline.yaml"));
+  EXPECT_THROW(measure_real_time(baseline, f.target, f.scenarios), ConfigError);
 }
 
 }  // namespace

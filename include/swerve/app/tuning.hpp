@@ -6,6 +6,7 @@
 // least wear that keeps the baseline's tracking and misses no deadline (issue 19).
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -59,17 +60,19 @@ struct QualityTuningOptions {
   std::vector<int> horizons{10, 15, 20, 30};
   std::vector<int> knots{3, 6};
   std::vector<double> deadline_margins;  // empty: the controller's own only
+  std::vector<std::uint64_t> seeds;      // simulator seeds per scenario (medians over them); empty: the scenario's
   const Clock* clock = nullptr;  // the controllers' clock (nullptr: the steady clock; tests inject one)
   void validate() const;         // ConfigError naming the field and value
 };
 
-// One candidate on one scenario, against the scenario's kinematic baseline at the same period.
+// One candidate on one scenario, against the scenario's kinematic baseline at the same period and
+// seeds: medians over the seeds, misses and fallbacks summed.
 struct ScenarioScore {
   std::string scenario;
   double wear_ratio = 0.0;                 // wear / the baseline's
   double rmse_m = 0.0, baseline_rmse_m = 0.0;
   double heading_rmse_rad = 0.0, baseline_heading_rmse_rad = 0.0;
-  double step_p99_ms = 0.0;                // on this machine
+  double step_p99_ms = 0.0;                // on this machine, the largest over the seeds
   int deadline_misses = 0, fallbacks = 0;
   bool completed = false;
   // Issue 15's bounds: position RMSE <= max(1.1 b, b + 0.02 m), heading RMSE <= max(1.1 b,
@@ -111,5 +114,24 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
 // and loads it back to check it. Throws ConfigError / std::runtime_error naming the file.
 void write_tuned_controller(const std::string& base_file, const TuningCandidate& candidate, const TargetConfig& target,
                             const std::string& header, const std::string& path);
+
+// --- The real-time report per target (`swerve-mpc bench-targets`) ---
+
+// One controller config on one scenario at a target's period and translated budget; times are the
+// target's (this machine's x cpu_slowdown).
+struct RealTimeRow {
+  std::string scenario;
+  double budget_ms = 0.0;                  // the target's solve budget
+  double step_p50_ms = 0.0, step_p99_ms = 0.0, step_max_ms = 0.0;
+  double proposals_median = 0.0;           // optimiser proposals (SA) or iterations per solve
+  int deadline_misses = 0, fallbacks = 0;
+  bool completed = false;
+  bool passes() const;                     // completed, p99 step <= budget, no deadline miss
+};
+
+// Runs `controller` (a wear_mpc config) on each scenario at the target's control period with the
+// target's budget translated to this machine (`clock`: as in tune_by_quality).
+std::vector<RealTimeRow> measure_real_time(const ControllerConfig& controller, const TargetConfig& target,
+                                           const std::vector<ScenarioConfig>& scenarios, const Clock* clock = nullptr);
 
 }  // namespace swerve
