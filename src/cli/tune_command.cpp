@@ -39,7 +39,6 @@ struct TuneArguments {
   bool quiet = false;
 };
 
-
 nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& target) {
   nlohmann::json rows = nlohmann::json::array();
   for (const CandidateScore& c : result.candidates) {
@@ -146,6 +145,11 @@ int tune_by_quality_command(const TuneArguments& a) {
            << ", solve budget " << target.solve_budget
            << " s; geometric-mean wear " << best.geomean_wear_ratio << " of the kinematic baseline's on";
     for (const ScenarioScore& s : best.scenarios) header << " " << s.scenario;
+    if (!a.seeds.empty()) {
+      header << " (medians over simulator seeds";
+      for (const std::uint64_t seed : a.seeds) header << " " << seed;
+      header << ")";
+    }
     const CandidateScore& own = result.candidates[static_cast<std::size_t>(result.incumbent)];
     header << "\n# (the controller file's own horizon " << own.candidate.horizon << " and " << own.candidate.knots
            << " knots: " << own.geomean_wear_ratio << "), at " << target.cpu_slowdown
@@ -167,7 +171,13 @@ int tune(const TuneArguments& a) {
   const VehicleParams vehicle = load_vehicle_config_file(a.vehicle_file);
   const ControllerConfig controller = load_controller_config_file(a.controller_file);
   const TargetConfig target = load_target_config_file(a.target_file);
-  const TuningResult result = tune_horizon(vehicle, controller, target, a.options);
+  TuningOptions options = a.options;
+  std::optional<WorkClock> work_clock;
+  if (a.work_clock > 0.0) {
+    work_clock.emplace(a.work_clock);
+    options.clock = &*work_clock;
+  }
+  const TuningResult result = tune_horizon(vehicle, controller, target, options);
   std::printf("tune: %s (%d modules), controller %s (%s), target %s: %.0f ms of every %.0f ms cycle, "
               "%.2fx this machine's time\n",
               vehicle.name.c_str(), vehicle.layout.size(), controller.name.c_str(), controller.solver.backend.c_str(),
