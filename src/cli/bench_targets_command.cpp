@@ -37,7 +37,7 @@ int bench_targets(const BenchTargetsArguments& a) {
     work_clock.emplace(a.work_clock);
     std::printf("deadlines and step times are on a work clock (%g s per read), not the wall clock\n", a.work_clock);
   }
-  std::printf("%-18s %-44s %-16s %9s %9s %9s %9s %10s %7s\n", "target", "controller", "scenario", "budget",
+  std::printf("%-18s %-24s %-16s %9s %9s %9s %9s %10s %7s\n", "target", "controller", "scenario", "budget",
               "step p50", "step p99", "step max", "proposals", "misses");
   bool all_pass = true;
   for (const std::string& target_file : a.target_files) {
@@ -47,15 +47,19 @@ int bench_targets(const BenchTargetsArguments& a) {
     const ControllerConfig controller = load_controller_config_file(controller_file);
     const std::vector<RealTimeRow> rows =
         measure_real_time(controller, target, scenarios, work_clock ? &*work_clock : nullptr);
+    // The file's name in the table (a path would be cut); the whole path in the target's verdict.
+    const std::string controller_name = std::filesystem::path(controller_file).filename().string();
     bool pass = true;
     for (const RealTimeRow& row : rows) {
-      std::printf("%-18s %-44.44s %-16.16s %7.1fms %7.2fms %7.2fms %7.2fms %10.0f %7d%s\n", target.name.c_str(),
-                  controller_file.c_str(), row.scenario.c_str(), row.budget_ms, row.step_p50_ms, row.step_p99_ms,
+      std::printf("%-18s %-24s %-16.16s %7.1fms %7.2fms %7.2fms %7.2fms %10.0f %7d%s\n", target.name.c_str(),
+                  controller_name.c_str(), row.scenario.c_str(), row.budget_ms, row.step_p50_ms, row.step_p99_ms,
                   row.step_max_ms, row.proposals_median, row.deadline_misses, row.passes() ? "" : "  (fails)");
       pass = pass && row.passes();
     }
-    std::printf("%s: %s (p99 step <= %.1f ms and no deadline miss on every scenario, at %.2fx this machine's time)\n",
-                target.name.c_str(), pass ? "pass" : "FAIL", 1e3 * target.solve_budget, target.cpu_slowdown);
+    std::printf("%s: %s (p99 step <= %.1f ms and no deadline miss on every scenario, at %.2fx this machine's time; "
+                "controller %s)\n",
+                target.name.c_str(), pass ? "pass" : "FAIL", 1e3 * target.solve_budget, target.cpu_slowdown,
+                controller_file.c_str());
     all_pass = all_pass && pass;
   }
   return all_pass ? kExitOk : kExitFailure;
