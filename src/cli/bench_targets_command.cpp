@@ -32,11 +32,8 @@ struct BenchTargetsArguments {
 int bench_targets(const BenchTargetsArguments& a) {
   std::vector<ScenarioConfig> scenarios;
   for (const std::string& file : a.scenario_files) scenarios.push_back(load_scenario_config_file(file));
-  std::optional<WorkClock> work_clock;
-  if (a.work_clock > 0.0) {
-    work_clock.emplace(a.work_clock);
-    std::printf("deadlines and step times are on a work clock (%g s per read), not the wall clock\n", a.work_clock);
-  }
+  std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
+  if (work_clock) std::printf("%s\n", work_clock_notice(a.work_clock).c_str());
   std::printf("%-18s %-24s %-16s %9s %9s %9s %9s %10s %7s\n", "target", "controller", "scenario", "budget",
               "step p50", "step p99", "step max", "proposals", "misses");
   bool all_pass = true;

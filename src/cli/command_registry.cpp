@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 
 #include <charconv>
+#include <cstdio>
 
 #include "swerve/core/error_text.hpp"
 
@@ -34,6 +35,18 @@ void add_work_clock_option(CLI::App& app, double* seconds_per_read) {
                  "Keep deadlines on a clock that advances this many s per read instead of the wall clock: the "
                  "same work on every machine and under an emulator (repeatable runs, instruction counts)")
       ->check(rule);
+}
+
+std::optional<WorkClock> work_clock_for(double seconds_per_read) {
+  if (seconds_per_read > 0.0) return WorkClock(seconds_per_read);
+  return std::nullopt;
+}
+
+std::string work_clock_notice(double seconds_per_read) {
+  char line[128];
+  std::snprintf(line, sizeof line, "deadlines and timings are on a work clock (%g s per read), not the wall clock",
+                seconds_per_read);
+  return line;
 }
 
 }  // namespace swerve::cli

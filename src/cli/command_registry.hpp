@@ -3,9 +3,12 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "swerve/ocp/deadline.hpp"
 
 namespace CLI {
 class App;
@@ -28,6 +31,11 @@ class UsageError : public std::runtime_error {
 // advances this much per read instead of the wall clock, so the same work is done on every
 // machine. Rejects anything but a number in (0, 1] as a command-line error.
 void add_work_clock_option(CLI::App& app, double* seconds_per_read);
+// The clock that option's value asks for: a WorkClock from zero, or none for 0 (the steady clock).
+// Each controller run gets its own, so every run starts from the same time.
+std::optional<WorkClock> work_clock_for(double seconds_per_read);
+// The line a command prints when its deadlines and timings are on a work clock.
+std::string work_clock_notice(double seconds_per_read);
 
 struct Command {
   std::string name;

@@ -128,16 +128,12 @@ int run(const RunArguments& a) {
   const ProgressCallback progress = progress_bar(scenario, a.quiet);
   for (std::size_t i = 0; i < scenario.controllers.size(); ++i) {
     // Each controller on its own work clock, from the same start, when one is asked for.
-    std::optional<WorkClock> work_clock;
-    if (a.work_clock > 0.0) work_clock.emplace(a.work_clock);
+    std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
     runs.push_back(run_controller(scenario, scenario.controllers[i], progress, i, work_clock ? &*work_clock : nullptr));
   }
   write_run_outputs(scenario, runs, out_dir);
   std::cout << comparison_table(scenario, runs);
-  if (a.work_clock > 0.0) {
-    std::cout << "deadlines and solve times are on a work clock (" << a.work_clock
-              << " s per read), not the wall clock\n";
-  }
+  if (a.work_clock > 0.0) std::cout << work_clock_notice(a.work_clock) << "\n";
   std::cout << "written: " << out_dir << "/summary.json and " << runs.size() << " per-step CSV logs\n";
   for (const ControllerRun& r : runs) {
     if (!r.completed) {

@@ -67,11 +67,8 @@ int tune_by_quality_command(const TuneArguments& a) {
   options.knots = a.knots;
   options.deadline_margins = a.margins;
   options.seeds = a.seeds;
-  std::optional<WorkClock> work_clock;
-  if (a.work_clock > 0.0) {
-    work_clock.emplace(a.work_clock);
-    options.clock = &*work_clock;
-  }
+  std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
+  if (work_clock) options.clock = &*work_clock;
   try {
     options.validate();
   } catch (const ConfigError& error) {
@@ -88,7 +85,7 @@ int tune_by_quality_command(const TuneArguments& a) {
               options.horizons.size() * options.knots.size() * std::max<std::size_t>(1, options.deadline_margins.size()),
               scenarios.size());
   if (!options.seeds.empty()) std::printf("each on %zu seeds: medians per scenario\n", options.seeds.size());
-  if (work_clock) std::printf("deadlines are on a work clock (%g s per read), not the wall clock\n", a.work_clock);
+  if (work_clock) std::printf("%s\n", work_clock_notice(a.work_clock).c_str());
   std::fflush(stdout);
   const bool bar = !a.quiet && isatty(STDERR_FILENO);
   const QualityTuningResult result =
@@ -172,11 +169,8 @@ int tune(const TuneArguments& a) {
   const ControllerConfig controller = load_controller_config_file(a.controller_file);
   const TargetConfig target = load_target_config_file(a.target_file);
   TuningOptions options = a.options;
-  std::optional<WorkClock> work_clock;
-  if (a.work_clock > 0.0) {
-    work_clock.emplace(a.work_clock);
-    options.clock = &*work_clock;
-  }
+  std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
+  if (work_clock) options.clock = &*work_clock;
   const TuningResult result = tune_horizon(vehicle, controller, target, options);
   std::printf("tune: %s (%d modules), controller %s (%s), target %s: %.0f ms of every %.0f ms cycle, "
               "%.2fx this machine's time\n",

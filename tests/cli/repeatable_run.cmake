@@ -11,7 +11,7 @@ foreach(run IN ITEMS first second)
     message(FATAL_ERROR "the ${run} run failed (${code}):\n${out}\n${err}")
   endif()
 endforeach()
-if(NOT out MATCHES "deadlines and solve times are on a work clock")
+if(NOT out MATCHES "deadlines and timings are on a work clock")
   message(FATAL_ERROR "the run did not say it used a work clock:\n${out}")
 endif()
 execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${OUT_DIR}/first/${LOG} ${OUT_DIR}/second/${LOG}
