@@ -10,7 +10,6 @@
 #include <vector>
 
 #include "swerve/core/config_error.hpp"
-#include "swerve/kinematics/module_state.hpp"  // wrap_angle
 #include "swerve/ocp/ocp_derivatives.hpp"
 
 namespace swerve {
@@ -33,13 +32,11 @@ const LinearSolverName* find_linear_solver(const std::string& name) {
 // Ceres hands over each parameter block's Jacobian as a row-major (residuals x block size) array.
 using JacobianBlock = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
 
-// Residual rows of one stage, in this order: pose (3), twist (3), wear (1), tube (position and
-// heading excess, 2), effort, rate and step penalty (nu each).
-constexpr int kPoseRow = 0;
-constexpr int kTwistRow = 3;
-constexpr int kWearRow = 6;
-constexpr int kTubeRow = 7;
-constexpr int kEffortRow = 9;
+// Residual rows of one stage, in this order: OcpProblem's tracking residuals (pose, twist, tube),
+// the wear (1), then OcpProblem's effort and rate residuals and the step penalty (nu each). Ceres'
+// cost 1/2 |r|^2 is then OcpProblem's cost, with the wear as the residual sqrt(2 lambda W).
+constexpr int kWearRow = OcpProblem::kTrackingResiduals;
+constexpr int kEffortRow = kWearRow + 1;
 int stage_residual_count(int nu) { return kEffortRow + 3 * nu; }
 
 // The OCP as one Ceres cost function over N parameter blocks of nu inputs: a single-shooting
@@ -56,14 +53,11 @@ class ShootingResiduals final : public ceres::CostFunction {
     inputs_ = Eigen::MatrixXd::Zero(nu_, horizon_);
     states_ = Eigen::MatrixXd::Zero(nx_, horizon_ + 1);
     sensitivity_ = next_sensitivity_ = Eigen::MatrixXd::Zero(nx_, nu_ * horizon_);
-    effort_root_ = rate_root_ = Eigen::VectorXd::Zero(nu_);
   }
 
   // The problem the next evaluations are of (same shape); its weights' square roots are cached.
   void bind(const OcpProblem& problem) noexcept {
     problem_ = &problem;
-    effort_root_ = (2.0 * problem.weights().effort).cwiseSqrt();
-    rate_root_ = (2.0 * problem.weights().rate).cwiseSqrt();
     evaluations_ = 0;
     stop_ = Deadline(TimePoint::max());
   }
@@ -81,6 +75,8 @@ class ShootingResiduals final : public ceres::CostFunction {
     const OcpProblem& problem = *problem_;
     const CostWeights& weights = problem.weights();
     const Eigen::VectorXd& max_step = problem.bounds().max_step;
+    const Eigen::VectorXd& effort_root = problem.effort_root();
+    const Eigen::VectorXd& rate_root = problem.rate_root();
     const int rows = num_residuals();
     for (int k = 0; k < horizon_; ++k) inputs_.col(k) = Eigen::Map<const Eigen::VectorXd>(parameters[k], nu_);
     Eigen::Map<Eigen::VectorXd> r(residuals, rows);
@@ -102,32 +98,19 @@ class ShootingResiduals final : public ceres::CostFunction {
         return false;
       }
       const int row = k * stage_rows_;
-      const double scale = k == horizon_ - 1 ? weights.terminal_scale : 1.0;
-      const Eigen::Vector3d pose_root = (2.0 * scale * weights.pose).cwiseSqrt();
-      const Eigen::Vector3d twist_root = (2.0 * weights.twist).cwiseSqrt();
-      Eigen::Vector3d pose_error = states_.col(k + 1).head<3>() - problem.reference_poses().col(k);
-      pose_error.z() = wrap_angle(pose_error.z());
-      r.segment<3>(row + kPoseRow) = pose_root.cwiseProduct(pose_error);
-      r.segment<3>(row + kTwistRow) =
-          twist_root.cwiseProduct(states_.col(k + 1).segment<3>(3) - problem.reference_twists().col(k));
+      problem.tracking_residuals(k, states_.col(k + 1), &tracking_, jacobians != nullptr ? &tracking_jacobian_ : nullptr);
+      r.segment<OcpProblem::kTrackingResiduals>(row) = tracking_;
       // Wear is >= 0 physically; a model that reports less than -eps^2/lambda has no real residual.
       const double wear_square = 2.0 * (weights.wear * wear + CeresSolver::kWearSmoothing * CeresSolver::kWearSmoothing);
       if (!(wear_square > 0.0)) return false;
       const double wear_residual = std::sqrt(wear_square);
       r[row + kWearRow] = wear_residual;
-      // The tube: sqrt(2 mu) times the excess, so that 1/2 r^2 is OcpProblem's mu excess^2.
-      const double tube_root = std::sqrt(2.0 * weights.tube_penalty);
-      const double position_error = pose_error.head<2>().norm();
-      const double position_excess = std::max(0.0, position_error - problem.tube()(0, k));
-      const double heading_excess = std::max(0.0, std::abs(pose_error.z()) - problem.tube()(1, k));
-      r[row + kTubeRow] = tube_root * position_excess;
-      r[row + kTubeRow + 1] = tube_root * heading_excess;
       for (int i = 0; i < nu_; ++i) {
         const double u = inputs_(i, k);
         const double change = u - (k == 0 ? problem.previous_input()[i] : inputs_(i, k - 1));
         const double excess = std::abs(change) - max_step[i];  // -inf for an unbounded step
-        r[row + kEffortRow + i] = effort_root_[i] * u;
-        r[row + kEffortRow + nu_ + i] = rate_root_[i] * change;
+        r[row + kEffortRow + i] = effort_root[i] * u;
+        r[row + kEffortRow + nu_ + i] = rate_root[i] * change;
         r[row + kEffortRow + 2 * nu_ + i] = excess > 0.0 ? penalty_root_ * excess : 0.0;
       }
       if (jacobians == nullptr) continue;
@@ -140,18 +123,10 @@ class ShootingResiduals final : public ceres::CostFunction {
         if (jacobians[j] == nullptr) continue;
         JacobianBlock block(jacobians[j], rows, nu_);
         const int column = j * nu_;
-        block.block(row + kPoseRow, 0, 3, nu_) = pose_root.asDiagonal() * next_sensitivity_.block(0, column, 3, nu_);
-        block.block(row + kTwistRow, 0, 3, nu_) = twist_root.asDiagonal() * next_sensitivity_.block(3, column, 3, nu_);
+        block.middleRows(row, OcpProblem::kTrackingResiduals).noalias() =
+            tracking_jacobian_ * next_sensitivity_.block(0, column, OcpProblem::kTrackedStates, nu_);
         block.row(row + kWearRow).noalias() =
             (wear_factor * wear_gradient.head(nx_)).transpose() * sensitivity_.middleCols(column, nu_);
-        if (position_excess > 0.0) {
-          block.row(row + kTubeRow).noalias() = (tube_root / position_error) * pose_error.head<2>().transpose() *
-                                                next_sensitivity_.block(0, column, 2, nu_);
-        }
-        if (heading_excess > 0.0) {
-          block.row(row + kTubeRow + 1) =
-              (pose_error.z() > 0.0 ? tube_root : -tube_root) * next_sensitivity_.block(2, column, 1, nu_);
-        }
       }
       for (int i = 0; i < nu_; ++i) {
         const double change = inputs_(i, k) - (k == 0 ? problem.previous_input()[i] : inputs_(i, k - 1));
@@ -160,13 +135,13 @@ class ShootingResiduals final : public ceres::CostFunction {
         if (jacobians[k] != nullptr) {
           JacobianBlock block(jacobians[k], rows, nu_);
           block(row + kWearRow, i) += wear_factor * wear_gradient[nx_ + i];
-          block(row + kEffortRow + i, i) = effort_root_[i];
-          block(row + kEffortRow + nu_ + i, i) = rate_root_[i];
+          block(row + kEffortRow + i, i) = effort_root[i];
+          block(row + kEffortRow + nu_ + i, i) = rate_root[i];
           block(row + kEffortRow + 2 * nu_ + i, i) = penalty_slope;
         }
         if (k > 0 && jacobians[k - 1] != nullptr) {
           JacobianBlock block(jacobians[k - 1], rows, nu_);
-          block(row + kEffortRow + nu_ + i, i) = -rate_root_[i];
+          block(row + kEffortRow + nu_ + i, i) = -rate_root[i];
           block(row + kEffortRow + 2 * nu_ + i, i) = -penalty_slope;
         }
       }
@@ -180,11 +155,12 @@ class ShootingResiduals final : public ceres::CostFunction {
   Deadline stop_{TimePoint::max()};
   int nx_, nu_, horizon_, stage_rows_;
   double penalty_root_;  // sqrt(2 step_penalty_weight)
-  Eigen::VectorXd effort_root_, rate_root_;
   // Ceres' Evaluate is const; these are its scratch space (one solve at a time, one thread).
   mutable OcpDerivatives derivatives_;
   mutable Eigen::MatrixXd inputs_, states_;                   // nu x N, nx x N+1
   mutable Eigen::MatrixXd sensitivity_, next_sensitivity_;    // nx x nu N
+  mutable OcpProblem::TrackingResiduals tracking_;
+  mutable OcpProblem::TrackingJacobian tracking_jacobian_;
   mutable long evaluations_ = 0;
 };
 

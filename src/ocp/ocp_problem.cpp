@@ -1,5 +1,6 @@
 #include "swerve/ocp/ocp_problem.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -68,6 +69,12 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
       reject("bounds.max_step" + index, bounds_.max_step[i], "must be > 0");
     }
   }
+  pose_root_ = (2.0 * weights_.pose).cwiseSqrt();
+  terminal_pose_root_ = (2.0 * weights_.terminal_scale * weights_.pose).cwiseSqrt();
+  twist_root_ = (2.0 * weights_.twist).cwiseSqrt();
+  tube_root_ = std::sqrt(2.0 * weights_.tube_penalty);
+  effort_root_ = (2.0 * weights_.effort).cwiseSqrt();
+  rate_root_ = (2.0 * weights_.rate).cwiseSqrt();
   x0_ = Eigen::VectorXd::Zero(nx_);
   u_previous_ = Eigen::VectorXd::Zero(nu_).cwiseMax(bounds_.lower).cwiseMin(bounds_.upper);
   reference_pose_ = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, horizon_);
@@ -165,22 +172,41 @@ Eigen::Ref<const Eigen::VectorXd> OcpProblem::input_before(const Eigen::Ref<cons
   return Eigen::Ref<const Eigen::VectorXd>(inputs.col(static_cast<Eigen::Index>(k) - 1));
 }
 
+void OcpProblem::tracking_residuals(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next,
+                                    TrackingResiduals* residuals, TrackingJacobian* jacobian) const noexcept {
+  const auto kk = static_cast<Eigen::Index>(k);
+  Eigen::Vector3d pose_error = x_next.head<3>() - reference_pose_.col(kk);
+  pose_error.z() = wrap_angle(pose_error.z());
+  const Eigen::Vector3d& pose_root = k == horizon_ - 1 ? terminal_pose_root_ : pose_root_;
+  const double position_error = pose_error.head<2>().norm();
+  const double position_excess = std::max(0.0, position_error - tube_(0, kk));
+  const double heading_excess = std::max(0.0, std::abs(pose_error.z()) - tube_(1, kk));
+  TrackingResiduals& r = *residuals;
+  r.segment<3>(kPoseResidual) = pose_root.cwiseProduct(pose_error);
+  r.segment<3>(kTwistResidual) = twist_root_.cwiseProduct(x_next.segment<3>(3) - reference_twist_.col(kk));
+  r[kTubeResidual] = tube_root_ * position_excess;
+  r[kTubeResidual + 1] = tube_root_ * heading_excess;
+  if (jacobian == nullptr) return;
+  // The wrapped heading error's derivative is 1; the tube's, d |e| / d e = e / |e| beyond the bound
+  // (where |e| > b > 0) and 0 inside.
+  TrackingJacobian& j = *jacobian;
+  j.setZero();
+  j.block<3, 3>(kPoseResidual, 0) = pose_root.asDiagonal();
+  j.block<3, 3>(kTwistResidual, 3) = twist_root_.asDiagonal();
+  if (position_excess > 0.0) j.block<1, 2>(kTubeResidual, 0) = (tube_root_ / position_error) * pose_error.head<2>();
+  if (heading_excess > 0.0) j(kTubeResidual + 1, 2) = pose_error.z() > 0.0 ? tube_root_ : -tube_root_;
+}
+
 double OcpProblem::stage_cost(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next,
                               const Eigen::Ref<const Eigen::VectorXd>& u,
                               const Eigen::Ref<const Eigen::VectorXd>& u_before, double wear,
                               CostBreakdown* parts) const noexcept {
-  const auto kk = static_cast<Eigen::Index>(k);
-  Eigen::Vector3d pose_error = x_next.head<3>() - reference_pose_.col(kk);
-  pose_error.z() = wrap_angle(pose_error.z());
-  const Eigen::Vector3d twist_error = x_next.segment<3>(3) - reference_twist_.col(kk);
-  const double scale = (k == horizon_ - 1) ? weights_.terminal_scale : 1.0;
-  const double position_excess = std::max(0.0, pose_error.head<2>().norm() - tube_(0, kk));
-  const double heading_excess = std::max(0.0, std::abs(pose_error.z()) - tube_(1, kk));
-  const double tracking = scale * pose_error.cwiseAbs2().dot(weights_.pose) + twist_error.cwiseAbs2().dot(weights_.twist) +
-                          weights_.tube_penalty * (position_excess * position_excess + heading_excess * heading_excess);
+  TrackingResiduals r;
+  tracking_residuals(k, x_next, &r);
+  const double tracking = 0.5 * r.squaredNorm();
   const double wear_cost = weights_.wear * wear;
-  const double effort = u.cwiseAbs2().dot(weights_.effort);
-  const double rate = (u - u_before).cwiseAbs2().dot(weights_.rate);
+  const double effort = 0.5 * effort_root_.cwiseProduct(u).squaredNorm();
+  const double rate = 0.5 * rate_root_.cwiseProduct(u - u_before).squaredNorm();
   if (parts != nullptr) {
     parts->tracking += tracking;
     parts->wear += wear_cost;
@@ -195,25 +221,16 @@ double OcpProblem::stage_cost_without_wear(int k, const Eigen::Ref<const Eigen::
                                            const Eigen::Ref<const Eigen::VectorXd>& u_before,
                                            Eigen::Ref<Eigen::VectorXd> d_x_next, Eigen::Ref<Eigen::VectorXd> d_u,
                                            Eigen::Ref<Eigen::VectorXd> d_u_before) const noexcept {
-  const auto kk = static_cast<Eigen::Index>(k);
-  Eigen::Vector3d pose_error = x_next.head<3>() - reference_pose_.col(kk);
-  pose_error.z() = wrap_angle(pose_error.z());
-  const Eigen::Vector3d twist_error = x_next.segment<3>(3) - reference_twist_.col(kk);
-  const double scale = (k == horizon_ - 1) ? weights_.terminal_scale : 1.0;
+  // The gradient of 1/2 |r|^2 is J^T r, term by term.
+  TrackingResiduals r;
+  TrackingJacobian jacobian;
+  tracking_residuals(k, x_next, &r, &jacobian);
   d_x_next.setZero();
-  d_x_next.head<3>() = 2.0 * scale * weights_.pose.cwiseProduct(pose_error);
-  d_x_next.segment<3>(3) = 2.0 * weights_.twist.cwiseProduct(twist_error);
-  // The tube: d/de mu max(0, |e| - b)^2 = 2 mu (|e| - b) e / |e| beyond the bound, 0 inside.
-  const double position_error = pose_error.head<2>().norm();
-  if (position_error > tube_(0, kk)) {
-    d_x_next.head<2>() += 2.0 * weights_.tube_penalty * (position_error - tube_(0, kk)) / position_error * pose_error.head<2>();
-  }
-  if (std::abs(pose_error.z()) > tube_(1, kk)) {
-    d_x_next[2] += 2.0 * weights_.tube_penalty * (std::abs(pose_error.z()) - tube_(1, kk)) * (pose_error.z() > 0.0 ? 1.0 : -1.0);
-  }
-  d_u = 2.0 * weights_.effort.cwiseProduct(u) + 2.0 * weights_.rate.cwiseProduct(u - u_before);
-  d_u_before = -2.0 * weights_.rate.cwiseProduct(u - u_before);
-  return stage_cost(k, x_next, u, u_before, 0.0, nullptr);
+  d_x_next.head<kTrackedStates>().noalias() = jacobian.transpose() * r;
+  const auto rate_residual = rate_root_.cwiseProduct(u - u_before);
+  d_u = effort_root_.cwiseProduct(effort_root_.cwiseProduct(u)) + rate_root_.cwiseProduct(rate_residual);
+  d_u_before = -rate_root_.cwiseProduct(rate_residual);
+  return 0.5 * (r.squaredNorm() + effort_root_.cwiseProduct(u).squaredNorm() + rate_residual.squaredNorm());
 }
 
 double OcpProblem::rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,

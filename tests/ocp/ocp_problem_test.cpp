@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "support/linear_models.hpp"
@@ -224,6 +226,66 @@ TEST(OcpProblem, TheTubeGradientMatchesFiniteDifferencesOutsideTheTube) {
                             problem.stage_cost_without_wear(0, minus, u, u_before, scratch_x, scratch_u, scratch_before)) /
                            (2 * h);
     EXPECT_NEAR(d_x[i], numeric, 1e-4 * std::max(1.0, std::abs(numeric))) << "state " << i;
+  }
+}
+
+// The residuals are the cost's one definition: by hand, for the case above (Q = (10, 10, 5), Q_N =
+// 10 Q, R = 1, S = 2): x1 = 0.5 m gives sqrt(2 * 10) * 0.5, x2 = 1.5 m at the horizon's end
+// sqrt(2 * 100) * 1.5; the effort and rate residuals are sqrt(2) u and 2 (u_k - u_{k-1}).
+TEST(OcpProblem, ResidualsAreTheSquareRootsOfTheHandComputedTerms) {
+  const DoubleIntegratorModel model(1.0);
+  CostWeights w = hand_weights();
+  w.twist = {4.0, 0.0, 0.0};
+  OcpProblem problem(model, 2, 1.0, w, {});
+  OcpProblem::TrackingResiduals r;
+  Eigen::VectorXd x_next = Eigen::VectorXd::Zero(6);
+  x_next[0] = 0.5;
+  x_next[3] = 1.0;
+  problem.tracking_residuals(0, x_next, &r);
+  EXPECT_NEAR(r[OcpProblem::kPoseResidual], std::sqrt(20.0) * 0.5, 1e-15);
+  EXPECT_NEAR(r[OcpProblem::kTwistResidual], std::sqrt(8.0) * 1.0, 1e-15);
+  EXPECT_EQ(r[OcpProblem::kTubeResidual], 0.0);  // no tube: no excess
+  x_next[0] = 1.5;
+  problem.tracking_residuals(1, x_next, &r);
+  EXPECT_NEAR(r[OcpProblem::kPoseResidual], std::sqrt(200.0) * 1.5, 1e-14);
+  EXPECT_NEAR(problem.effort_root()[0], std::sqrt(2.0), 1e-15);
+  EXPECT_NEAR(problem.rate_root()[2], 2.0, 1e-15);
+  // Half the squared residuals is the stage cost without wear.
+  Eigen::VectorXd d_x(6), d_u(3), d_u_before(3);
+  const Eigen::Vector3d u(1.0, 0.0, 0.0), u_before = Eigen::Vector3d::Zero();
+  const double expected = 0.5 * r.squaredNorm() + 0.5 * 2.0 * 1.0 + 0.5 * 4.0 * 1.0;
+  EXPECT_NEAR(problem.stage_cost_without_wear(1, x_next, u, u_before, d_x, d_u, d_u_before), expected, 1e-12);
+}
+
+// d r / d x_{k+1} against central differences, with the heading wrapped across +-pi and the tube
+// active on both errors (its rows are where a sign or a norm could go wrong).
+TEST(OcpProblem, TrackingJacobianMatchesCentralDifferences) {
+  const DoubleIntegratorModel model(1.0);
+  CostWeights w = hand_weights();
+  w.twist = {3.0, 2.0, 1.0};
+  w.tube_penalty = 50.0;
+  OcpProblem problem(model, 3, 1.0, w, {});
+  ASSERT_TRUE(problem.set_reference(2, Eigen::Vector3d(0.1, -0.2, 3.0), Eigen::Vector3d(0.5, 0.0, -0.1)));
+  ASSERT_TRUE(problem.set_tube(2, 0.05, 0.02));
+  Eigen::VectorXd x_next(6);
+  x_next << 0.4, 0.1, -3.0, 0.2, -0.3, 0.4;  // heading error 0.28 rad once wrapped
+  OcpProblem::TrackingResiduals r, plus_r, minus_r;
+  OcpProblem::TrackingJacobian jacobian;
+  problem.tracking_residuals(1, x_next, &r, &jacobian);
+  ASSERT_GT(r[OcpProblem::kTubeResidual], 0.0);
+  ASSERT_GT(r[OcpProblem::kTubeResidual + 1], 0.0);
+  for (int i = 0; i < OcpProblem::kTrackedStates; ++i) {
+    const double h = 1e-7;
+    Eigen::VectorXd plus = x_next, minus = x_next;
+    plus[i] += h;
+    minus[i] -= h;
+    problem.tracking_residuals(1, plus, &plus_r);
+    problem.tracking_residuals(1, minus, &minus_r);
+    const OcpProblem::TrackingResiduals numeric = (plus_r - minus_r) / (2 * h);
+    for (int row = 0; row < OcpProblem::kTrackingResiduals; ++row) {
+      EXPECT_NEAR(jacobian(row, i), numeric[row], 1e-6 * std::max(1.0, std::abs(numeric[row])))
+          << "row " << row << ", state " << i;
+    }
   }
 }
 

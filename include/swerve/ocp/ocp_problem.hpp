@@ -8,6 +8,9 @@
 //        + lambda * wear_k                      (tire wear accumulated over step k)
 //        + |u_k|^2_R + |u_k - u_{k-1}|^2_S      (u_{-1}: the input applied last cycle)
 //        + mu (max(0, |e_xy,k+1| - b_k)^2 + max(0, |e_psi,k+1| - c_k)^2)   (the tracking tube)
+// Every term but the wear is defined once, as weighted residuals (tracking_residuals,
+// effort_root, rate_root): stage k costs 1/2 |r_k|^2 + lambda wear_k. The cost's value, its
+// gradient (J^T r) and the Gauss-Newton model of the Ceres backend all derive from them.
 // Heading errors are wrapped to (-pi, pi]. The tube (issue 15's tracking tolerance) is an exterior
 // penalty on the position and heading errors beyond per-stage bounds b_k, c_k (+inf: no tube,
 // the default); mu = weights.tube_penalty is stiff, so inside the tube the wear term rules and
@@ -96,6 +99,21 @@ class OcpProblem {
   double rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step, Eigen::Ref<Eigen::MatrixXd> states,
                  Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept;
 
+  // The tracking residuals of stage k at its end state x_{k+1} (rows: kPoseResidual..): pose error
+  // times sqrt(2 s_k Q) (s_k = terminal_scale at k = N-1, else 1), heading wrapped; twist error
+  // times sqrt(2 Qv); the tube's position and heading excess times sqrt(2 mu). With `jacobian`, also
+  // d r / d x_{k+1}; it is zero past the pose and twist (kTrackedStates columns). noexcept.
+  static constexpr int kPoseResidual = 0, kTwistResidual = 3, kTubeResidual = 6, kTrackingResiduals = 8;
+  static constexpr int kTrackedStates = 6;
+  using TrackingResiduals = Eigen::Matrix<double, kTrackingResiduals, 1>;
+  using TrackingJacobian = Eigen::Matrix<double, kTrackingResiduals, kTrackedStates>;
+  void tracking_residuals(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next, TrackingResiduals* residuals,
+                          TrackingJacobian* jacobian = nullptr) const noexcept;
+  // The input residuals, per input i: effort effort_root[i] * u_k[i] and rate
+  // rate_root[i] * (u_k[i] - u_{k-1}[i]), with effort_root = sqrt(2 R) and rate_root = sqrt(2 S).
+  const Eigen::VectorXd& effort_root() const noexcept { return effort_root_; }
+  const Eigen::VectorXd& rate_root() const noexcept { return rate_root_; }
+
   // Cost of stage k without its wear term: tracking at x_{k+1}, effort on u_k and rate on
   // u_k - u_{k-1} (u_{-1}: previous_input()). Its gradient is written (not added) to d_x_next (nx),
   // d_u and d_u_before (nu); the heading error is wrapped, so its derivative is 1. Used by the
@@ -124,6 +142,10 @@ class OcpProblem {
   Eigen::Matrix<double, 3, Eigen::Dynamic> reference_pose_;   // 3 x N
   Eigen::Matrix<double, 3, Eigen::Dynamic> reference_twist_;  // 3 x N
   Eigen::Matrix<double, 2, Eigen::Dynamic> tube_;             // 2 x N: position, heading bounds
+  // The residuals' weights: square roots of twice each weight (1/2 r^2 is the weighted square).
+  Eigen::Vector3d pose_root_, terminal_pose_root_, twist_root_;
+  double tube_root_ = 0.0;
+  Eigen::VectorXd effort_root_, rate_root_;  // nu
 };
 
 }  // namespace swerve
