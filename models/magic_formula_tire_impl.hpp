@@ -46,6 +46,8 @@ WheelSlip<T> compute_wheel_slip(const MagicFormulaParams& params, T u_wheel, T v
   slip.slip_velocity_y_wheel = -v_wheel;
   slip.slip_ratio = slip.slip_velocity_x_wheel / denom_kappa;
   slip.slip_angle = -atan(v_wheel / denom_alpha);  // = -atan2(v, denom) for denom > 0
+  slip.slip_ratio_speed = denom_kappa;
+  slip.slip_angle_speed = denom_alpha;
   return slip;
 }
 

@@ -180,8 +180,7 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
   const T tread_speed = radius * omega;
   const WheelSlip<T> slip = compute_wheel_slip(params_.tire, u_wheel, v_wheel, tread_speed);
 
-  T kappa = slip.slip_ratio;
-  T alpha = slip.slip_angle;
+  WheelSlip<T> sliding = slip;  // what the contact slides at: the power and wear come from it
   if (relaxation_) {
     // Transient slip, first order with relaxation length sigma (Pacejka 2012, sec. 7.2.2):
     //   sigma kappa'_dot = V (kappa - kappa'), V = sqrt(u^2 + V_r^2 + eps^2) (finite rate at rest).
@@ -189,20 +188,25 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
     const double eps = params_.tire.slip_speed_epsilon;
     const T rate = sqrt(u_wheel * u_wheel + tread_speed * tread_speed + T(eps * eps)) /
                    params_.plant.relaxation_length;
-    x_dot[ki] = rate * (kappa - x[ki]);
-    x_dot[ki + 1] = rate * (alpha - x[ki + 1]);
-    kappa = x[ki];
-    alpha = x[ki + 1];
+    x_dot[ki] = rate * (slip.slip_ratio - x[ki]);
+    x_dot[ki + 1] = rate * (slip.slip_angle - x[ki + 1]);
+    // The force comes from the transient slips, and so does the sliding: F times the kinematic slip
+    // velocity would count the carcass' deflection (stored, then given back) as worn energy. It did:
+    // a start from rest on agv_4wheel (relaxation 0.05 m) wore 0.10 J in 50 ms where the plant
+    // without relaxation wore 0.003 J, with the body speed ringing past its command.
+    sliding = transient_sliding(slip, x[ki], x[ki + 1]);
   }
+  const T& kappa = sliding.slip_ratio;
+  const T& alpha = sliding.slip_angle;
   const TireForces<T> f = tire_.forces(kappa, alpha, fz);
   const T fx_body = c * f.fx_wheel - s * f.fy_wheel;
   const T fy_body = s * f.fx_wheel + c * f.fy_wheel;
   const double arm_x = p.x() - params_.center_of_mass_body.x();
   const double arm_y = p.y() - params_.center_of_mass_body.y();
-  const T power = frictional_power(f, slip, params_.wear.model == WearModelKind::kFrictionalPower
-                                                ? params_.wear.smoothing
-                                                : 0.0);
-  const T wear = wear_rate(params_.wear, f, slip, fz);
+  const T power = frictional_power(f, sliding, params_.wear.model == WearModelKind::kFrictionalPower
+                                                   ? params_.wear.smoothing
+                                                   : 0.0);
+  const T wear = wear_rate(params_.wear, f, sliding, fz);
 
   sums->fx_body += fx_body;
   sums->fy_body += fy_body;
@@ -216,8 +220,8 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
     diag->fy_wheel = f.fy_wheel;
     diag->fx_body = fx_body;
     diag->fy_body = fy_body;
-    diag->slip_velocity_x_wheel = slip.slip_velocity_x_wheel;
-    diag->slip_velocity_y_wheel = slip.slip_velocity_y_wheel;
+    diag->slip_velocity_x_wheel = sliding.slip_velocity_x_wheel;
+    diag->slip_velocity_y_wheel = sliding.slip_velocity_y_wheel;
     diag->frictional_power = power;
     diag->wear_rate = wear;
   }

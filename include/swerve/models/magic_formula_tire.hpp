@@ -3,6 +3,7 @@
 // ceres::Jet gives exact derivatives; instantiated for double and swerve::ModelJet (models/jet.hpp).
 #pragma once
 
+#include <cmath>
 #include <optional>
 
 #include <string>
@@ -77,7 +78,28 @@ struct WheelSlip {
   // Fx * slip_velocity_x + Fy * slip_velocity_y >= 0.
   T slip_velocity_x_wheel{0.0};
   T slip_velocity_y_wheel{0.0};
+  // The speeds the slips are normalised by: slip_velocity_x = slip_ratio * slip_ratio_speed and
+  // slip_velocity_y = tan(slip_angle) * slip_angle_speed (m/s, > 0).
+  T slip_ratio_speed{0.0};
+  T slip_angle_speed{0.0};
 };
+
+// The contact's sliding when the tire force comes from transient slips (kappa', alpha'; the plant's
+// relaxation length) instead of the wheel's kinematic slips: the sliding velocity those slips stand
+// for, kappa' and tan(alpha') times the kinematic slips' normalising speeds. The rest of the
+// wheel-ground speed difference deflects the carcass (Pacejka 2012, sec. 7.2: the contact point
+// slides at V kappa' while the deflection takes up the difference); that energy is stored and given
+// back, not worn away. Equals `kinematic` in steady state (kappa' = kappa, alpha' = alpha).
+template <typename T>
+WheelSlip<T> transient_sliding(const WheelSlip<T>& kinematic, const T& transient_ratio, const T& transient_angle) {
+  using std::tan;
+  WheelSlip<T> sliding = kinematic;
+  sliding.slip_ratio = transient_ratio;
+  sliding.slip_angle = transient_angle;
+  sliding.slip_velocity_x_wheel = transient_ratio * kinematic.slip_ratio_speed;
+  sliding.slip_velocity_y_wheel = tan(transient_angle) * kinematic.slip_angle_speed;
+  return sliding;
+}
 
 // Slip of a wheel whose contact point moves at (u, v) in the wheel frame while its tread moves at
 // V_r = wheel_radius * wheel_speed (paper-notes assumption 3):
