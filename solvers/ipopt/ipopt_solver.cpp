@@ -438,6 +438,7 @@ void IpoptSolver::reset_warm_start() noexcept {
 SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
                                   Solution* out, SolveSummary* summary) noexcept {
   Impl& s = *impl_;
+  details_.max_defect = std::numeric_limits<double>::infinity();  // until an iterate says otherwise
   try {
     const TimePoint guesses_start = deadline.now();
     long rollouts = 0;
@@ -508,7 +509,7 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
       }
       s.have_multipliers = true;
     }
-    summary->max_defect = max_defect;
+    details_.max_defect = max_defect;
     summary->rollouts += rollouts;
     out->inputs = s.best_inputs;
     out->states = s.best_states;

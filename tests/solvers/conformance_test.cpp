@@ -151,7 +151,6 @@ double ipopt_reference_cost(const SwerveProblem& s) {
     SolveSummary summary;
     const SolveStatus status = solver->solve(s.problem, {}, SolverClock::now() + 600s, &solution, &summary);
     EXPECT_EQ(status, SolveStatus::kConverged) << summary.reason;
-    EXPECT_LE(summary.max_defect, 1e-6);
     return solution.cost;
   }();
   return cost;
@@ -204,9 +203,6 @@ TEST_P(BackendConformance, ReachesTheIpoptReferenceOnTheSwerveProblemWithExactDy
     Eigen::MatrixXd states(10, 21);
     s.problem.evaluate(solution.inputs, states);
     EXPECT_LE((states - solution.states).cwiseAbs().maxCoeff(), 1e-6);
-    if (status == SolveStatus::kConverged) {
-      EXPECT_LE(summary.max_defect, 1e-6);  // Ipopt's own iterate
-    }
     EXPECT_TRUE(s.problem.is_feasible(solution.inputs, 1e-9));
   }
   EXPECT_LE(best_cost, reference * (1.0 + reference_tolerance(GetParam())));

@@ -1,6 +1,7 @@
 // What only the Ipopt backend promises beyond the shared conformance suite (which checks its
-// convergence, defects, warm start and deadline with every other backend): the inputs of the LQ
-// optimum themselves, and bad options named by their field.
+// convergence, plans that are rollouts, warm start and deadline with every other backend): the
+// inputs of the LQ optimum themselves, its iterate's dynamics defect, and bad options named by
+// their field.
 #include "swerve/solvers/ipopt_solver.hpp"
 
 #include <gtest/gtest.h>
@@ -36,6 +37,8 @@ TEST(IpoptSolver, ReachesTheLinearQuadraticOptimumToOneMicroRelative) {
   ASSERT_EQ(solver.solve(problem, {}, SolverClock::now() + 10s, &solution, &summary), SolveStatus::kConverged);
   EXPECT_NEAR(solution.cost, optimal_cost, 1e-6 * optimal_cost);
   EXPECT_LT((solution.inputs - optimum).cwiseAbs().maxCoeff(), 1e-4);
+  // Multiple shooting: the converged iterate satisfies its own dynamics constraints.
+  EXPECT_LE(solver.last_details().max_defect, 1e-6);
 }
 
 TEST(IpoptSolver, OneSlowStartDoesNotKeepIpoptFromRunningAgain) {

@@ -28,9 +28,7 @@ struct SolveSummary {
   CostBreakdown cost;           // of the returned plan
   double initial_cost = -1.0;   // of the best initial guess
   double solve_time_s = -1.0;   // on the deadline's clock
-  // Multiple shooting (Ipopt): the largest dynamics defect |x_{k+1} - F(x_k, u_k)| of the
-  // optimiser's final iterate; 0 for single-shooting backends, whose plans are rollouts.
-  double max_defect = 0.0;
+  // What only one backend reports lives with that backend (e.g. IpoptSolver::last_details()).
 };
 
 // A plan over the horizon: inputs (nu x N) and the states they predict (nx x N+1).

@@ -57,6 +57,15 @@ class IpoptSolver final : public Solver {
   // Forget the previous solution's multipliers (the next solve starts cold).
   void reset_warm_start() noexcept;
 
+  // What only this backend reports about its last solve.
+  struct Details {
+    // Multiple shooting: the largest dynamics defect |x_{k+1} - F(x_k, u_k)| of Ipopt's final
+    // iterate (+inf when it had none). The returned plan is a rollout of that iterate's inputs,
+    // so its states satisfy the dynamics exactly whatever this says.
+    double max_defect = 0.0;
+  };
+  const Details& last_details() const noexcept { return details_; }
+
   struct Impl;  // the Ipopt application and the TNLP (defined in the source)
 
  private:
@@ -65,6 +74,7 @@ class IpoptSolver final : public Solver {
 
   IpoptOptions options_;
   std::unique_ptr<Impl> impl_;
+  Details details_;
 };
 
 }  // namespace swerve
