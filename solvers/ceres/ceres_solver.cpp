@@ -55,7 +55,7 @@ class ShootingResiduals final : public ceres::CostFunction {
     sensitivity_ = next_sensitivity_ = Eigen::MatrixXd::Zero(nx_, nu_ * horizon_);
   }
 
-  // The problem the next evaluations are of (same shape); its weights' square roots are cached.
+  // The problem the next evaluations are of (same shape); its residuals' weights come with it.
   void bind(const OcpProblem& problem) noexcept {
     problem_ = &problem;
     evaluations_ = 0;

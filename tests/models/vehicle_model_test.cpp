@@ -433,21 +433,34 @@ TEST(VehicleModel, LoadTransferMovesLoadToTheRearWhenAccelerating) {
   EXPECT_NEAR(diag[3].normal_load, quarter + transfer, kLoadTolerance);  // rear right
 }
 
+// 4 modules with transient slip (relaxation 0.1 m) and neither actuator lag nor saturation, so the
+// tread speed is the command.
+VehicleParams transient_slip_params() {
+  VehicleParams params = testing::make_params(4);
+  params.plant.relaxation_length = 0.1;
+  params.plant.actuator_lag = false;
+  params.plant.actuator_saturation = false;
+  return params;
+}
+
+// Every wheel commanded to a tread speed of `tread` m/s, steering still.
+Vector tread_commands(const VehicleModel<double>& plant, const VehicleParams& params, double tread) {
+  Vector u = Vector::Zero(plant.input_size());
+  for (int i = 0; i < params.layout.size(); ++i) u(InputIndex::wheel_speed(i)) = tread / params.layout.wheel_radius();
+  return u;
+}
+
 TEST(VehicleModel, TransientSlipRelaxesTowardsTheSteadySlipAtRateSpeedOverRelaxationLength) {
   // Pacejka 2012, sec. 7.2.2: sigma kappa'_dot = V (kappa - kappa'), V = sqrt(u^2 + V_r^2 + eps^2).
   // Rolling straight at 1 m/s with the wheels commanded 2 % faster (no actuator lag, so V_r is the
   // command) and the transient slips still 0: each transient slip ratio rises at V kappa / sigma,
   // the slip angle stays, and no force acts yet (the forces follow the transient slips).
-  VehicleParams params = testing::make_params(4);
-  params.plant.relaxation_length = 0.1;
-  params.plant.actuator_lag = false;
-  params.plant.actuator_saturation = false;
+  VehicleParams params = transient_slip_params();
   const VehicleModel<double> plant(params, Fidelity::kPlant);
   Vector x = Vector::Zero(plant.state_size());
-  Vector u = Vector::Zero(plant.input_size());
   x(StateIndex::kVx) = 1.0;
   const double tread = 1.02;
-  for (int i = 0; i < 4; ++i) u(InputIndex::wheel_speed(i)) = tread / params.layout.wheel_radius();
+  const Vector u = tread_commands(plant, params, tread);
   Vector x_dot(plant.state_size());
   ASSERT_EQ(plant.derivative(x, u, x_dot), ModelStatus::kOk);
   const auto slip = compute_wheel_slip(params.tire, 1.0, 0.0, tread);
@@ -472,17 +485,13 @@ TEST(VehicleModel, TransientSlipRelaxesTowardsTheSteadySlipAtRateSpeedOverRelaxa
 // runs ahead). F times the kinematic slip velocity would be 3x too much in the first case and
 // would count the second as wear at all.
 TEST(VehicleModel, WithTransientSlipTheWearIsTheTransientForceTimesTheSlidingItStandsFor) {
-  VehicleParams params = testing::make_params(4);
-  params.plant.relaxation_length = 0.1;
-  params.plant.actuator_lag = false;
-  params.plant.actuator_saturation = false;
+  VehicleParams params = transient_slip_params();
   params.tire.smooth_slip = false;
   const VehicleModel<double> plant(params, Fidelity::kPlant);
   Vector x = Vector::Zero(plant.state_size());
-  Vector u = Vector::Zero(plant.input_size());
   x(StateIndex::kVx) = 1.0;
   const double tread = 1.02;
-  for (int i = 0; i < 4; ++i) u(InputIndex::wheel_speed(i)) = tread / params.layout.wheel_radius();
+  const Vector u = tread_commands(plant, params, tread);
   const double kappa = 0.02 / tread;
   const MagicFormulaTire<double> tire(params.tire);
   const double fz = params.mass * params.gravity / 4.0;
