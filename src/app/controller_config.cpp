@@ -49,6 +49,7 @@ void load_weights(const ConfigNode& node, ControllerOptions* o) {
   o->pose_weight = get_vector3_or(node, "pose", o->pose_weight);
   o->twist_weight = get_vector3_or(node, "twist", o->twist_weight);
   o->terminal_scale = node.get_double_or("terminal_scale", o->terminal_scale, Bound::non_negative());
+  o->pose_huber_width = node.get_double_or("pose_huber_width", o->pose_huber_width, Bound::non_negative());
   o->wear_weight = node.get_double_or("wear", o->wear_weight, Bound::non_negative());
   o->wear_reference_mass = node.get_double_or("wear_reference_mass", o->wear_reference_mass, Bound::non_negative());
   o->steering_rate_effort = node.get_double_or("steering_rate_effort", o->steering_rate_effort, Bound::non_negative());

@@ -100,6 +100,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
   j["weights"] = {{"pose", {o.pose_weight.x(), o.pose_weight.y(), o.pose_weight.z()}},
                   {"twist", {o.twist_weight.x(), o.twist_weight.y(), o.twist_weight.z()}},
                   {"terminal_scale", o.terminal_scale},
+                  {"pose_huber_width", o.pose_huber_width},
                   {"wear", o.wear_weight},
                   {"wear_reference_mass", o.wear_reference_mass},
                   {"steering_rate_effort", o.steering_rate_effort},

@@ -36,6 +36,7 @@ CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout,
   }
   w.twist = o.twist_weight;
   w.terminal_scale = o.terminal_scale;
+  w.pose_huber_width = o.pose_huber_width;
   w.wear = o.effective_wear_weight(vehicle_mass);
   w.tube_penalty = o.tracking_tolerance.penalty;
   if (o.parameterization == InputParameterization::kBodyTwist) {
@@ -128,6 +129,7 @@ void ControllerOptions::validate() const {
     require_non_negative("twist_weight", twist_weight[i]);
   }
   require_non_negative("terminal_scale", terminal_scale);
+  require_non_negative("pose_huber_width", pose_huber_width);
   require_non_negative("wear_weight", wear_weight);
   require_non_negative("wear_reference_mass", wear_reference_mass);
   if (!std::isfinite(heading_lever) || heading_lever <= 0.0) reject("heading_lever", heading_lever, "must be finite and > 0");

@@ -22,6 +22,25 @@ void require_non_negative(const std::string& field, double value) {
   if (!std::isfinite(value) || value < 0.0) reject(field, value, "must be finite and >= 0");
 }
 
+// The pseudo-Huber factor of an error of size |e| = error_norm and width `width` (> 0; 0 or +inf:
+// quadratic, factor 1): with u = sqrt(1 + (|e|/width)^2), the residual r = w e s,
+// s = sqrt(2 / (1 + u)), costs 1/2 r^2 = w^2 width^2 (u - 1) (w^2 = 2 Q: Q e^2 near e = 0, slope
+// 2 Q width far out). Its derivative is
+// d s / d e = slope * e, slope = -s / (2 width^2 u (1 + u)): smooth through e = 0.
+struct HuberFactor {
+  double scale = 1.0, slope = 0.0;
+};
+
+HuberFactor huber_factor(double error_norm, double width) noexcept {
+  HuberFactor f;
+  if (!(width > 0.0) || !std::isfinite(width)) return f;
+  const double ratio = error_norm / width;
+  const double u = std::sqrt(1.0 + ratio * ratio);
+  f.scale = std::sqrt(2.0 / (1.0 + u));
+  f.slope = -f.scale / (2.0 * width * width * u * (1.0 + u));
+  return f;
+}
+
 // An empty vector means "this default for every input"; otherwise it must have one entry per input.
 Eigen::VectorXd expand(const Eigen::VectorXd& given, int size, double fallback, const std::string& field) {
   if (given.size() == 0) return Eigen::VectorXd::Constant(size, fallback);
@@ -50,6 +69,7 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
   require_non_negative("weights.terminal_scale", weights_.terminal_scale);
   require_non_negative("weights.wear", weights_.wear);
   require_non_negative("weights.tube_penalty", weights_.tube_penalty);
+  require_non_negative("weights.pose_huber_width", weights_.pose_huber_width);
   weights_.effort = expand(weights_.effort, nu_, 0.0, "weights.effort");
   weights_.rate = expand(weights_.rate, nu_, 0.0, "weights.rate");
   for (int i = 0; i < nu_; ++i) {
@@ -72,6 +92,12 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
   pose_root_ = (2.0 * weights_.pose).cwiseSqrt();
   terminal_pose_root_ = (2.0 * weights_.terminal_scale * weights_.pose).cwiseSqrt();
   twist_root_ = (2.0 * weights_.twist).cwiseSqrt();
+  position_huber_width_ = weights_.pose_huber_width;
+  const double position_weight = 0.5 * (weights_.pose.x() + weights_.pose.y());
+  if (weights_.pose_huber_width > 0.0 && weights_.pose.z() > 0.0) {
+    // Without a position weight there is nothing to compare the heading with: it stays quadratic.
+    heading_huber_width_ = weights_.pose_huber_width * std::sqrt(position_weight / weights_.pose.z());
+  }
   tube_root_ = std::sqrt(2.0 * weights_.tube_penalty);
   effort_root_ = (2.0 * weights_.effort).cwiseSqrt();
   rate_root_ = (2.0 * weights_.rate).cwiseSqrt();
@@ -181,8 +207,11 @@ void OcpProblem::tracking_residuals(int k, const Eigen::Ref<const Eigen::VectorX
   const double position_error = pose_error.head<2>().norm();
   const double position_excess = std::max(0.0, position_error - tube_(0, kk));
   const double heading_excess = std::max(0.0, std::abs(pose_error.z()) - tube_(1, kk));
+  const HuberFactor position_factor = huber_factor(position_error, position_huber_width_);
+  const HuberFactor heading_factor = huber_factor(std::abs(pose_error.z()), heading_huber_width_);
+  const Eigen::Vector3d huber_scale(position_factor.scale, position_factor.scale, heading_factor.scale);
   TrackingResiduals& r = *residuals;
-  r.segment<3>(kPoseResidual) = pose_root.cwiseProduct(pose_error);
+  r.segment<3>(kPoseResidual) = pose_root.cwiseProduct(pose_error).cwiseProduct(huber_scale);
   r.segment<3>(kTwistResidual) = twist_root_.cwiseProduct(x_next.segment<3>(3) - reference_twist_.col(kk));
   r[kTubeResidual] = tube_root_ * position_excess;
   r[kTubeResidual + 1] = tube_root_ * heading_excess;
@@ -191,7 +220,12 @@ void OcpProblem::tracking_residuals(int k, const Eigen::Ref<const Eigen::VectorX
   // (where |e| > b > 0) and 0 inside.
   TrackingJacobian& j = *jacobian;
   j.setZero();
-  j.block<3, 3>(kPoseResidual, 0) = pose_root.asDiagonal();
+  // d (w e s) / d e = w s + w e (d s / d e)^T, with d s / d e = slope e.
+  j.block<3, 3>(kPoseResidual, 0) = pose_root.cwiseProduct(huber_scale).asDiagonal();
+  const Eigen::Vector2d weighted_position = pose_root.head<2>().cwiseProduct(pose_error.head<2>());
+  j.block<2, 2>(kPoseResidual, 0).noalias() +=
+      position_factor.slope * weighted_position * pose_error.head<2>().transpose();
+  j(kPoseResidual + 2, 2) += heading_factor.slope * pose_root.z() * pose_error.z() * pose_error.z();
   j.block<3, 3>(kTwistResidual, 3) = twist_root_.asDiagonal();
   if (position_excess > 0.0) j.block<1, 2>(kTubeResidual, 0) = (tube_root_ / position_error) * pose_error.head<2>();
   if (heading_excess > 0.0) j(kTubeResidual + 1, 2) = pose_error.z() > 0.0 ? tube_root_ : -tube_root_;

@@ -92,6 +92,15 @@ TEST(ControllerConfig, ReadsTheWearReferenceMassAndRejectsABadOne) {
   }
 }
 
+TEST(ControllerConfig, ReadsThePoseHuberWidthAndRejectsABadOne) {
+  EXPECT_DOUBLE_EQ(load("  weights: {pose_huber_width: 0.08}\n").mpc.pose_huber_width, 0.08);
+  EXPECT_DOUBLE_EQ(load("").mpc.pose_huber_width, 0.0);
+  for (const char* block : {"  weights: {pose_huber_width: -0.08}\n", "  weights: {pose_huber_width: .nan}\n",
+                            "  weights: {pose_huber_width: wide}\n"}) {
+    expect_rejected(block, "controller.weights.pose_huber_width");
+  }
+}
+
 TEST(ControllerConfig, ReadsTheHeadingLever) {
   EXPECT_DOUBLE_EQ(load("  weights: {heading_from_geometry: true, heading_lever: 2.5}\n").mpc.heading_lever, 2.5);
   EXPECT_DOUBLE_EQ(load("").mpc.heading_lever, 1.0);

@@ -350,6 +350,8 @@ TEST(Controller, RejectsEveryInvalidOptionNamingTheField) {
       {"pose_weight", [](ControllerOptions& o) { o.pose_weight.y() = -1.0; }},
       {"twist_weight", [](ControllerOptions& o) { o.twist_weight.z() = -1.0; }},
       {"terminal_scale", [](ControllerOptions& o) { o.terminal_scale = -1.0; }},
+      {"pose_huber_width", [](ControllerOptions& o) { o.pose_huber_width = -0.05; }},
+      {"pose_huber_width", [](ControllerOptions& o) { o.pose_huber_width = kNaN; }},
       {"wear_weight", [](ControllerOptions& o) { o.wear_weight = -0.5; }},
       {"wear_weight", [](ControllerOptions& o) { o.wear_weight = std::numeric_limits<double>::infinity(); }},
       {"steering_rate_effort", [](ControllerOptions& o) { o.steering_rate_effort = -1.0; }},

@@ -289,6 +289,69 @@ TEST(OcpProblem, TrackingJacobianMatchesCentralDifferences) {
   }
 }
 
+// The pseudo-Huber pose cost: the quadratic Q e^2 becomes 2 Q d^2 (sqrt(1 + (e/d)^2) - 1), by hand
+// and in its two limits: Q e^2 for small errors and the slope 2 Q d (the quadratic's at d) for
+// large ones. The heading's width is the angle that costs what a position error of d costs:
+// d sqrt(Q_xy / Q_psi).
+TEST(OcpProblem, APseudoHuberWidthPricesLargePoseErrorsLinearlyAndSmallOnesQuadratically) {
+  const DoubleIntegratorModel model(1.0);
+  CostWeights w;
+  w.pose = {10.0, 10.0, 40.0};
+  w.pose_huber_width = 0.1;
+  OcpProblem problem(model, 2, 1.0, w, {});
+  const auto pose_cost = [&](double x, double y, double psi) {
+    Eigen::VectorXd x_next = Eigen::VectorXd::Zero(6);
+    x_next << x, y, psi, 0.0, 0.0, 0.0;
+    OcpProblem::TrackingResiduals r;
+    problem.tracking_residuals(0, x_next, &r);
+    return 0.5 * r.segment<3>(OcpProblem::kPoseResidual).squaredNorm();
+  };
+  // |e| = 0.5 = 5 d: 2 * 10 * 0.01 * (sqrt(26) - 1) = 0.82, against 2.5 for the quadratic.
+  EXPECT_NEAR(pose_cost(0.3, 0.4, 0.0), 0.2 * (std::sqrt(26.0) - 1.0), 1e-14);
+  EXPECT_NEAR(pose_cost(1e-4, 0.0, 0.0) / (10.0 * 1e-8), 1.0, 1e-6);  // 1 - (e/d)^2 / 4 to second order
+  EXPECT_NEAR(pose_cost(0.0, 20.0, 0.0) - pose_cost(0.0, 19.0, 0.0), 2.0 * 10.0 * 0.1, 1e-3);
+  // Heading width 0.1 * sqrt(10 / 40) = 0.05 rad.
+  EXPECT_NEAR(pose_cost(0.0, 0.0, 0.05), pose_cost(0.1, 0.0, 0.0), 1e-15);
+  EXPECT_NEAR(pose_cost(0.0, 0.0, 0.05), 0.2 * (std::sqrt(2.0) - 1.0), 1e-15);
+  // The terminal stage keeps the same widths, at terminal_scale times the weights.
+  Eigen::VectorXd x_next = Eigen::VectorXd::Zero(6);
+  x_next[1] = 0.5;
+  OcpProblem::TrackingResiduals r;
+  problem.tracking_residuals(1, x_next, &r);
+  EXPECT_NEAR(0.5 * r.squaredNorm(), w.terminal_scale * 0.2 * (std::sqrt(26.0) - 1.0), 1e-12);
+}
+
+// The same central-difference check with the pseudo-Huber width on, at an error far beyond it, one
+// near it and one at zero (where d |e| / d e has no limit, but the residual is smooth).
+TEST(OcpProblem, TrackingJacobianWithAPseudoHuberWidthMatchesCentralDifferences) {
+  const DoubleIntegratorModel model(1.0);
+  CostWeights w = hand_weights();
+  w.pose = {10.0, 6.0, 40.0};
+  w.pose_huber_width = 0.1;
+  OcpProblem problem(model, 3, 1.0, w, {});
+  const Eigen::Vector3d errors[] = {{0.4, -0.7, 0.9}, {0.06, 0.05, -0.04}, {0.0, 0.0, 0.0}};
+  for (const Eigen::Vector3d& error : errors) {
+    Eigen::VectorXd x_next = Eigen::VectorXd::Zero(6);
+    x_next.head<3>() = error;
+    OcpProblem::TrackingResiduals r, plus_r, minus_r;
+    OcpProblem::TrackingJacobian jacobian;
+    problem.tracking_residuals(1, x_next, &r, &jacobian);
+    for (int i = 0; i < 3; ++i) {
+      const double h = 1e-7;
+      Eigen::VectorXd plus = x_next, minus = x_next;
+      plus[i] += h;
+      minus[i] -= h;
+      problem.tracking_residuals(1, plus, &plus_r);
+      problem.tracking_residuals(1, minus, &minus_r);
+      const OcpProblem::TrackingResiduals numeric = (plus_r - minus_r) / (2 * h);
+      for (int row = 0; row < 3; ++row) {
+        EXPECT_NEAR(jacobian(row, i), numeric[row], 1e-6 * std::max(1.0, std::abs(numeric[row])))
+            << "error " << error.transpose() << ", row " << row << ", state " << i;
+      }
+    }
+  }
+}
+
 TEST(OcpProblem, ConstructionValidatesEveryField) {
   const DoubleIntegratorModel model;
   EXPECT_EQ(error_of([&] { OcpProblem(model, 0, 0.1, {}, {}); }), "OcpProblem.horizon = 0: must be in [1, 1000]");
@@ -297,6 +360,10 @@ TEST(OcpProblem, ConstructionValidatesEveryField) {
   negative.wear = -1.0;
   EXPECT_EQ(error_of([&] { OcpProblem(model, 5, 0.1, negative, {}); }),
             "OcpProblem.weights.wear = -1: must be finite and >= 0");
+  CostWeights negative_width;
+  negative_width.pose_huber_width = -0.1;
+  EXPECT_EQ(error_of([&] { OcpProblem(model, 5, 0.1, negative_width, {}); }),
+            "OcpProblem.weights.pose_huber_width = -0.1: must be finite and >= 0");
   CostWeights wrong_size;
   wrong_size.effort = Eigen::VectorXd::Ones(2);
   EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, wrong_size, {}); }).find("weights.effort.size() = 2"),

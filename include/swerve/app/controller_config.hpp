@@ -37,7 +37,7 @@ struct ControllerConfig {
 //   wear_mpc only:
 //     solve_budget [0.02], overrun_grace [0.002], deadline_margin [0.05], baseline_guess [true], max_plan_age [5],
 //     inputs [body_twist] (body_twist | module_rates: what the optimiser searches, see ControllerOptions)
-//     weights: {pose [10,10,5], twist [0,0,0], terminal_scale [10], wear [1], steering_rate_effort [0.01],
+//     weights: {pose [10,10,5], twist [0,0,0], terminal_scale [10], pose_huber_width [0], wear [1], steering_rate_effort [0.01],
 //               wheel_speed_effort [0], steering_rate_smoothness [0.05], wheel_speed_smoothness [0.01],
 //               twist_smoothness [1] (body_twist inputs; the effort/smoothness keys above are for module_rates)}
 //     prediction: {method [semi_implicit] (semi_implicit | rk4), substeps [1], slow_substeps [5],

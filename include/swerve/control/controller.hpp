@@ -65,6 +65,10 @@ struct ControllerOptions {
   // heading as fast as the kinematic baseline does (see configs/controllers/default.yaml).
   bool heading_weight_from_geometry = false;
   double heading_lever = 1.0;        // > 0; used only with heading_weight_from_geometry
+  // Pseudo-Huber width of the pose cost (m; 0: quadratic). Errors beyond it are priced at the
+  // quadratic's slope at the width, so a higher pose weight stiffens the tracking of small errors
+  // without making a hard start's large ones dominate the wear (see CostWeights::pose_huber_width).
+  double pose_huber_width = 0.0;
   Eigen::Vector3d twist_weight{0.0, 0.0, 0.0};
   double terminal_scale = 10.0;
   double wear_weight = 1.0;          // lambda; 0 gives the dynamic controller without wear

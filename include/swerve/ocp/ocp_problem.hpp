@@ -3,7 +3,8 @@
 // every cycle (no allocation), and consumed by every solver backend; it knows nothing of YAML.
 //
 // Cost (paper-notes assumption 6), for inputs u_0..u_{N-1} and predicted states x_1..x_N:
-//   sum_k  |pose(x_{k+1}) - pose_ref,k+1|^2_Q  (Q_N = terminal_scale * Q at k+1 = N)
+//   sum_k  |pose(x_{k+1}) - pose_ref,k+1|^2_Q  (Q_N = terminal_scale * Q at k+1 = N; pseudo-Huber
+//                                              beyond weights.pose_huber_width when it is > 0)
 //        + |twist(x_{k+1}) - twist_ref,k+1|^2_Qv
 //        + lambda * wear_k                      (tire wear accumulated over step k)
 //        + |u_k|^2_R + |u_k - u_{k-1}|^2_S      (u_{-1}: the input applied last cycle)
@@ -35,6 +36,11 @@ struct CostWeights {
   Eigen::VectorXd effort;                 // R, one per input (empty: zeros)
   Eigen::VectorXd rate;                   // S, one per input (empty: zeros)
   double tube_penalty = 1e5;              // mu, per m^2 and per rad^2 of error beyond the tube
+  // Pseudo-Huber width d of the pose cost (m; 0: quadratic, the default). Beyond d the position cost
+  // grows linearly, at the slope the quadratic has at d (Hartley & Zisserman, Multiple View
+  // Geometry, 2nd ed., A6.8): Q e^2 becomes 2 Q d^2 (sqrt(1 + (e/d)^2) - 1). The heading's width
+  // is the angle that costs what a position error of d costs, d sqrt(Q_xy / Q_psi).
+  double pose_huber_width = 0.0;
 };
 
 // Box bounds on every input and a bound on its change per step (|u_k - u_{k-1}| <= max_step;
@@ -100,7 +106,8 @@ class OcpProblem {
                  Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept;
 
   // The tracking residuals of stage k at its end state x_{k+1} (rows: kPoseResidual..): pose error
-  // times sqrt(2 s_k Q) (s_k = terminal_scale at k = N-1, else 1), heading wrapped; twist error
+  // times sqrt(2 s_k Q) (s_k = terminal_scale at k = N-1, else 1), heading wrapped, and with a
+  // pseudo-Huber width d times sqrt(2 / (1 + sqrt(1 + (e/d)^2))) (position: e = |e_xy|); twist error
   // times sqrt(2 Qv); the tube's position and heading excess times sqrt(2 mu). With `jacobian`, also
   // d r / d x_{k+1}; it is zero past the pose and twist (kTrackedStates columns). noexcept.
   static constexpr int kPoseResidual = 0, kTwistResidual = 3, kTubeResidual = 6, kTrackingResiduals = 8;
@@ -145,6 +152,8 @@ class OcpProblem {
   // The residuals' weights: square roots of twice each weight (1/2 r^2 is the weighted square).
   Eigen::Vector3d pose_root_, terminal_pose_root_, twist_root_;
   double tube_root_ = 0.0;
+  // Pseudo-Huber widths of the position (m) and heading (rad) errors; 0: quadratic.
+  double position_huber_width_ = 0.0, heading_huber_width_ = 0.0;
   Eigen::VectorXd effort_root_, rate_root_;  // nu
 };
 
