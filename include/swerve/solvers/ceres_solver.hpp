@@ -10,6 +10,7 @@
 //
 // Residuals of stage k, so that 1/2 |r|^2 = the OcpProblem cost + N * kWearSmoothing^2:
 //   sqrt(2 scale Q) (pose(x_{k+1}) - ref), heading wrapped   (scale = terminal_scale at k = N-1)
+//     (times the pseudo-Huber factor beyond weights.pose_huber_width: OcpProblem::tracking_residuals)
 //   sqrt(2 Qv) (twist(x_{k+1}) - ref)
 //   sqrt(2 (lambda W_k + eps^2))                              (eps = kWearSmoothing keeps it smooth at W = 0)
 //   sqrt(2 R) u_k,  sqrt(2 S) (u_k - u_{k-1})                 (u_{-1}: the previous cycle's input)
