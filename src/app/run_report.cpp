@@ -37,7 +37,8 @@ void write_csv(const ControllerRun& run, const std::string& path) {
   std::ofstream out(path);
   if (!out) throw std::runtime_error(path + ": cannot open for writing");
   out << std::setprecision(9);
-  out << "t,x,y,psi,x_ref,y_ref,psi_ref,position_error_m,heading_error_rad,vx,vy,r,solve_time_ms,solve_iterations,source,status";
+  out << "t,x,y,psi,x_ref,y_ref,psi_ref,position_error_m,heading_error_rad,vx,vy,r,solve_time_ms,solve_iterations,source,status,"
+         "plan_tracking_cost,plan_wear_cost,plan_cost,initial_guess_cost";
   const std::size_t n = run.log.empty() ? 0 : run.log.front().modules.size();
   for (std::size_t i = 0; i < n; ++i) {
     out << ",delta_" << i << ",omega_" << i << ",slip_angle_" << i << ",slip_ratio_" << i << ",fx_" << i << ",fy_"
@@ -50,7 +51,16 @@ void write_csv(const ControllerRun& run, const std::string& path) {
         << r.position_error() << ',' << r.heading_error() << ',' << r.twist_body.x() << ',' << r.twist_body.y() << ','
         << r.twist_body.z() << ',';
     if (r.solve_time_s >= 0.0) out << 1e3 * r.solve_time_s;
-    out << ',' << r.solve_iterations << ',' << to_string(r.source) << ',' << to_string(r.solve_status);
+    out << ',' << r.solve_iterations << ',' << to_string(r.source) << ',' << to_string(r.solve_status) << ',';
+    // The plan's predicted cost (tracking, wear, all parts) and the best initial guess's, so a
+    // reader can set the optimiser's trade-off beside the plant's: empty where no optimiser ran
+    // (the kinematic baseline's least-squares solve has no such cost and reports no guess).
+    if (r.solve_time_s >= 0.0 && r.initial_guess_cost >= 0.0) {
+      out << r.plan_cost.tracking << ',' << r.plan_cost.wear << ',' << r.plan_cost.total() << ','
+          << r.initial_guess_cost;
+    } else {
+      out << ",,,";
+    }
     for (std::size_t i = 0; i < r.modules.size(); ++i) {
       const PlantModuleSample& m = r.modules[i];
       const ModuleCommand& c = r.commands[i];

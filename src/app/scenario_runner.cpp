@@ -88,6 +88,8 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     record.solve_status = output.solve.status;
     record.solve_time_s = output.solve.status == SolveStatus::kNotRun ? -1.0 : output.solve.solve_time_s;
     record.solve_iterations = output.solve.iterations;
+    record.plan_cost = output.solve.cost;
+    record.initial_guess_cost = output.solve.initial_cost;
     record.step_time_s = output.step_time_s;
     run.log.push_back(std::move(record));
     if (!plant.advance(output.modules)) {

@@ -4,12 +4,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "support/fake_clocks.hpp"
 #include "swerve/app/run_report.hpp"
@@ -108,6 +111,59 @@ TEST(ScenarioRunner, IdenticalSeedsWriteIdenticalLogs) {
     EXPECT_GT(first.size(), 1000u);
     EXPECT_EQ(first, file_text(b + name));
     EXPECT_NE(first, file_text(c + name));
+  }
+}
+
+// Splits one CSV line at its commas, keeping empty cells.
+std::vector<std::string> csv_cells(const std::string& line) {
+  std::vector<std::string> cells(1);
+  for (char c : line) {
+    if (c == ',') {
+      cells.emplace_back();
+    } else {
+      cells.back() += c;
+    }
+  }
+  return cells;
+}
+
+// The optimiser's predicted costs in the log obey what every backend promises: nothing worse than
+// the best initial guess, and a total of at least its tracking and wear parts. The baseline runs no
+// optimiser and leaves them empty.
+TEST(ScenarioRunner, TheLogCarriesEachPlansPredictedCostAndTheBestGuessItStartedFrom) {
+  const ScenarioConfig scenario = load_scenario_config_file(data_file("deterministic.yaml"));
+  const std::string dir = temp_dir("plan_cost");
+  const testing::WorkClock clock(10e-6);
+  write_run_outputs(scenario, run_scenario(scenario, {}, &clock), dir);
+  for (const char* name : {"/wear_mpc.csv", "/kinematic_baseline.csv"}) {
+    SCOPED_TRACE(name);
+    std::istringstream lines(file_text(dir + name));
+    std::string line;
+    ASSERT_TRUE(std::getline(lines, line));
+    const std::vector<std::string> header = csv_cells(line);
+    const auto column = [&](const std::string& key) {
+      const auto at = std::find(header.begin(), header.end(), key);
+      EXPECT_NE(at, header.end()) << key;
+      return static_cast<std::size_t>(at - header.begin());
+    };
+    const std::size_t tracking = column("plan_tracking_cost"), wear = column("plan_wear_cost"),
+                      total = column("plan_cost"), guess = column("initial_guess_cost"),
+                      solve_time = column("solve_time_ms");
+    int solved = 0;
+    while (std::getline(lines, line)) {
+      const std::vector<std::string> cells = csv_cells(line);
+      ASSERT_EQ(cells.size(), header.size()) << line;
+      if (cells[solve_time].empty() || cells[guess].empty()) {
+        EXPECT_TRUE(cells[tracking].empty() && cells[wear].empty() && cells[total].empty() && cells[guess].empty());
+        continue;
+      }
+      ++solved;
+      const double plan = std::stod(cells[total]);
+      // The log prints 9 significant digits: the parts' rounding may add up past the total's.
+      EXPECT_GE(plan * (1.0 + 1e-8) + 1e-12, std::stod(cells[tracking]) + std::stod(cells[wear]));
+      EXPECT_LE(plan, std::stod(cells[guess]) * (1.0 + 1e-12)) << line;
+    }
+    EXPECT_EQ(solved > 0, std::string(name) == "/wear_mpc.csv");
   }
 }
 

@@ -25,6 +25,10 @@ struct StepRecord {
   double solve_time_s = 0.0;                                  // < 0 when no solve ran
   double step_time_s = -1.0;                                  // the whole controller step; < 0 unknown
   int solve_iterations = -1;
+  // The optimiser's own view of the step: the predicted cost of the plan it returned, by part, and
+  // of the best initial guess it started from (< 0 when no solve ran or the solver reports none).
+  CostBreakdown plan_cost;
+  double initial_guess_cost = -1.0;
 
   double position_error() const { return (pose_world.head<2>() - reference_pose_world.head<2>()).norm(); }
   double heading_error() const;  // wrapped, rad
