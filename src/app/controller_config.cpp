@@ -52,6 +52,11 @@ void load_weights(const ConfigNode& node, ControllerOptions* o) {
   o->pose_huber_width = node.get_double_or("pose_huber_width", o->pose_huber_width, Bound::non_negative());
   o->wear_weight = node.get_double_or("wear", o->wear_weight, Bound::non_negative());
   o->wear_reference_mass = node.get_double_or("wear_reference_mass", o->wear_reference_mass, Bound::non_negative());
+  o->wear_mass_exponent = node.get_double_or("wear_mass_exponent", o->wear_mass_exponent, Bound::positive());
+  if (node.has("wear_mass_exponent") && !(o->wear_reference_mass > 0.0)) {
+    node.fail_at("wear_mass_exponent", "= " + std::to_string(o->wear_mass_exponent) +
+                                           ": used only with wear_reference_mass > 0, which is not set here");
+  }
   o->steering_rate_effort = node.get_double_or("steering_rate_effort", o->steering_rate_effort, Bound::non_negative());
   o->wheel_speed_effort = node.get_double_or("wheel_speed_effort", o->wheel_speed_effort, Bound::non_negative());
   o->steering_rate_smoothness =

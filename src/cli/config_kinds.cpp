@@ -103,6 +103,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                   {"pose_huber_width", o.pose_huber_width},
                   {"wear", o.wear_weight},
                   {"wear_reference_mass", o.wear_reference_mass},
+                  {"wear_mass_exponent", o.wear_mass_exponent},
                   {"steering_rate_effort", o.steering_rate_effort},
                   {"wheel_speed_effort", o.wheel_speed_effort},
                   {"steering_rate_smoothness", o.steering_rate_smoothness},

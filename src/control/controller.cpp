@@ -132,6 +132,9 @@ void ControllerOptions::validate() const {
   require_non_negative("pose_huber_width", pose_huber_width);
   require_non_negative("wear_weight", wear_weight);
   require_non_negative("wear_reference_mass", wear_reference_mass);
+  if (!std::isfinite(wear_mass_exponent) || wear_mass_exponent <= 0.0) {
+    reject("wear_mass_exponent", wear_mass_exponent, "must be finite and > 0");
+  }
   if (!std::isfinite(heading_lever) || heading_lever <= 0.0) reject("heading_lever", heading_lever, "must be finite and > 0");
   require_non_negative("steering_rate_effort", steering_rate_effort);
   require_non_negative("wheel_speed_effort", wheel_speed_effort);

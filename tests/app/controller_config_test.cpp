@@ -92,6 +92,16 @@ TEST(ControllerConfig, ReadsTheWearReferenceMassAndRejectsABadOne) {
   }
 }
 
+TEST(ControllerConfig, ReadsTheWearMassExponentAndRejectsABadOne) {
+  EXPECT_DOUBLE_EQ(load("  weights: {wear_reference_mass: 800, wear_mass_exponent: 1.75}\n").mpc.wear_mass_exponent, 1.75);
+  EXPECT_DOUBLE_EQ(load("").mpc.wear_mass_exponent, 1.0);
+  for (const char* block : {"  weights: {wear_mass_exponent: 0}\n", "  weights: {wear_mass_exponent: -1}\n",
+                            "  weights: {wear_mass_exponent: .nan}\n", "  weights: {wear_mass_exponent: steep}\n",
+                            "  weights: {wear_mass_exponent: 1.5}\n"}) {
+    expect_rejected(block, "controller.weights.wear_mass_exponent");
+  }
+}
+
 TEST(ControllerConfig, ReadsThePoseHuberWidthAndRejectsABadOne) {
   EXPECT_DOUBLE_EQ(load("  weights: {pose_huber_width: 0.08}\n").mpc.pose_huber_width, 0.08);
   EXPECT_DOUBLE_EQ(load("").mpc.pose_huber_width, 0.0);

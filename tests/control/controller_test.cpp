@@ -352,6 +352,8 @@ TEST(Controller, RejectsEveryInvalidOptionNamingTheField) {
       {"terminal_scale", [](ControllerOptions& o) { o.terminal_scale = -1.0; }},
       {"pose_huber_width", [](ControllerOptions& o) { o.pose_huber_width = -0.05; }},
       {"pose_huber_width", [](ControllerOptions& o) { o.pose_huber_width = kNaN; }},
+      {"wear_mass_exponent", [](ControllerOptions& o) { o.wear_mass_exponent = 0.0; }},
+      {"wear_mass_exponent", [](ControllerOptions& o) { o.wear_mass_exponent = kNaN; }},
       {"wear_weight", [](ControllerOptions& o) { o.wear_weight = -0.5; }},
       {"wear_weight", [](ControllerOptions& o) { o.wear_weight = std::numeric_limits<double>::infinity(); }},
       {"steering_rate_effort", [](ControllerOptions& o) { o.steering_rate_effort = -1.0; }},
@@ -1186,6 +1188,20 @@ TEST(Controller, TheWearWeightForAReferenceMassIsScaledByThatMassOverTheVehicles
   EXPECT_DOUBLE_EQ(make_fake_controller(&script, options).problem().weights().wear, 0.3);
   options.wear_reference_mass = 800.0;
   EXPECT_NEAR(make_fake_controller(&script, options).problem().weights().wear, 0.3 * 800.0 / 40.0, 1e-12);
+  options.wear_reference_mass = 40.0;
+  EXPECT_NEAR(make_fake_controller(&script, options).problem().weights().wear, 0.3, 1e-12);
+}
+
+TEST(Controller, TheWearMassExponentRaisesTheReferenceMassRatioToItsPower) {
+  // small_robot weighs 40 kg: (800 / 40)^1.75 = 20^1.75 = 188.7; the exponent alone changes nothing
+  // without a reference mass, and a vehicle of the reference mass keeps the configured weight.
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.wear_weight = 0.3;
+  options.wear_mass_exponent = 1.75;
+  EXPECT_DOUBLE_EQ(make_fake_controller(&script, options).problem().weights().wear, 0.3);
+  options.wear_reference_mass = 800.0;
+  EXPECT_NEAR(make_fake_controller(&script, options).problem().weights().wear, 0.3 * std::pow(20.0, 1.75), 1e-9);
   options.wear_reference_mass = 40.0;
   EXPECT_NEAR(make_fake_controller(&script, options).problem().weights().wear, 0.3, 1e-12);
 }

@@ -8,6 +8,7 @@
 // Ceres ~2 000, NLopt 13 allocations per step): choose SA where a hard no-allocation rule holds.
 #pragma once
 
+#include <cmath>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -78,6 +79,9 @@ struct ControllerOptions {
   // stiffness, so the slips stay the same), while the tracking cost does not: one wear weight
   // then buys the same tracking on a 50 kg robot and a 2 t carrier (issue 15). 0: off.
   double wear_reference_mass = 0.0;
+  // The power of (wear_reference_mass / mass) the wear weight scales by: 1 is the argument above;
+  // > 1 also weighs what the argument leaves out (see configs/controllers/default.yaml). > 0.
+  double wear_mass_exponent = 1.0;
   double steering_rate_effort = 0.01;
   double wheel_speed_effort = 0.0;
   double steering_rate_smoothness = 0.05;
@@ -92,9 +96,10 @@ struct ControllerOptions {
   MeasurementFilterOptions measurement_filter;  // off by default (gains 1)
   void validate() const;             // throws ConfigError naming the field and value
   // The wear weight the cost uses on a vehicle of `vehicle_mass` kg: wear_weight, scaled by
-  // wear_reference_mass / vehicle_mass when wear_reference_mass > 0.
+  // (wear_reference_mass / vehicle_mass)^wear_mass_exponent when wear_reference_mass > 0.
   double effective_wear_weight(double vehicle_mass) const noexcept {
-    return wear_reference_mass > 0.0 ? wear_weight * wear_reference_mass / vehicle_mass : wear_weight;
+    return wear_reference_mass > 0.0 ? wear_weight * std::pow(wear_reference_mass / vehicle_mass, wear_mass_exponent)
+                                     : wear_weight;
   }
 };
 
