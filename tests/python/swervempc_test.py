@@ -136,6 +136,18 @@ class Runs(unittest.TestCase):
             rmse = math.sqrt(np.mean((log["x"] - log["x_ref"]) ** 2 + (log["y"] - log["y_ref"]) ** 2))
             self.assertAlmostEqual(rmse, metrics["tracking_rmse_m"], places=9, msg=name)
 
+    def test_the_log_carries_each_plans_predicted_cost_and_the_best_guess(self):
+        runs = sm.run_scenario(os.path.join(TEST_DATA, "short_offset60.yaml"))
+        # The baseline runs no optimiser: no predicted cost at any step.
+        self.assertTrue(np.all(np.isnan(runs["kinematic_baseline"]["log"]["plan_cost"])))
+        log = runs["wear_mpc"]["log"]
+        solved = ~np.isnan(log["plan_cost"])
+        self.assertTrue(solved.any())
+        # Every backend returns nothing worse than its best initial guess.
+        self.assertTrue(np.all(log["plan_cost"][solved] <= log["initial_guess_cost"][solved] * (1 + 1e-12)))
+        parts = log["plan_tracking_cost"][solved] + log["plan_wear_cost"][solved]
+        self.assertTrue(np.all(parts <= log["plan_cost"][solved] * (1 + 1e-12)))
+
     def test_overrides_are_checked(self):
         with self.assertRaisesRegex(ValueError, "nope"):
             sm.run_scenario(os.path.join(TEST_DATA, "short_curve_baseline.yaml"), controllers=["nope"])
