@@ -53,9 +53,8 @@ void write_csv(const ControllerRun& run, const std::string& path) {
     if (r.solve_time_s >= 0.0) out << 1e3 * r.solve_time_s;
     out << ',' << r.solve_iterations << ',' << to_string(r.source) << ',' << to_string(r.solve_status) << ',';
     // The plan's predicted cost (tracking, wear, all parts) and the best initial guess's, so a
-    // reader can set the optimiser's trade-off beside the plant's: empty where no optimiser ran
-    // (the kinematic baseline's least-squares solve has no such cost and reports no guess).
-    if (r.solve_time_s >= 0.0 && r.initial_guess_cost >= 0.0) {
+    // reader can set the optimiser's trade-off beside the plant's: empty where no optimiser ran.
+    if (r.has_plan_cost()) {
       out << r.plan_cost.tracking << ',' << r.plan_cost.wear << ',' << r.plan_cost.total() << ','
           << r.initial_guess_cost;
     } else {

@@ -195,12 +195,11 @@ py::dict log_dict(const std::vector<StepRecord>& log) {
   d["step_time"] = column([](const StepRecord& r) { return r.step_time_s; });
   d["solve_iterations"] = column([](const StepRecord& r) { return static_cast<double>(r.solve_iterations); });
   // The optimiser's predicted costs (as the CSV's plan_* columns); NaN where no optimiser ran.
-  const auto optimised = [](const StepRecord& r) { return r.solve_time_s >= 0.0 && r.initial_guess_cost >= 0.0; };
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  d["plan_tracking_cost"] = column([&](const StepRecord& r) { return optimised(r) ? r.plan_cost.tracking : nan; });
-  d["plan_wear_cost"] = column([&](const StepRecord& r) { return optimised(r) ? r.plan_cost.wear : nan; });
-  d["plan_cost"] = column([&](const StepRecord& r) { return optimised(r) ? r.plan_cost.total() : nan; });
-  d["initial_guess_cost"] = column([&](const StepRecord& r) { return optimised(r) ? r.initial_guess_cost : nan; });
+  d["plan_tracking_cost"] = column([&](const StepRecord& r) { return r.has_plan_cost() ? r.plan_cost.tracking : nan; });
+  d["plan_wear_cost"] = column([&](const StepRecord& r) { return r.has_plan_cost() ? r.plan_cost.wear : nan; });
+  d["plan_cost"] = column([&](const StepRecord& r) { return r.has_plan_cost() ? r.plan_cost.total() : nan; });
+  d["initial_guess_cost"] = column([&](const StepRecord& r) { return r.has_plan_cost() ? r.initial_guess_cost : nan; });
   py::list source, status;
   for (const StepRecord& r : log) {
     source.append(to_string(r.source));

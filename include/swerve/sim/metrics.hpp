@@ -29,6 +29,9 @@ struct StepRecord {
   // of the best initial guess it started from (< 0 when no solve ran or the solver reports none).
   CostBreakdown plan_cost;
   double initial_guess_cost = -1.0;
+  // Whether an optimiser ran and reported the costs above (the kinematic baseline's least-squares
+  // solve has no such cost and reports no guess).
+  bool has_plan_cost() const { return solve_time_s >= 0.0 && initial_guess_cost >= 0.0; }
 
   double position_error() const { return (pose_world.head<2>() - reference_pose_world.head<2>()).norm(); }
   double heading_error() const;  // wrapped, rad
