@@ -10,6 +10,8 @@
 #include "load_distribution.hpp"
 #include "magic_formula_tire_impl.hpp"
 #include "scalar_utils.hpp"
+#include "swerve/core/smoothing.hpp"
+#include "swerve/kinematics/module_commands.hpp"
 #include "swerve/models/vehicle_model.hpp"
 
 namespace swerve {
@@ -111,10 +113,10 @@ Eigen::VectorXd VehicleModel<T>::complete_state(const Eigen::VectorXd& prefix) c
   if (lag_) {
     for (int i = 0; i < modules_; ++i) {
       const Eigen::Vector2d& p = params_.layout.position_body(i);
-      const double vx = prefix(StateIndex::kVx) - prefix(StateIndex::kYawRate) * p.y();
-      const double vy = prefix(StateIndex::kVy) + prefix(StateIndex::kYawRate) * p.x();
-      const double delta = prefix(StateIndex::steering(i));
-      x(wheel_speed_index(i)) = (std::cos(delta) * vx + std::sin(delta) * vy) / params_.layout.wheel_radius();
+      const Eigen::Vector2d v_contact =
+          point_velocity<double>(prefix(StateIndex::kVx), prefix(StateIndex::kVy), prefix(StateIndex::kYawRate), p);
+      x(wheel_speed_index(i)) =
+          rolling_speed<double>(v_contact, prefix(StateIndex::steering(i))) / params_.layout.wheel_radius();
     }
   }
   return x;
@@ -141,9 +143,9 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
   T steer_command = u[InputIndex::steering_rate(i)];
   T wheel_command = u[InputIndex::wheel_speed(i)];
   if (saturate_) {
-    steer_command = detail::clamp_value(steer_command, -limits.max_steering_rate, limits.max_steering_rate);
+    steer_command = clamp_by_value<T>(steer_command, T(-limits.max_steering_rate), T(limits.max_steering_rate));
     const double max_omega = limits.max_drive_speed / radius;
-    wheel_command = detail::clamp_value(wheel_command, -max_omega, max_omega);
+    wheel_command = clamp_by_value<T>(wheel_command, T(-max_omega), T(max_omega));
   }
   T steer_rate = steer_command;
   T omega = wheel_command;
@@ -155,7 +157,7 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
     T omega_dot = (wheel_command - omega) / params_.actuators.drive_time_constant;
     if (saturate_) {
       const double max_alpha = limits.max_drive_acceleration / radius;
-      omega_dot = detail::clamp_value(omega_dot, -max_alpha, max_alpha);
+      omega_dot = clamp_by_value<T>(omega_dot, T(-max_alpha), T(max_alpha));
     }
     x_dot[wi] = omega_dot;
     x_dot[si] = (steer_command - steer_rate) / params_.actuators.steering_time_constant;
@@ -171,12 +173,11 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
 
   // Contact-point velocity: body frame v + r z x p (zero scrub radius: steering does not move the
   // contact), then into the wheel frame by R(-delta).
-  const T vx_contact = vx - r * p.y();
-  const T vy_contact = vy + r * p.x();
+  const Eigen::Matrix<T, 2, 1> v_contact = point_velocity<T>(vx, vy, r, p);
   const T c = cos(delta);
   const T s = sin(delta);
-  const T u_wheel = c * vx_contact + s * vy_contact;
-  const T v_wheel = c * vy_contact - s * vx_contact;
+  const T u_wheel = c * v_contact.x() + s * v_contact.y();
+  const T v_wheel = c * v_contact.y() - s * v_contact.x();
   const T tread_speed = radius * omega;
   const WheelSlip<T> slip = compute_wheel_slip(params_.tire, u_wheel, v_wheel, tread_speed);
 
@@ -274,11 +275,10 @@ ModelStatus VehicleModel<T>::derivative(const Eigen::Ref<const Vector>& x_in, co
         fz = fz + transfer_per_ax_[contact] * ax_ay[0] + transfer_per_ay_[contact] * ax_ay[1];
         if (scalar_value(fz) < 0.0) fz = T(0.0);
       }
-      const T cvx = vx - r * caster.position_body.y();
-      const T cvy = vy + r * caster.position_body.x();
-      const T scale = -caster.rolling_resistance * fz / sqrt(cvx * cvx + cvy * cvy + T(eps * eps));
-      const T fx = scale * cvx;
-      const T fy = scale * cvy;
+      const Eigen::Matrix<T, 2, 1> v_caster = point_velocity<T>(vx, vy, r, caster.position_body);
+      const T scale = -caster.rolling_resistance * fz / sqrt(v_caster.squaredNorm() + T(eps * eps));
+      const T fx = scale * v_caster.x();
+      const T fy = scale * v_caster.y();
       sums->fx_body += fx;
       sums->fy_body += fy;
       sums->mz += (caster.position_body.x() - params_.center_of_mass_body.x()) * fy -

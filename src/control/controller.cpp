@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "swerve/core/config_error.hpp"
+#include "swerve/kinematics/module_commands.hpp"
 #include "swerve/models/drive_response.hpp"
 #include "swerve/control/safe_stop.hpp"
 
@@ -219,11 +220,8 @@ void Controller::apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& mo
 
 double Controller::rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept {
   const Eigen::Vector3d twist = measured.segment<3>(StateIndex::kVx);
-  const Eigen::Vector2d& p = layout_.position_body(module);
-  const double angle = measured[StateIndex::steering(module)];
-  const double contact_speed =
-      std::cos(angle) * (twist.x() - twist.z() * p.y()) + std::sin(angle) * (twist.y() + twist.z() * p.x());
-  return contact_speed / layout_.wheel_radius();
+  const Eigen::Vector2d v_contact = point_velocity<double>(twist, layout_.position_body(module));
+  return rolling_speed<double>(v_contact, measured[StateIndex::steering(module)]) / layout_.wheel_radius();
 }
 
 void Controller::estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {

@@ -58,9 +58,9 @@ void BaselineOptions::validate() const {
 KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference,
                                      BaselineOptions options)
     : options_(validated(options)), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
-      horizon_(options_.horizon), latency_(layout, options_.dt, options_.measurement_filter) {
+      horizon_(options_.horizon), heading_memory_(layout.size()), planned_memory_(layout.size()),
+      latency_(layout, options_.dt, options_.measurement_filter) {
   if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
-  drive_sign_ = planned_first_sign_ = Eigen::VectorXi::Ones(modules_);
   twists_ = Eigen::MatrixXd::Zero(3, horizon_);
   reference_poses_ = reference_twists_ = Eigen::MatrixXd::Zero(3, horizon_);
   inputs_ = Eigen::MatrixXd::Zero(2 * modules_, horizon_);
@@ -71,8 +71,9 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
   module_states_ = ModuleStates(modules_);
   planned_angles_ = planned_speeds_ = Eigen::MatrixXd::Zero(modules_, horizon_);
   steer_from_ = Eigen::MatrixXi::Constant(modules_, horizon_, -1);
-  angles_ = turns_ = other_turns_ = Eigen::VectorXd::Zero(modules_);
+  angles_ = Eigen::VectorXd::Zero(modules_);
   signs_ = Eigen::VectorXi::Ones(modules_);
+  directions_ = ModuleArray<DriveDirection<double>>(modules_);
   now_ = Eigen::VectorXd::Zero(6 + modules_);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
   for (int k = 0; k < horizon_; ++k) {
@@ -82,7 +83,8 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
 }
 
 void KinematicBaseline::reset() noexcept {
-  drive_sign_.setOnes();
+  heading_memory_.reset();
+  planned_memory_.reset();
   twists_.setZero();
   twist_committed_ = false;
   latency_.reset();
@@ -224,44 +226,31 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
     }
   }
   angles_ = steering_angles;
-  signs_ = drive_sign_;
+  for (int i = 0; i < modules_; ++i) signs_[i] = heading_memory_.drive_sign(i) < 0 ? -1 : 1;
   for (int k = 0; k < horizon_; ++k) {
-    // The 180 deg flip: a module keeps its drive direction while the steering error stays below
-    // 90 deg - hysteresis and takes the other one above 90 deg + hysteresis (widened at low planned
-    // speed, below); never past an end stop. Inside that band the two choices need about a quarter
-    // turn either way round, and modules choosing on their own (by noise) would turn opposite ways
-    // with their wheels driving, and fight. So the modules in the band all turn the same way round:
-    // the one of least turn for them (a flip charged 2 x hysteresis more, so a lone module still
-    // flips only past 90 deg + hysteresis), plus the turns of the decided modules they would turn
-    // against, each weighted by its planned speed. A tie keeps every drive direction.
-    const auto turn_to = [&](int i, double target) {
-      return end_stops ? target - angles_[i] : wrap_angle(target - angles_[i]);
-    };
-    const auto reachable = [&](double target) {
-      return !end_stops || (target >= limits.min_steering_angle && target <= limits.max_steering_angle);
-    };
+    // The 180 deg flip (choose_drive_direction): a module keeps its drive direction while the
+    // steering error stays below 90 deg - hysteresis and takes the other one above 90 deg +
+    // hysteresis (widened at low planned speed, below); never past an end stop. Inside that band
+    // the two choices need about a quarter turn either way round, and modules choosing on their
+    // own (by noise) would turn opposite ways with their wheels driving, and fight. So the modules
+    // in the band all turn the same way round: the one of least turn for them (a flip charged 2 x
+    // hysteresis more, so a lone module still flips only past 90 deg + hysteresis), plus the turns
+    // of the decided modules they would turn against, each weighted by its planned speed. A tie
+    // keeps every drive direction.
     constexpr double kUnavailable = 1e6;  // the cost of a way round a module cannot turn
     double cost_positive = 0.0, cost_negative = 0.0;
     for (int i = 0; i < modules_; ++i) {
       const int j = steer_from_(i, k);
-      turns_[i] = other_turns_[i] = 0.0;
       if (j < 0) continue;
-      const double forward = planned_angles_(i, j);
-      const double reverse = wrap_angle(forward + kPi);
-      const double kept_target = signs_[i] > 0 ? forward : reverse;
-      const double flipped_target = signs_[i] > 0 ? reverse : forward;
-      const double same = turn_to(i, kept_target), other = turn_to(i, flipped_target);
-      const bool can_keep = reachable(kept_target), can_flip = reachable(flipped_target);
       const double weight = planned_speeds_(i, j);
       // A direction planned at speed v is uncertain by about atan(threshold / v) (the threshold is
       // the speed noise makes of the feedback): the band widens by that much before a flip.
-      double decided = same;
-      if (!can_keep || (can_flip && std::abs(same) > kPi / 2 + band + std::atan2(threshold, weight))) {
-        signs_[i] = -signs_[i];
-        decided = other;
-      } else if (can_flip && std::abs(same) >= kPi / 2 - band && same != 0.0) {
-        turns_[i] = same;  // in the band: decided below
-        other_turns_[i] = other;
+      const DriveDirection<double>& direction = directions_[i] =
+          choose_drive_direction<double>(planned_angles_(i, j), angles_[i], signs_[i], FlipPolicy::kHysteresis, band,
+                                         limits, std::atan2(threshold, weight));
+      signs_[i] = direction.sign;
+      if (direction.in_band) {  // decided below
+        const double same = direction.turn, other = direction.other_turn;
         const double kept = weight * std::abs(same);
         const double flipped = weight * (std::abs(other) + 2.0 * band);
         const double positive = std::min(same > 0.0 ? kept : kUnavailable, other > 0.0 ? flipped : kUnavailable);
@@ -270,40 +259,35 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
         cost_negative += negative;
         continue;
       }
-      (decided > 0.0 ? cost_negative : cost_positive) += weight * std::abs(decided);
+      (direction.turn > 0.0 ? cost_negative : cost_positive) += weight * std::abs(direction.turn);
     }
     const int common_turn = cost_positive < cost_negative ? 1 : (cost_negative < cost_positive ? -1 : 0);
     for (int i = 0; i < modules_; ++i) {
       const int j = steer_from_(i, k);
-      double angle = angles_[i];
-      double target = angle;
+      double turn = 0.0;  // no direction planned ahead: the module holds its angle
       if (j >= 0) {
-        const bool in_band = turns_[i] != 0.0;
-        if (in_band && common_turn != 0 && (turns_[i] > 0.0) != (common_turn > 0) &&
-            (other_turns_[i] > 0.0) == (common_turn > 0)) {
+        const DriveDirection<double>& direction = directions_[i];
+        turn = direction.turn;
+        if (direction.in_band && common_turn != 0 && (direction.turn > 0.0) != (common_turn > 0) &&
+            (direction.other_turn > 0.0) == (common_turn > 0)) {
           signs_[i] = -signs_[i];
-        }
-        const double forward = planned_angles_(i, j);
-        const double reverse = wrap_angle(forward + kPi);
-        target = signs_[i] > 0 ? forward : reverse;
-        if (end_stops && (target < limits.min_steering_angle || target > limits.max_steering_angle)) {
-          signs_[i] = -signs_[i];  // never past an end stop
-          target = signs_[i] > 0 ? forward : reverse;
+          turn = direction.other_turn;
         }
       }
-      const double error = turn_to(i, target);
-      const double rate = std::clamp(error / dt, -limits.max_steering_rate, limits.max_steering_rate);
-      angle = end_stops ? angle + dt * rate : wrap_angle(angle + dt * rate);
+      const double rate = steering_rate_toward<double>(turn, dt, limits, LimitShape::kHard);
+      const double angle = end_stops ? angles_[i] + dt * rate : wrap_angle(angles_[i] + dt * rate);
       // At speed the wheel runs the planned speed in the chosen direction; below the threshold it
       // runs the planned velocity's component along its heading (either sign, no flip needed).
-      double signed_speed = j == k ? signs_[i] * planned_speeds_(i, k)
-                                   : planned_speeds_(i, k) * std::cos(planned_angles_(i, k) - angle);
-      if (options_.cosine_scaling) signed_speed *= std::max(0.0, std::cos(target - angle));
+      const double signed_speed = j == k ? signs_[i] * planned_speeds_(i, k)
+                                         : planned_speeds_(i, k) * std::cos(planned_angles_(i, k) - angle);
       inputs(2 * i, k) = rate;
-      inputs(2 * i + 1, k) = signed_speed / radius;
+      inputs(2 * i + 1, k) =
+          drive_wheel_speed<double>(signed_speed, turn - dt * rate, options_.cosine_scaling, limits, radius, LimitShape::kHard);
       angles_[i] = angle;
     }
-    if (k == 0) planned_first_sign_ = signs_;
+    if (k == 0) {
+      for (int i = 0; i < modules_; ++i) planned_memory_.remember(i, angles_[i], signs_[i]);
+    }
   }
 }
 

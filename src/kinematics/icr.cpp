@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "swerve/kinematics/module_commands.hpp"
+
 namespace swerve {
 namespace {
 
@@ -48,7 +50,7 @@ KinematicsStatus fit(const Kinematics& kinematics, const ModuleStates& states, c
   for (int k = 0; k < count; ++k) {
     const int m = modules[k];
     const Eigen::Vector2d& r = layout.position_body(m);
-    const Eigen::Vector2d u(xi.x() - xi.z() * r.y() / length, xi.y() + xi.z() * r.x() / length);
+    const Eigen::Vector2d u = point_velocity<double>(xi.x(), xi.y(), xi.z() / length, r);
     double error = 0.0;
     if (u.norm() > 1e-9) {
       const double angle = states[m].angle;

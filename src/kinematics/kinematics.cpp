@@ -193,32 +193,29 @@ KinematicsStatus Kinematics::optimize(ModuleHeadingMemory* memory, ModuleStates*
 
 void Kinematics::choose_flips(ModuleHeadingMemory* memory, ModuleStates* states, const Directions& directions,
                               const ModuleStates* measured) const noexcept {
-  // Keeping a decision is allowed while cos(steering error) >= cos(90 deg + band) = -sin(band).
-  const double keep_cos = -std::sin(options_.flip_hysteresis);
-  std::array<double, kMaxModules> dot;  // cos of the steering error of the unflipped choice
+  // Each moving module's way round by the shared rule (module_commands.hpp): the flip hysteresis
+  // on its remembered decision, never past an end stop. The whole-robot mode decides one sign for
+  // all, by the same rule on the mean steering error of the unflipped choice.
+  const ModuleLimits& limits = layout_.limits();
+  std::array<DriveDirection<double>, kMaxModules> chosen;
   double sum_error = 0.0;
   int moving_count = 0;
   for (int i = 0; i < size_; ++i) {
     const auto k = static_cast<std::size_t>(i);
-    if ((*states)[i].speed < options_.hold_speed_threshold) continue;  // held (or reversed) modules
-    const double c = directions.cos[k];
-    const double s = directions.sin[k];
-    if (measured != nullptr) {
-      const double m = (*measured)[i].angle;
-      dot[k] = c * std::cos(m) + s * std::sin(m);
-    } else if (memory->known(i)) {
-      dot[k] = c * memory->cos_angle(i) + s * memory->sin_angle(i);
-    } else {
-      dot[k] = 1.0;  // nothing to steer from: the raw direction costs nothing
-    }
+    const ModuleState& state = (*states)[i];
+    if (state.speed < options_.hold_speed_threshold) continue;  // held (or reversed) modules
+    // The angle steered from: measured, else remembered; with neither the raw direction costs nothing.
+    const double angle = measured != nullptr ? (*measured)[i].angle : (memory->known(i) ? memory->angle(i) : state.angle);
+    const FlipPolicy policy = options_.whole_robot_flip ? FlipPolicy::kNearest : FlipPolicy::kHysteresis;
+    chosen[k] = choose_drive_direction<double>(state.angle, angle, memory->drive_sign(i), policy,
+                                               options_.flip_hysteresis, limits);
     if (options_.whole_robot_flip) {
-      sum_error += std::acos(std::clamp(dot[k], -1.0, 1.0));
+      sum_error += std::abs(chosen[k].sign > 0 ? chosen[k].turn : chosen[k].other_turn);
       ++moving_count;
     }
   }
   int robot_sign = memory->robot_drive_sign();
   if (options_.whole_robot_flip && moving_count > 0) {
-    // The per-module rule applied to the mean steering error of the unflipped choice.
     const double error_of_unflipped = sum_error / moving_count;
     if (robot_sign == 0) {
       robot_sign = error_of_unflipped > kPi / 2.0 ? -1 : 1;
@@ -236,19 +233,14 @@ void Kinematics::choose_flips(ModuleHeadingMemory* memory, ModuleStates* states,
       if (!memory->known(i) || memory->angle(i) != state.angle) memory->remember(i, state.angle, 0);
       continue;
     }
-    int sign;
-    if (options_.whole_robot_flip) {
-      sign = robot_sign;
-    } else {
-      const int previous = memory->drive_sign(i);
-      if (previous == 0) {
-        sign = dot[k] < 0.0 ? -1 : 1;
-      } else {
-        sign = previous * dot[k] >= keep_cos ? previous : -previous;
-      }
+    DriveDirection<double>& direction = chosen[k];
+    if (options_.whole_robot_flip && direction.sign != robot_sign) {
+      std::swap(direction.turn, direction.other_turn);
+      direction.sign = robot_sign;
     }
+    const int sign = direction.sign;
     if (sign < 0) state = ModuleState{-state.speed, opposite(state.angle)};
-    if (scale_by_cosine) state.speed *= std::max(0.0, sign * dot[k]);
+    if (scale_by_cosine) state.speed *= steering_alignment<double>(direction.turn, LimitShape::kHard);
     memory->remember(i, state.angle, sign * directions.cos[k], sign * directions.sin[k], sign);
   }
 }

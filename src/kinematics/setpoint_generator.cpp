@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "swerve/kinematics/module_commands.hpp"
+
 namespace swerve {
 namespace {
 
@@ -13,10 +15,6 @@ void require_positive(const char* field, double value) {
     message << "ProfileLimits." << field << " = " << value << ": must be finite and > 0";
     throw ConfigError(message.str());
   }
-}
-
-Eigen::Vector2d velocity_at(const Eigen::Vector2d& r, const Eigen::Vector3d& twist) {
-  return {twist.x() - twist.z() * r.y(), twist.y() + twist.z() * r.x()};
 }
 
 double cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
@@ -148,8 +146,8 @@ KinematicsStatus SetpointGenerator::step_body_first(const Setpoint& previous, co
     const auto k = static_cast<std::size_t>(i);
     const double angle = previous.modules[i].angle;
     heading[k] = Eigen::Vector2d(std::cos(angle), std::sin(angle));
-    u_prev[k] = velocity_at(layout.position_body(i), previous.twist_body);
-    u_target[k] = velocity_at(layout.position_body(i), target);
+    u_prev[k] = point_velocity<double>(previous.twist_body, layout.position_body(i));
+    u_target[k] = point_velocity<double>(target, layout.position_body(i));
     speed_prev[k] = heading[k].dot(u_prev[k]);
     if (u_prev[k].norm() >= threshold && u_target[k].norm() >= threshold) {
       any_counted = true;
@@ -237,7 +235,7 @@ KinematicsStatus SetpointGenerator::step_module_first(const Setpoint& previous, 
   for (int i = 0; i < n; ++i) {
     const ModuleState& before = previous.modules[i];
     const Eigen::Vector2d heading(std::cos(before.angle), std::sin(before.angle));
-    const Eigen::Vector2d u = velocity_at(kinematics_.layout().position_body(i), target);
+    const Eigen::Vector2d u = point_velocity<double>(target, kinematics_.layout().position_body(i));
     double turn = 0.0;
     double target_speed = 0.0;
     if (u.norm() >= threshold) {

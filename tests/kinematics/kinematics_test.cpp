@@ -614,6 +614,30 @@ TEST(ModuleOptimization, AReversedDecisionIsKeptUpToTheHysteresisEdgeToo) {
   EXPECT_EQ(drive_signs(hysteresis, edge - 0.5 * kDegree, false, &behind), kAllForward);
 }
 
+TEST(ModuleOptimization, CommandNeverTurnsAModulePastAnEndStop) {
+  // Modules limited to +-90 deg, steered to 1.5 rad; the twist points at pi - 0.2 rad. That heading
+  // is the nearer way round (1.44 rad of turn) but past the stop, so the modules reverse to -0.2 rad
+  // and drive backwards. (Before the shared map, command() ignored the end stops and sent 2.94 rad.)
+  ModuleLimits limits;
+  limits.min_steering_angle = -kPi / 2;
+  limits.max_steering_angle = kPi / 2;
+  KinematicsOptions options;
+  options.cosine_scaling = false;  // a 1.7 rad turn would scale the speed to 0
+  const Kinematics kinematics(ModuleLayout::rectangle(0.6, 0.4, 0.05, limits), options);
+  ModuleStates measured(4);
+  for (ModuleState& m : measured) m.angle = 1.5;
+  ModuleHeadingMemory memory(4);
+  memory.reset(measured);
+  ModuleStates states;
+  const double heading = kPi - 0.2;
+  ASSERT_EQ(kinematics.command({std::cos(heading), std::sin(heading), 0.0}, &memory, &states, {0.0, 0.0}, &measured),
+            KinematicsStatus::kOk);
+  for (const ModuleState& s : states) {
+    EXPECT_NEAR(s.angle, -0.2, 1e-12);
+    EXPECT_LT(s.speed, 0.0);
+  }
+}
+
 TEST(ModuleOptimization, WholeRobotModeFlipsAllModulesTogether) {
   // Twist (0.2, 0, 2) from wheels at 0: FL/RL want 108 deg (flip alone), FR/RR 45 deg.
   KinematicsOptions per_module;

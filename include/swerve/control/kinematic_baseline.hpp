@@ -15,6 +15,8 @@
 #include <memory>
 
 #include "swerve/kinematics/kinematics.hpp"
+#include "swerve/kinematics/module_commands.hpp"
+#include "swerve/kinematics/module_heading_memory.hpp"
 #include "swerve/control/latency_compensator.hpp"
 #include "swerve/control/reference.hpp"
 #include "swerve/control/tracking_controller.hpp"
@@ -72,7 +74,7 @@ class KinematicBaseline final : public TrackingController {
   // The plan's first step was sent: its drive directions become the flip hysteresis' memory, and
   // its twist the next plan's last_command in step().
   void commit_first_step() noexcept {
-    drive_sign_ = planned_first_sign_;
+    heading_memory_ = planned_memory_;
     committed_twist_ = twists_.col(0);
     twist_committed_ = true;
   }
@@ -85,8 +87,8 @@ class KinematicBaseline final : public TrackingController {
   Kinematics kinematics_;
   std::shared_ptr<const Reference> reference_;
   int modules_, horizon_;
-  Eigen::VectorXi drive_sign_;                        // per module, +1 or -1 (flip decision)
-  Eigen::VectorXi planned_first_sign_;                // the decision module_inputs made for step 0
+  ModuleHeadingMemory heading_memory_;                // the flip decisions of the command last sent
+  ModuleHeadingMemory planned_memory_;                // the decisions module_inputs made for step 0
   Eigen::MatrixXd twists_;                            // 3 x N
   Eigen::Vector3d committed_twist_ = Eigen::Vector3d::Zero();  // the twist of the last command sent
   bool twist_committed_ = false;                      // false until a plan was sent (start, reset, safe stop)
@@ -94,7 +96,8 @@ class KinematicBaseline final : public TrackingController {
   Eigen::MatrixXd inputs_;                            // 2n x N
   Eigen::MatrixXd planned_angles_, planned_speeds_;   // n x N: inverse kinematics of the twist plan
   Eigen::MatrixXi steer_from_;                        // n x N: the step each module's steering aims at
-  Eigen::VectorXd angles_, turns_, other_turns_;      // n: steering angles along the plan; kept and flipped turns in the flip band
+  Eigen::VectorXd angles_;                            // n: steering angles along the plan
+  ModuleArray<DriveDirection<double>> directions_;    // n: each module's way round at the plan step being built
   Eigen::VectorXi signs_;                             // n: drive directions along the plan
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
   using Vector6 = Eigen::Matrix<double, 6, 1>;

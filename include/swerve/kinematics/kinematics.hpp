@@ -12,6 +12,7 @@
 
 #include <optional>
 
+#include "swerve/kinematics/module_commands.hpp"
 #include "swerve/kinematics/module_heading_memory.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/kinematics/module_state.hpp"
@@ -82,8 +83,9 @@ class Kinematics {
 
   // Chooses per module (or for the whole robot) between (theta, v) and (theta + pi, -v) to
   // minimise steering from the current angle, keeping the previous choice while the steering
-  // error stays within 90 deg +- flip_hysteresis; then cosine scaling; records into *memory.
-  // Modules below the hold threshold are left as they are.
+  // error stays within 90 deg +- flip_hysteresis and never turning past an end stop
+  // (choose_drive_direction); then cosine scaling; records into *memory. Modules below the hold
+  // threshold are left as they are.
   KinematicsStatus optimize(ModuleHeadingMemory* memory, ModuleStates* states,
                             const ModuleStates* measured = nullptr) const noexcept;
 
@@ -153,8 +155,7 @@ class Kinematics {
                     const ModuleStates* measured) const noexcept;
   // Module velocity in the body frame for a twist about centre c.
   Eigen::Vector2d module_velocity(int module, const Eigen::Vector3d& twist_body, const Eigen::Vector2d& c) const {
-    const Eigen::Vector2d& r = positions_[static_cast<std::size_t>(module)];
-    return {twist_body.x() - twist_body.z() * (r.y() - c.y()), twist_body.y() + twist_body.z() * (r.x() - c.x())};
+    return point_velocity<double>(twist_body, positions_[static_cast<std::size_t>(module)] - c);
   }
   // Least squares with the precomputed factorisation; `u` holds 2N stacked module vectors.
   Eigen::Vector3d solve_unweighted(const double* u) const noexcept;

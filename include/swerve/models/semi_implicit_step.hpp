@@ -9,8 +9,8 @@
 // inputs). Newton's method finds its value in double (BodyTwistSolver); its derivatives follow from
 // the implicit function theorem, dv+/dp = -(dG/dv)^-1 dG/dp, with both partials from Jets of the
 // model's derivative at the converged v+ (exact, no finite differences and no differentiation of the
-// Newton iterations). The smoothing primitives every scalar type shares (soft_min, soft_clamp,
-// positive_part) live here too, so every optimiser sees one map.
+// Newton iterations). The module inputs come from the shared twist-to-module map and its smooth limits
+// (kinematics/module_commands.hpp, core/smoothing.hpp), so every optimiser sees one map.
 #pragma once
 
 #include <Eigen/Dense>
@@ -21,7 +21,9 @@
 #include <utility>
 #include <vector>
 
+#include "swerve/core/smoothing.hpp"
 #include "swerve/kinematics/kinematics.hpp"
+#include "swerve/kinematics/module_commands.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/kinematics/se2.hpp"
 #include "swerve/models/drive_response.hpp"
@@ -53,39 +55,6 @@ inline constexpr double kHoldSpeed = 1e-3;  // m/s
 // Deepest halving of a semi-implicit substep whose Newton solve finds no root (h / 16).
 inline constexpr int kMaxSplits = 4;
 
-// `value` limited to [lower, upper], the bounds chosen on values (a Jet keeps the derivative of
-// whichever side is active).
-template <typename T>
-T clamp_by_value(const T& value, const T& lower, const T& upper) {
-  if (scalar_value(value) < scalar_value(lower)) return lower;
-  if (scalar_value(value) > scalar_value(upper)) return upper;
-  return value;
-}
-
-// Smooth saturations for the limits inside the step. A hard clamp has a kink where it becomes
-// active, and a gradient method whose iterates cross it sees linearisations that are wrong on one
-// side (Ipopt stalled with dynamics defects of 1e-2 at the stages where the steering-rate limit
-// switched on or off). min(x, limit) is replaced by a C1 blend over [limit - width, limit + width]:
-// x - (x - limit + width)^2 / (4 width) there, exactly x below it and exactly the limit above it,
-// so motion away from the limits is unchanged. Every scalar type uses them, so every optimiser
-// sees one map.
-template <typename T>
-T soft_min(const T& x, double limit, double width) {
-  const double value = scalar_value(x);
-  if (value <= limit - width) return x;
-  if (value >= limit + width) return T(limit);
-  const T excess = x - (limit - width);
-  return x - excess * excess / (4.0 * width);
-}
-template <typename T>
-T soft_max(const T& x, double limit, double width) {
-  return -soft_min<T>(-x, -limit, width);
-}
-template <typename T>
-T soft_clamp(const T& x, double lower, double upper, double width) {
-  return soft_min<T>(soft_max<T>(x, lower, width), upper, width);
-}
-
 // max(0, x) made C1 without moving its zero: 0 below 0, x^2 / (2 width) up to width, x - width / 2
 // above. The step's energy balance is clamped by it: steady motion dissipates ~0, so the optimum
 // of a plan that cruises sits on this corner at many stages, where a kink stalled SLSQP.
@@ -97,11 +66,6 @@ T positive_part(const T& x) {
   if (value >= kWidth) return x - 0.5 * kWidth;
   return x * x / (2.0 * kWidth);
 }
-
-// Blend widths, relative to each limit's scale.
-inline constexpr double kRateLimitSmoothing = 0.1;    // x max steering rate
-inline constexpr double kSpeedLimitSmoothing = 0.05;  // x max wheel speed
-inline constexpr double kAlignmentSmoothing = 0.05;   // on cos(remaining steering error), at 0
 
 // Backward-Euler body twist by Newton's method in double (the value every scalar type shares). The
 // residual's Jacobian dG/dv = I - h da/dv is exact: each evaluation of the model carries Jets along
@@ -381,46 +345,19 @@ class SemiImplicitStep {
     return ok && std::isfinite(scalar_value(wear));
   }
 
-  // The module inputs that carry out `twist_body` over the next dt from state x: inverse
-  // kinematics, the 180 deg choice nearest the current angle (unless past an end stop), the
-  // steering-rate limit, and the wheel speed scaled by the cosine of the steering error left.
+  // The module inputs that carry out `twist_body` over the next dt from state x: the shared
+  // twist-to-module map (kinematics/module_commands.hpp) with the nearest way round (never past an
+  // end stop) and smooth limits, so the optimisers' derivatives see no kink.
   void module_inputs(const Eigen::Ref<const Vector>& x, const Vector3& twist_body, double dt,
                      Eigen::Ref<Vector> inputs) const noexcept {
-    using std::atan2;
-    using std::cos;
-    using std::sqrt;
-    const ModuleLimits& limits = layout_.limits();
-    const bool end_stops = limits.has_steering_end_stops();
-    const double max_wheel_speed = limits.max_drive_speed / wheel_radius_;
-    for (int i = 0; i < modules_; ++i) {
-      const Eigen::Vector2d& p = layout_.position_body(i);
-      const T vx = twist_body.x() - twist_body.z() * p.y();
-      const T vy = twist_body.y() + twist_body.z() * p.x();
-      const T& angle = x[StateIndex::steering(i)];
-      T rate(0.0), wheel_speed(0.0);
-      if (std::hypot(scalar_value(vx), scalar_value(vy)) > kHoldSpeed) {
-        const T speed = sqrt(vx * vx + vy * vy);
-        T error = wrap_angle_of<T>(atan2(vy, vx) - angle);
-        double sign = 1.0;
-        if (std::abs(scalar_value(error)) > kPi / 2) {
-          error = wrap_angle_of<T>(error + kPi);
-          sign = -1.0;
-        }
-        const double reached = scalar_value(angle) + scalar_value(error);
-        if (end_stops && (reached < limits.min_steering_angle || reached > limits.max_steering_angle)) {
-          error = scalar_value(error) > 0.0 ? error - kPi : error + kPi;
-          sign = -sign;
-        }
-        rate = soft_clamp<T>(error / dt, -limits.max_steering_rate, limits.max_steering_rate,
-                               kRateLimitSmoothing * limits.max_steering_rate);
-        // Drive only as fast as the wheel points the right way at the end of this step.
-        const T alignment = soft_max<T>(cos(error - rate * dt), 0.0, kAlignmentSmoothing);
-        wheel_speed = soft_clamp<T>(sign * speed * alignment / wheel_radius_, -max_wheel_speed, max_wheel_speed,
-                                      kSpeedLimitSmoothing * max_wheel_speed);
-      }
-      inputs[InputIndex::steering_rate(i)] = rate;
-      inputs[InputIndex::wheel_speed(i)] = wheel_speed;
-    }
+    static_assert(InputIndex::steering_rate(1) == 2 && InputIndex::wheel_speed(1) == 3,
+                  "module_commands interleaves (steering rate, wheel speed) per module");
+    ModuleCommandRule rule;
+    rule.flip = FlipPolicy::kNearest;
+    rule.shape = LimitShape::kSmooth;
+    rule.hold_speed = kHoldSpeed;
+    module_commands<T>(layout_, twist_body, x.segment(StateIndex::kFirstSteering, modules_), dt, rule,
+                       inputs.head(2 * modules_));
   }
 
  private:
@@ -428,9 +365,8 @@ class SemiImplicitStep {
   T kinetic_energy(const Vector3& v) const noexcept {
     const VehicleParams& p = model_.params();
     const Eigen::Vector2d& c = p.center_of_mass_body;
-    const T vcx = v.x() - v.z() * c.y();
-    const T vcy = v.y() + v.z() * c.x();
-    return 0.5 * p.mass * (vcx * vcx + vcy * vcy) + 0.5 * p.yaw_inertia * v.z() * v.z();
+    const Eigen::Matrix<T, 2, 1> v_com = point_velocity<T>(v, c);
+    return 0.5 * p.mass * (v_com.x() * v_com.x() + v_com.y() * v_com.y()) + 0.5 * p.yaw_inertia * v.z() * v.z();
   }
 
   // dv+/dp by the implicit function theorem at the converged v+ (T is a Jet; see the top). A member

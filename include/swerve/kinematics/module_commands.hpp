@@ -1,0 +1,196 @@
+// The body twist -> module command map, written once for every caller and every scalar type:
+// Kinematics::command (hardware setpoints), the kinematic baseline (its plan's module inputs) and
+// the prediction step (on ceres::Jet, with smooth limits, for the optimisers' derivatives).
+// point_velocity gives a module's contact velocity, choose_drive_direction the 180 deg choice under
+// a flip policy and the end stops, steering_rate_toward and drive_wheel_speed the inputs for one
+// control period; module_commands chains them for a whole vehicle.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+
+#include "swerve/core/scalar.hpp"
+#include "swerve/core/smoothing.hpp"
+#include "swerve/kinematics/module_layout.hpp"
+#include "swerve/kinematics/module_state.hpp"
+#include "swerve/kinematics/se2.hpp"
+
+namespace swerve {
+
+// Velocity of the body point `r_body` of a rigid body whose origin moves with (vx, vy) and turns
+// at omega, all in the body frame: v + omega z x r.
+template <typename T>
+Eigen::Matrix<T, 2, 1> point_velocity(const T& vx, const T& vy, const T& omega, const Eigen::Vector2d& r_body) {
+  return Eigen::Matrix<T, 2, 1>(vx - omega * r_body.y(), vy + omega * r_body.x());
+}
+template <typename T>
+Eigen::Matrix<T, 2, 1> point_velocity(const Eigen::Matrix<T, 3, 1>& twist_body, const Eigen::Vector2d& r_body) {
+  return point_velocity<T>(twist_body.x(), twist_body.y(), twist_body.z(), r_body);
+}
+
+// The component of `velocity` along a wheel heading `angle`: the speed a wheel rolls at without
+// slip when its contact point moves with `velocity`.
+template <typename T>
+T rolling_speed(const Eigen::Matrix<T, 2, 1>& velocity, const T& angle) {
+  using std::cos;
+  using std::sin;
+  return cos(angle) * velocity.x() + sin(angle) * velocity.y();
+}
+
+// How a module chooses between driving along its contact velocity and turning the other way round
+// (heading + pi) with its wheel reversed.
+enum class FlipPolicy {
+  kNearest,     // the way round with less steering (WPILib's optimize): flip beyond 90 deg
+  kHysteresis,  // keep the previous way round until keeping it needs more than 90 deg + band
+};
+
+template <typename T>
+struct DriveDirection {
+  T turn{0.0};        // rad: steering from the current angle to the chosen heading
+  T other_turn{0.0};  // rad: steering to the other way round
+  int sign = 1;       // +1: the wheel drives along the contact velocity; -1: reversed, heading + pi
+  // kHysteresis only: the way round was kept inside the band (90 deg -+ band), where either needs
+  // about a quarter turn and the other is reachable. A caller coordinating several modules (the
+  // baseline turns them all the same way round) may take other_turn instead.
+  bool in_band = false;
+};
+
+// The way round for a module steered at `angle` whose contact velocity points along `heading`.
+// `previous_sign` is the way round kept by kHysteresis (0: none yet, then the nearest); the band
+// is `band` + `widening` above 90 deg and `band` below it. With end stops (limits not [-pi, pi])
+// angles are absolute, turns are not wrapped, and a heading past a stop is never chosen while the
+// other is reachable.
+template <typename T>
+DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int previous_sign, FlipPolicy policy,
+                                         double band, const ModuleLimits& limits, double widening = 0.0) {
+  const bool end_stops = limits.has_steering_end_stops();
+  const auto turn_to = [&](const T& target) -> T {
+    return end_stops ? T(target - angle) : wrap_angle_of<T>(target - angle);
+  };
+  const auto reachable = [&](const T& target) {
+    const double value = scalar_value(target);
+    return !end_stops || (value >= limits.min_steering_angle && value <= limits.max_steering_angle);
+  };
+  const T forward = wrap_angle_of<T>(heading);
+  const T reverse = wrap_angle_of<T>(heading + kPi);
+  const T turn_forward = turn_to(forward);
+  const T turn_reverse = turn_to(reverse);
+  const int nearest = std::abs(scalar_value(turn_forward)) > kPi / 2 ? -1 : 1;
+  int sign = nearest;
+  if (policy == FlipPolicy::kHysteresis && previous_sign != 0) sign = previous_sign > 0 ? 1 : -1;
+  const auto turn_of = [&](int s) -> const T& { return s > 0 ? turn_forward : turn_reverse; };
+  const auto target_of = [&](int s) -> const T& { return s > 0 ? forward : reverse; };
+  bool in_band = false;
+  if (policy == FlipPolicy::kHysteresis && sign != nearest) {
+    const double kept = std::abs(scalar_value(turn_of(sign)));
+    if (kept > kPi / 2 + band + widening) {
+      sign = -sign;
+    } else {
+      in_band = kept >= kPi / 2 - band && reachable(target_of(-sign));
+    }
+  } else if (policy == FlipPolicy::kHysteresis && previous_sign != 0) {
+    // The nearest way round kept: inside the band when it needs at least 90 deg - band.
+    in_band = std::abs(scalar_value(turn_of(sign))) >= kPi / 2 - band && reachable(target_of(-sign));
+  }
+  if (!reachable(target_of(sign)) && reachable(target_of(-sign))) {
+    sign = -sign;
+    in_band = false;
+  }
+  DriveDirection<T> out;
+  out.turn = turn_of(sign);
+  out.other_turn = turn_of(-sign);
+  out.sign = sign;
+  out.in_band = in_band;
+  return out;
+}
+
+// Hard limits (hardware, the baseline) or the C1 blends of core/smoothing.hpp (the prediction,
+// whose derivatives the gradient optimisers follow).
+enum class LimitShape { kHard, kSmooth };
+
+// Blend widths of the smooth limits, relative to each limit's scale.
+inline constexpr double kRateLimitSmoothing = 0.1;    // x max steering rate
+inline constexpr double kSpeedLimitSmoothing = 0.05;  // x max wheel speed
+inline constexpr double kAlignmentSmoothing = 0.05;   // on cos(remaining steering error), at 0
+
+// The steering rate that makes `turn` within dt, under the module's rate limit.
+template <typename T>
+T steering_rate_toward(const T& turn, double dt, const ModuleLimits& limits, LimitShape shape) {
+  const double most = limits.max_steering_rate;
+  if (shape == LimitShape::kSmooth) return soft_clamp<T>(turn / dt, -most, most, kRateLimitSmoothing * most);
+  return clamp_by_value<T>(turn / dt, T(-most), T(most));
+}
+
+// The share of a wheel's speed that moves its contact point the way it should when `turn_left` of
+// steering remains: cos(turn_left), 0 beyond 90 deg (the cosine scaling).
+template <typename T>
+T steering_alignment(const T& turn_left, LimitShape shape) {
+  using std::cos;
+  if (shape == LimitShape::kSmooth) return soft_max<T>(cos(turn_left), 0.0, kAlignmentSmoothing);
+  return clamp_by_value<T>(cos(turn_left), T(0.0), T(1.0));
+}
+
+// Wheel speed (rad/s) for a signed contact speed (m/s) when `turn_left` of steering remains at the
+// end of the period: scaled by steering_alignment when `align`, so a module still steering does
+// not push sideways; limited to the drive speed.
+template <typename T>
+T drive_wheel_speed(const T& signed_speed, const T& turn_left, bool align, const ModuleLimits& limits,
+                    double wheel_radius, LimitShape shape) {
+  const double most = limits.max_drive_speed / wheel_radius;
+  const T alignment = align ? steering_alignment<T>(turn_left, shape) : T(1.0);
+  const T wheel_speed = signed_speed * alignment / wheel_radius;
+  if (shape == LimitShape::kSmooth) return soft_clamp<T>(wheel_speed, -most, most, kSpeedLimitSmoothing * most);
+  return clamp_by_value<T>(wheel_speed, T(-most), T(most));
+}
+
+struct ModuleCommandRule {
+  FlipPolicy flip = FlipPolicy::kNearest;
+  double flip_hysteresis = 0.0;  // rad, kHysteresis only
+  LimitShape shape = LimitShape::kHard;
+  bool align_wheel = true;       // drive_wheel_speed's cosine scaling
+  // m/s: a module slower than this keeps its angle (its direction would be noise: the singularity
+  // hold), and its wheel rolls with its velocity's component along that angle.
+  double hold_speed = 1e-3;
+};
+
+// Module inputs that carry out `twist_body` over the next dt from the steering angles `angles`
+// (n): inputs[2 i] is module i's steering rate (rad/s), inputs[2 i + 1] its wheel speed (rad/s).
+// `previous_signs` (n, +1/-1/0) is read by kHysteresis and may be null for kNearest; the chosen
+// signs are written to `signs` when it is not null.
+template <typename T>
+void module_commands(const ModuleLayout& layout, const Eigen::Matrix<T, 3, 1>& twist_body,
+                     const Eigen::Ref<const Eigen::Matrix<T, Eigen::Dynamic, 1>>& angles, double dt,
+                     const ModuleCommandRule& rule, Eigen::Ref<Eigen::Matrix<T, Eigen::Dynamic, 1>> inputs,
+                     const int* previous_signs = nullptr, int* signs = nullptr) {
+  using std::atan2;
+  using std::sqrt;
+  const ModuleLimits& limits = layout.limits();
+  const double radius = layout.wheel_radius();
+  for (int i = 0; i < layout.size(); ++i) {
+    const Eigen::Matrix<T, 2, 1> velocity = point_velocity<T>(twist_body, layout.position_body(i));
+    const T& angle = angles[i];
+    T rate(0.0), wheel_speed(0.0);
+    int sign = previous_signs != nullptr ? previous_signs[i] : 0;
+    if (std::hypot(scalar_value(velocity.x()), scalar_value(velocity.y())) >= rule.hold_speed) {
+      const T speed = sqrt(velocity.squaredNorm());
+      const DriveDirection<T> direction =
+          choose_drive_direction<T>(atan2(velocity.y(), velocity.x()), angle,
+                                    previous_signs != nullptr ? previous_signs[i] : 0, rule.flip,
+                                    rule.flip_hysteresis, limits);
+      rate = steering_rate_toward<T>(direction.turn, dt, limits, rule.shape);
+      // Drive only as fast as the wheel points the right way at the end of this step.
+      wheel_speed = drive_wheel_speed<T>(static_cast<double>(direction.sign) * speed, direction.turn - rate * dt, rule.align_wheel, limits,
+                                         radius, rule.shape);
+      sign = direction.sign;
+    } else {
+      wheel_speed = drive_wheel_speed<T>(rolling_speed<T>(velocity, angle), T(0.0), false, limits, radius, rule.shape);
+    }
+    inputs[2 * i] = rate;
+    inputs[2 * i + 1] = wheel_speed;
+    if (signs != nullptr) signs[i] = sign;
+  }
+}
+
+}  // namespace swerve
