@@ -66,17 +66,17 @@ template <typename T>
 DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int previous_sign, FlipPolicy policy,
                                          double band, const ModuleLimits& limits, double widening = 0.0) {
   const bool end_stops = limits.has_steering_end_stops();
-  const auto turn_to = [&](const T& target) -> T {
-    return end_stops ? T(target - angle) : wrap_angle_of<T>(target - angle);
-  };
+  // The heading half a turn from a wrapped one, wrapped, without another remainder.
+  const auto opposite_of = [](const T& wrapped) -> T { return scalar_value(wrapped) > 0.0 ? wrapped - kPi : wrapped + kPi; };
   const auto reachable = [&](const T& target) {
     const double value = scalar_value(target);
     return !end_stops || (value >= limits.min_steering_angle && value <= limits.max_steering_angle);
   };
-  const T forward = wrap_angle_of<T>(heading);
-  const T reverse = wrap_angle_of<T>(heading + kPi);
-  const T turn_forward = turn_to(forward);
-  const T turn_reverse = turn_to(reverse);
+  // Targets are needed for the end stops only; without them every turn is wrapped.
+  const T forward = end_stops ? wrap_angle_of<T>(heading) : heading;
+  const T reverse = end_stops ? opposite_of(forward) : heading;
+  const T turn_forward = end_stops ? T(forward - angle) : wrap_angle_of<T>(heading - angle);
+  const T turn_reverse = end_stops ? T(reverse - angle) : opposite_of(turn_forward);
   const int nearest = std::abs(scalar_value(turn_forward)) > kPi / 2 ? -1 : 1;
   int sign = nearest;
   if (policy == FlipPolicy::kHysteresis && previous_sign != 0) sign = previous_sign > 0 ? 1 : -1;
