@@ -25,6 +25,7 @@ struct Loop {
   std::unique_ptr<Controller> controller;
   std::unique_ptr<VehicleModel<double>> plant_model;
   std::unique_ptr<DiscreteDynamics<double>> plant;
+  std::unique_ptr<DiscreteDynamics<double>::Data> plant_data;
   Eigen::VectorXd x, x_next, u;
   int substeps = 1;
   double t = 0.0;
@@ -48,6 +49,7 @@ struct Loop {
     });
     plant_model = std::make_unique<VehicleModel<double>>(params, Fidelity::kIdeal);
     plant = std::make_unique<DiscreteDynamics<double>>(*plant_model, IntegratorMethod::kRk4);
+    plant_data = std::make_unique<DiscreteDynamics<double>::Data>(*plant);
     substeps = plant_model->recommended_substeps(options.dt, 0.0);
     x = Eigen::VectorXd::Zero(plant_model->state_size());
     x[1] = 0.1;  // a small offset to correct
@@ -65,7 +67,7 @@ struct Loop {
       u[InputIndex::steering_rate(i)] = out.modules[i].steering_rate;
       u[InputIndex::wheel_speed(i)] = out.modules[i].wheel_speed;
     }
-    plant->step(x, u, 0.05, substeps, x_next);
+    plant->step(*plant_data, x, u, 0.05, substeps, x_next);
     x = x_next;
     t += 0.05;
     if (t > reference->duration()) t = 0.0;  // keep the loop on the moving part of the reference

@@ -22,6 +22,7 @@ struct DynamicsJacobian::Impl {
   Impl(const VehicleParams& params, Fidelity fidelity, IntegratorMethod method)
       : model(params, fidelity),
         dynamics(model, method),
+        dynamics_data(dynamics),
         nx(model.state_size()),
         nu(model.input_size()),
         x(nx),
@@ -46,6 +47,7 @@ struct DynamicsJacobian::Impl {
 
   VehicleModel<ModelJet> model;
   DiscreteDynamics<ModelJet> dynamics;
+  DiscreteDynamics<ModelJet>::Data dynamics_data;
   int nx;
   int nu;
   ModelJetVector x, u, out;
@@ -66,7 +68,7 @@ ModelStatus DynamicsJacobian::discrete(const Eigen::Ref<const Eigen::VectorXd>& 
                                        Eigen::Ref<Eigen::MatrixXd> b, double* wear, double* wear_gradient) noexcept {
   Impl& impl = *impl_;
   return impl.run(x, u, x_next, a, b, wear, wear_gradient, [&](ModelJet* stage_wear) {
-    return impl.dynamics.step(impl.x, impl.u, dt, substeps, impl.out, stage_wear);
+    return impl.dynamics.step(impl.dynamics_data, impl.x, impl.u, dt, substeps, impl.out, stage_wear);
   });
 }
 

@@ -269,6 +269,11 @@ double OcpProblem::stage_cost_without_wear(int k, const Eigen::Ref<const Eigen::
 
 double OcpProblem::rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
                            Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept {
+  return rollout(nullptr, inputs, first_step, states, stage_costs);
+}
+
+double OcpProblem::rollout(PredictionData* data, const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
+                           Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept {
   if (first_step <= 0) {
     first_step = 0;
     states.col(0) = x0_;
@@ -276,7 +281,7 @@ double OcpProblem::rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int 
   for (int k = first_step; k < horizon_; ++k) {
     double wear = 0.0;
     const auto kk = static_cast<Eigen::Index>(k);
-    if (!model_->step(states.col(kk), inputs.col(kk), dt_, states.col(kk + 1), &wear) || !std::isfinite(wear)) {
+    if (!model_->step(data, states.col(kk), inputs.col(kk), dt_, states.col(kk + 1), &wear) || !std::isfinite(wear)) {
       for (int j = k; j < horizon_; ++j) stage_costs[j] = std::numeric_limits<double>::infinity();
       return std::numeric_limits<double>::infinity();
     }

@@ -35,7 +35,7 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   modules_ = values_->model().modules();
   state_size_ = values_->state_size();
   input_size_ = values_->model().input_size();
-  data_ = std::make_unique<Data>(create_data());
+  data_.reset(static_cast<Data*>(create_data().release()));
 }
 
 VehiclePredictionModel::~VehiclePredictionModel() = default;

@@ -8,8 +8,14 @@ TwistPredictionModel::TwistPredictionModel(const VehicleParams& params, Predicti
 bool TwistPredictionModel::step(const Eigen::Ref<const Eigen::VectorXd>& x,
                                 const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt,
                                 Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
+  return step(nullptr, x, twist_body, dt, x_next, stage_wear);
+}
+
+bool TwistPredictionModel::step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt,
+                                Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
   if (twist_body.size() != 3) return false;
-  return modules_.twist_step(x, twist_body.head<3>(), dt, x_next, stage_wear);
+  return modules_.twist_step(data, x, twist_body.head<3>(), dt, x_next, stage_wear);
 }
 
 bool TwistPredictionModel::step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x,

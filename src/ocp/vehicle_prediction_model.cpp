@@ -3,6 +3,7 @@
 #include <cmath>
 #include <utility>
 
+#include "swerve/core/dcheck.hpp"
 #include "swerve/models/semi_implicit_step.hpp"
 
 namespace swerve {
@@ -23,29 +24,35 @@ VehiclePredictionModel::Data::Data(Data&&) noexcept = default;
 VehiclePredictionModel::Data& VehiclePredictionModel::Data::operator=(Data&&) noexcept = default;
 VehiclePredictionModel::Data::~Data() = default;
 
-VehiclePredictionModel::Data VehiclePredictionModel::create_data() const {
-  return Data(std::make_unique<Data::Impl>(*values_));
+std::unique_ptr<PredictionData> VehiclePredictionModel::create_data() const {
+  return std::unique_ptr<Data>(new Data(std::make_unique<Data::Impl>(*values_)));
+}
+
+VehiclePredictionModel::Data::Impl& VehiclePredictionModel::scratch(PredictionData* data) const noexcept {
+  if (data == nullptr) return *data_->impl_;
+  SWERVE_DCHECK(dynamic_cast<Data*>(data) != nullptr);
+  return *static_cast<Data*>(data)->impl_;
 }
 
 long VehiclePredictionModel::model_evaluations() const noexcept { return model_evaluations(*data_); }
 
-long VehiclePredictionModel::model_evaluations(const Data& data) noexcept {
-  return SemiImplicitStep<double>::model_evaluations(data.impl_->values);
+long VehiclePredictionModel::model_evaluations(const PredictionData& data) noexcept {
+  return SemiImplicitStep<double>::model_evaluations(static_cast<const Data&>(data).impl_->values);
 }
 
 bool VehiclePredictionModel::step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                                   double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
-  return step(*data_, x, u, dt, x_next, stage_wear);
+  return step(nullptr, x, u, dt, x_next, stage_wear);
 }
 
-bool VehiclePredictionModel::step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x,
+bool VehiclePredictionModel::step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
                                   const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
                                   Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
   if (x.size() != state_size_ || u.size() != input_size_ || x_next.size() != state_size_ || !(dt > 0.0) ||
       !std::isfinite(dt) || !x.allFinite() || !u.allFinite()) {
     return false;
   }
-  return values_->step(data.impl_->values, x, u, dt, x_next, stage_wear);
+  return values_->step(scratch(data).values, x, u, dt, x_next, stage_wear);
 }
 
 void VehiclePredictionModel::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
@@ -56,19 +63,19 @@ void VehiclePredictionModel::module_inputs(const Eigen::Ref<const Eigen::VectorX
 bool VehiclePredictionModel::twist_step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
                                         double dt, Eigen::Ref<Eigen::VectorXd> x_next,
                                         double* stage_wear) const noexcept {
-  return twist_step(*data_, x, twist_body, dt, x_next, stage_wear);
+  return twist_step(nullptr, x, twist_body, dt, x_next, stage_wear);
 }
 
-bool VehiclePredictionModel::twist_step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x,
+bool VehiclePredictionModel::twist_step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
                                         const Eigen::Vector3d& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
                                         double* stage_wear) const noexcept {
   if (x.size() != state_size_ || x_next.size() != state_size_ || !(dt > 0.0) || !std::isfinite(dt) ||
       !x.allFinite() || !twist_body.allFinite()) {
     return false;
   }
-  Data::Impl& scratch = *data.impl_;
-  values_->module_inputs(x, twist_body, dt, scratch.inputs);
-  return values_->step(scratch.values, x, scratch.inputs, dt, x_next, stage_wear);
+  Data::Impl& own = scratch(data);
+  values_->module_inputs(x, twist_body, dt, own.inputs);
+  return values_->step(own.values, x, own.inputs, dt, x_next, stage_wear);
 }
 
 }  // namespace swerve

@@ -59,7 +59,7 @@ inline std::shared_ptr<const Reference> arc_reference(double speed, double accel
 class ModelPlant {
  public:
   ModelPlant(const VehicleParams& params, double dt)
-      : model_(params, Fidelity::kIdeal), dynamics_(model_, IntegratorMethod::kRk4), dt_(dt),
+      : model_(params, Fidelity::kIdeal), dynamics_(model_, IntegratorMethod::kRk4), dynamics_data_(dynamics_), dt_(dt),
         substeps_(model_.recommended_substeps(dt, 0.0)), next_(model_.state_size()) {}
 
   int substeps() const { return substeps_; }
@@ -73,7 +73,7 @@ class ModelPlant {
       u[2 * i + 1] = commands[i].wheel_speed;
     }
     double wear = 0.0;
-    if (dynamics_.step(*state, u, dt_, substeps_, next_, &wear) != ModelStatus::kOk) return false;
+    if (dynamics_.step(dynamics_data_, *state, u, dt_, substeps_, next_, &wear) != ModelStatus::kOk) return false;
     *state = next_;
     if (total_wear != nullptr) *total_wear += wear;
     return true;
@@ -82,6 +82,7 @@ class ModelPlant {
  private:
   VehicleModel<double> model_;
   DiscreteDynamics<double> dynamics_;
+  DiscreteDynamics<double>::Data dynamics_data_;
   double dt_;
   int substeps_;
   Eigen::VectorXd next_;

@@ -22,6 +22,7 @@ TEST(ModelsAllocation, DerivativeStepAndJacobiansAllocateNothing) {
       params.plant.relaxation_length = 0.1;
       const VehicleModel<double> model(params, fidelity);
       const DiscreteDynamics<double> dynamics(model);
+      DiscreteDynamics<double>::Data dynamics_data = dynamics.create_data();
       DynamicsJacobian jacobian(params, fidelity);
       const int nx = model.state_size();
       const int nu = model.input_size();
@@ -37,11 +38,11 @@ TEST(ModelsAllocation, DerivativeStepAndJacobiansAllocateNothing) {
       double wear = 0.0;
       swerve::testing::AllocationCounter counter;
       EXPECT_EQ(model.derivative(x, u, x_dot, diag.data(), &wear), ModelStatus::kOk);
-      EXPECT_EQ(dynamics.step(x, u, 0.05, 2, next, &wear, module_wear.data()), ModelStatus::kOk);
+      EXPECT_EQ(dynamics.step(dynamics_data, x, u, 0.05, 2, next, &wear, module_wear.data()), ModelStatus::kOk);
       EXPECT_EQ(jacobian.discrete(x, u, 0.05, 2, next, a, b, &wear, gradient.data()), ModelStatus::kOk);
       EXPECT_EQ(jacobian.continuous(x, u, x_dot, a, b, &wear, gradient.data()), ModelStatus::kOk);
       // Fixed-size blocks of preallocated storage are fine too (how solvers pass their stages).
-      EXPECT_EQ(dynamics.step(x.head(nx), u, 0.05, 1, next.head(nx)), ModelStatus::kOk);
+      EXPECT_EQ(dynamics.step(dynamics_data, x.head(nx), u, 0.05, 1, next.head(nx)), ModelStatus::kOk);
       EXPECT_EQ(counter.count(), 0) << n << " modules, fidelity " << static_cast<int>(fidelity);
     }
   }

@@ -7,8 +7,13 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <random>
+#include <thread>
+#include <vector>
 
 #include "support/linear_models.hpp"
+#include "support/swerve_problems.hpp"
 #include "swerve/core/config_error.hpp"
 
 namespace swerve {
@@ -343,6 +348,72 @@ TEST(OcpProblem, TrackingJacobianWithAPseudoHuberWidthMatchesCentralDifferences)
     Eigen::VectorXd x_next = Eigen::VectorXd::Zero(6);
     x_next.head<3>() = error;
     expect_tracking_jacobian_matches_central_differences(problem, 1, x_next);
+  }
+}
+
+// The problem holds no scratch and the model's lives in the caller's PredictionData (issue 16):
+// rollouts of the swerve problem on two threads at once, each on its own data, give bit for bit
+// what one thread gives. Both prediction methods (the semi-implicit step and RK4, whose stages
+// are scratch too).
+TEST(OcpProblem, RolloutsOnTheirOwnDataOnTwoThreadsMatchOneThreadBitForBit) {
+  for (const PredictionMethod method : {PredictionMethod::kSemiImplicit, PredictionMethod::kRk4}) {
+    SCOPED_TRACE(to_string(method));
+    PredictionOptions options;
+    options.method = method;
+    options.substeps = method == PredictionMethod::kRk4 ? 10 : 1;
+    const VehicleParams params = testing::make_params(ModuleLayout::rectangle(0.6, 0.5, 0.1));
+    const TwistPredictionModel model(params, options);
+    OcpProblem problem(model, 20, 0.05, testing::SwerveTestProblem::weights(testing::SwerveScene::kTurn),
+                       testing::SwerveTestProblem::bounds(testing::SwerveScene::kTurn, -1.0));
+    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(model.state_size());
+    x0.segment<3>(3) = Eigen::Vector3d(0.5, 0.0, 0.1);
+    ASSERT_TRUE(problem.set_initial_state(x0));
+    constexpr int kPlans = 16;
+    std::vector<Eigen::MatrixXd> plans;
+    std::mt19937 random(5);
+    std::uniform_real_distribution<double> jitter(-0.1, 0.1);
+    for (int p = 0; p < kPlans; ++p) {
+      Eigen::MatrixXd inputs(3, problem.horizon());
+      for (int k = 0; k < problem.horizon(); ++k) {
+        inputs.col(k) = Eigen::Vector3d(0.55 + jitter(random), jitter(random), 0.15 + jitter(random));
+      }
+      problem.project(inputs);
+      plans.push_back(inputs);
+    }
+    const auto roll = [&](PredictionData* data, int p, Eigen::MatrixXd* states) {
+      *states = Eigen::MatrixXd::Zero(model.state_size(), problem.horizon() + 1);
+      Eigen::VectorXd stage_costs(problem.horizon());
+      return problem.rollout(data, plans[static_cast<std::size_t>(p)], 0, *states, stage_costs);
+    };
+    std::vector<double> expected_cost(kPlans);
+    std::vector<Eigen::MatrixXd> expected_states(kPlans);
+    {
+      const std::unique_ptr<PredictionData> data = model.create_data();
+      ASSERT_NE(data, nullptr);
+      for (int p = 0; p < kPlans; ++p) {
+        const auto index = static_cast<std::size_t>(p);
+        expected_cost[index] = roll(data.get(), p, &expected_states[index]);
+        ASSERT_TRUE(std::isfinite(expected_cost[index]));
+      }
+    }
+    std::vector<int> mismatches(2, 0);
+    const auto worker = [&](int id) {
+      const std::unique_ptr<PredictionData> data = model.create_data();
+      Eigen::MatrixXd states;
+      for (int pass = 0; pass < 4; ++pass) {
+        for (int i = 0; i < kPlans; ++i) {
+          const int p = id == 1 ? kPlans - 1 - i : i;
+          const auto index = static_cast<std::size_t>(p);
+          const double cost = roll(data.get(), p, &states);
+          if (cost != expected_cost[index] || states != expected_states[index]) ++mismatches[static_cast<std::size_t>(id)];
+        }
+      }
+    };
+    std::thread first(worker, 0), second(worker, 1);
+    first.join();
+    second.join();
+    EXPECT_EQ(mismatches[0], 0);
+    EXPECT_EQ(mismatches[1], 0);
   }
 }
 

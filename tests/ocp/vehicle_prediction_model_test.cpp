@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <memory>
+
 #include <cstdio>
 
 #include <algorithm>
@@ -305,7 +307,7 @@ TEST(VehiclePredictionModel, RolloutsWithTheirOwnDataOnTwoThreadsMatchOneThreadB
       twists[static_cast<std::size_t>(s)].col(k) = Eigen::Vector3d(speed + noise(random), noise(random), 0.3 + noise(random));
     }
   }
-  const auto rollout = [&](VehiclePredictionModel::Data& data, int s, Eigen::VectorXd* final_state, double* wear) {
+  const auto rollout = [&](PredictionData* data, int s, Eigen::VectorXd* final_state, double* wear) {
     Eigen::VectorXd x = s % 2 == 0 ? Eigen::VectorXd::Zero(10) : moving_with(params, {0.8, 0.0, 0.3});
     Eigen::VectorXd x_next = x;
     *wear = 0.0;
@@ -321,23 +323,23 @@ TEST(VehiclePredictionModel, RolloutsWithTheirOwnDataOnTwoThreadsMatchOneThreadB
   std::vector<Eigen::VectorXd> expected_states(kSequences);
   std::vector<double> expected_wear(kSequences);
   {
-    VehiclePredictionModel::Data data = model.create_data();
+    const std::unique_ptr<PredictionData> data = model.create_data();
     for (int s = 0; s < kSequences; ++s) {
-      ASSERT_TRUE(rollout(data, s, &expected_states[static_cast<std::size_t>(s)], &expected_wear[static_cast<std::size_t>(s)]));
+      ASSERT_TRUE(rollout(data.get(), s, &expected_states[static_cast<std::size_t>(s)], &expected_wear[static_cast<std::size_t>(s)]));
     }
   }
   // Each thread runs every sequence three times, the second in the opposite order, so the two
   // threads' rollouts overlap in every combination.
   std::vector<int> mismatches(2, 0);
   const auto worker = [&](int id) {
-    VehiclePredictionModel::Data data = model.create_data();
+    const std::unique_ptr<PredictionData> data = model.create_data();
     for (int pass = 0; pass < 3; ++pass) {
       for (int i = 0; i < kSequences; ++i) {
         const int s = id == 1 ? kSequences - 1 - i : i;
         Eigen::VectorXd state;
         double wear = 0.0;
         const auto index = static_cast<std::size_t>(s);
-        if (!rollout(data, s, &state, &wear) || state != expected_states[index] || wear != expected_wear[index]) {
+        if (!rollout(data.get(), s, &state, &wear) || state != expected_states[index] || wear != expected_wear[index]) {
           ++mismatches[static_cast<std::size_t>(id)];
         }
       }

@@ -239,7 +239,7 @@ class SemiImplicitStep {
   // The step's scratch, owned by its caller (Crocoddyl's createData(), acados' workspace): the
   // step itself is immutable, so rollouts with a Data each may run on threads of their own.
   struct Data {
-    explicit Data(const SemiImplicitStep& step) : twist(step.twist_solver_) {
+    explicit Data(const SemiImplicitStep& step) : rk4(step.rk4_), twist(step.twist_solver_) {
       const int nx = step.model_.state_size();
       const int nu = step.model_.input_size();
       u_applied = Vector::Zero(nu);
@@ -273,6 +273,7 @@ class SemiImplicitStep {
     std::vector<char> split;                                                 // per solve
     std::vector<Vector> split_states;                                        // per split depth
     ModuleStates wheel_states;
+    typename DiscreteDynamics<T>::Data rk4;  // PredictionMethod::kRk4's stages
     BodyTwistSolver::Data twist;
   };
 
@@ -322,7 +323,7 @@ class SemiImplicitStep {
     T wear(0.0);
     bool ok = true;
     if (options_.method == PredictionMethod::kRk4) {
-      ok = rk4_.step(x, d.u_applied, dt, options_.substeps, x_next, &wear) == ModelStatus::kOk;
+      ok = rk4_.step(d.rk4, x, d.u_applied, dt, options_.substeps, x_next, &wear) == ModelStatus::kOk;
     } else {
       // Slow motion (body and every commanded contact speed under 0.25 m/s) is where one implicit
       // step per controller step mispredicts wear most; there it takes more, shorter steps.

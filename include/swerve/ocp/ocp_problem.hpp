@@ -104,6 +104,10 @@ class OcpProblem {
   // (nx x N+1) and per-stage costs (N). Returns the total cost, or +inf when the model failed.
   double rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step, Eigen::Ref<Eigen::MatrixXd> states,
                  Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept;
+  // The same on the model's scratch `data` (model().create_data()): the problem holds no scratch
+  // of its own, so rollouts on separate data may run on separate threads (batched proposals).
+  double rollout(PredictionData* data, const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
+                 Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept;
 
   // The tracking residuals of stage k at its end state x_{k+1} (rows: kPoseResidual..): pose error
   // times sqrt(2 s_k Q) (s_k = terminal_scale at k = N-1, else 1), heading wrapped, and with a

@@ -1,12 +1,22 @@
 // The discrete map x_{k+1} = F(x_k, u_k) over one controller step, as the optimal control problem
 // and every solver backend see it. The swerve vehicle implements it on top of the dynamic model;
 // tests implement it with systems whose optimum is known in closed form. Gradient-based backends
-// also need its exact Jacobians (step_jacobians).
+// also need its exact Jacobians (step_jacobians). A model is immutable; the scratch of its step
+// lives in a PredictionData its caller owns, so rollouts on separate data may run on separate threads.
 #pragma once
 
 #include <Eigen/Core>
 
+#include <memory>
+
 namespace swerve {
+
+// The scratch of a model's step (Crocoddyl's createData(), acados' workspace), made by the model's
+// create_data() and owned by the caller: one per thread makes rollouts re-entrant.
+class PredictionData {
+ public:
+  virtual ~PredictionData() = default;
+};
 
 class PredictionModel {
  public:
@@ -23,6 +33,19 @@ class PredictionModel {
   // reads. noexcept and allocation-free; returns false when the result is not finite.
   virtual bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                     double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept = 0;
+
+  // Scratch for step(data, ...), sized once (no allocation after). nullptr, the default, for models
+  // whose step needs none.
+  virtual std::unique_ptr<PredictionData> create_data() const { return nullptr; }
+  // step() on `data`, which this model's create_data() made (nullptr: the model's own scratch,
+  // which makes the call not re-entrant). Steps on separate data may run on separate threads, with
+  // the results of one thread bit for bit. The default suits models without scratch.
+  virtual bool step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                    const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+                    double* stage_wear) const noexcept {
+    (void)data;
+    return step(x, u, dt, x_next, stage_wear);
+  }
 
   // Whether step_jacobians() gives exact derivatives (gradient-based backends need them).
   virtual bool has_jacobians() const noexcept { return false; }

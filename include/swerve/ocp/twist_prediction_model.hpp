@@ -22,6 +22,10 @@ class TwistPredictionModel final : public PredictionModel {
   int input_size() const noexcept override { return 3; }
   bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& twist_body,
             double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override;
+  std::unique_ptr<PredictionData> create_data() const override { return modules_.create_data(); }
+  bool step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+            const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+            double* stage_wear) const noexcept override;
   bool has_jacobians() const noexcept override { return true; }
   bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& twist_body,
                       double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,

@@ -79,13 +79,13 @@ class VehiclePredictionModel final : public PredictionModel {
 
   // Scratch owned by the caller. The model itself is immutable: rollouts that each pass a Data of
   // their own (made once, by create_data(); allocation-free after) may run on threads of their
-  // own, bit for bit as on one. The overloads without a Data use the model's own, so they are not
+  // own, bit for bit as on one. The overloads without one use the model's own, so they are not
   // re-entrant; nor, yet, are the Jacobians.
-  class Data {
+  class Data final : public PredictionData {
    public:
     Data(Data&&) noexcept;
     Data& operator=(Data&&) noexcept;
-    ~Data();
+    ~Data() override;
 
    private:
     friend class VehiclePredictionModel;
@@ -93,18 +93,18 @@ class VehiclePredictionModel final : public PredictionModel {
     explicit Data(std::unique_ptr<Impl> impl);
     std::unique_ptr<Impl> impl_;
   };
-  Data create_data() const;
-  bool step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
-            double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
-  bool twist_step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
-                  Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
+  std::unique_ptr<PredictionData> create_data() const override;  // a Data
+  bool step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+            double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override;
+  bool twist_step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
+                  double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
 
   const VehicleModel<double>& vehicle() const noexcept;
   // Evaluations of the vehicle model (each with the twist Jacobian, or in double for the final
   // values) by the double steps through `data` (default: the model's own) since it was made: the
   // rollout's cost driver (BM_Prediction_Rollout reports them per stage).
   long model_evaluations() const noexcept;
-  static long model_evaluations(const Data& data) noexcept;
+  static long model_evaluations(const PredictionData& data) noexcept;  // `data`: a Data
   const PredictionOptions& options() const noexcept { return options_; }
 
  private:
@@ -113,6 +113,7 @@ class VehiclePredictionModel final : public PredictionModel {
   std::unique_ptr<SemiImplicitStep<double>> values_;
   std::unique_ptr<detail::PredictionJets> jets_;  // the Jet twin of values_ (prediction_jacobians.cpp)
   std::unique_ptr<Data> data_;                     // the scratch of the overloads without a Data
+  Data::Impl& scratch(PredictionData* data) const noexcept;  // *data's, or the model's own for nullptr
 };
 
 }  // namespace swerve

@@ -86,6 +86,7 @@ class Simulator {
   SimulatorOptions options_;
   VehicleModel<double> model_;
   DiscreteDynamics<double> dynamics_;
+  DiscreteDynamics<double>::Data dynamics_data_;
   int substeps_;
   double time_ = 0.0;
   Eigen::VectorXd state_, next_state_, input_, state_dot_, measurement_;
