@@ -83,6 +83,7 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
   raw_ = candidate_raw_ = inputs_ = candidate_inputs_ = Eigen::MatrixXd::Zero(nu_, horizon_);
   states_ = candidate_states_ = Eigen::MatrixXd::Zero(nx_, horizon_ + 1);
   stage_costs_ = candidate_stage_costs_ = Eigen::VectorXd::Zero(horizon_);
+  stage_wear_ = candidate_stage_wear_ = best_stage_wear_ = Eigen::VectorXd::Zero(horizon_);
   // The proposal scale of each input: its half-range, or its per-step bound, or 1 when unbounded.
   reference_step_ = Eigen::VectorXd::Ones(nu_);
   const InputBounds& bounds = problem.bounds();
@@ -169,7 +170,10 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     for (int trial = 0; trial < kLineSearchTrials; ++trial, step *= 0.3) {
       candidate_inputs_ = inputs_ + step * direction_;
       problem.project(candidate_inputs_);
-      candidate_cost = problem.rollout(candidate_inputs_, 0, candidate_states_, candidate_stage_costs_);
+      const auto trial_start = deadline.now();
+      candidate_cost = problem.rollout(nullptr, candidate_inputs_, 0, candidate_states_, candidate_stage_costs_,
+                                       candidate_stage_wear_.data());
+      full_rollout = std::max(full_rollout, deadline.now() - trial_start);
       ++*rollouts;
       const double decrease = flat(gradient_).dot(flat(candidate_inputs_) - flat(inputs_));
       if (candidate_cost <= cost + 1e-4 * decrease && candidate_cost < cost) {
@@ -183,6 +187,7 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     // The accepted point is kept even when no time is left for its gradient.
     out->inputs = candidate_inputs_;
     out->states = candidate_states_;
+    best_stage_wear_ = candidate_stage_wear_;
     out->cost = candidate_cost;
     if (deadline.now() + gradient_time() >= stop) break;
     gradient_start = deadline.now();
@@ -263,9 +268,9 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   raw_ = base_;
   inputs_ = base_;
   const auto rollout_start = deadline.now();
-  double current_cost = problem.rollout(inputs_, 0, states_, stage_costs_);
-  // The longest a proposal can take (a full rollout). The loop stops while one more proposal and the
-  // final cost evaluation still fit before the deadline, so the solver returns on time.
+  double current_cost = problem.rollout(nullptr, inputs_, 0, states_, stage_costs_, stage_wear_.data());
+  // A full rollout, as timed on the start; the loop stops while one more proposal (the slowest
+  // seen) and one such rollout of slack for the scheduler still fit before the deadline.
   const auto full_rollout = deadline.now() - rollout_start;
   const auto loop_start = deadline.now();
   // With a polish, the annealing ends early enough to leave it its share of the budget, unless a
@@ -287,6 +292,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   summary->initial_cost = current_cost;
   out->inputs = inputs_;
   out->states = states_;
+  best_stage_wear_ = stage_wear_;
   double best_cost = current_cost;
 
   // Geometric cooling over the schedule's progress: the larger of the share of iterations done and
@@ -305,9 +311,11 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   auto now = deadline.now();
   for (; iteration < options_.max_iterations; ++iteration) {
     const auto proposal_start = now;
-    // Room for one more proposal, the final evaluation, and one rollout's worth of slack for the
-    // scheduler (measured overruns without it: up to 0.2 ms on a 20 ms budget).
-    if (proposal_start + longest_proposal + 2 * full_rollout >= anneal_end) {
+    // Room for one more proposal and one rollout's worth of slack for the scheduler (measured
+    // overruns without it: up to 0.2 ms on a 20 ms budget). The slowest proposal, not the start's
+    // rollout: a plan that slows under 0.25 m/s takes the slow-motion substeps, and its rollout
+    // costs ~10x one in cruise.
+    if (proposal_start + longest_proposal + full_rollout >= anneal_end) {
       deadline_hit = true;
       break;
     }
@@ -350,7 +358,9 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     }
     candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
     candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
-    const double candidate_cost = problem.rollout(candidate_inputs_, changed, candidate_states_, candidate_stage_costs_);
+    candidate_stage_wear_.head(changed) = stage_wear_.head(changed);
+    const double candidate_cost = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_,
+                                                  candidate_stage_costs_, candidate_stage_wear_.data());
     ++rollouts;
     now = deadline.now();
     longest_proposal = std::max(longest_proposal, now - proposal_start);
@@ -380,11 +390,13 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
       std::swap(inputs_, candidate_inputs_);
       std::swap(states_, candidate_states_);
       std::swap(stage_costs_, candidate_stage_costs_);
+      std::swap(stage_wear_, candidate_stage_wear_);
       current_cost = candidate_cost;
       if (current_cost < best_cost) {
         best_cost = current_cost;
         out->inputs = inputs_;
         out->states = states_;
+        best_stage_wear_ = stage_wear_;
       }
     }
     if (window_proposed >= options_.adapt_interval) {
@@ -399,7 +411,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
       base_ = out->inputs;
       knots_.setZero();
       inputs_ = out->inputs;
-      current_cost = problem.rollout(inputs_, 0, states_, stage_costs_);
+      current_cost = problem.rollout(nullptr, inputs_, 0, states_, stage_costs_, stage_wear_.data());
       ++rollouts;
       now = deadline.now();
       // Warmer again: half of the way back up the schedule.
@@ -409,14 +421,15 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   out->cost = best_cost;
   bool polished = false;
   if (polishing) {
-    // The polish's own stop leaves room for the final evaluation, as the annealing did.
-    const TimePoint polish_end = deadline.at() == TimePoint::max() ? deadline.at() : deadline.at() - 2 * full_rollout;
-    polished = polish(problem, deadline, polish_end, full_rollout, out, &rollouts) > 0;
+    // The polish's own stop keeps the annealing's slack; its line search starts from the slowest
+    // proposal seen as the price of a full rollout, and raises it by what its trials take.
+    const TimePoint polish_end = deadline.at() == TimePoint::max() ? deadline.at() : deadline.at() - full_rollout;
+    polished = polish(problem, deadline, polish_end, std::max(full_rollout, longest_proposal), out, &rollouts) > 0;
     best_cost = out->cost;
   }
   summary->iterations = iteration;
   summary->rollouts = rollouts;
-  summary->cost = problem.evaluate(out->inputs, candidate_states_);
+  summary->cost = problem.breakdown(out->inputs, out->states, best_stage_wear_);
   if (deadline_hit) {
     summary->reason = polished ? "annealed and polished until the deadline" : "stopped at the deadline with the best plan seen";
     return SolveStatus::kBudgetExhausted;

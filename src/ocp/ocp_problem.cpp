@@ -1,6 +1,7 @@
 #include "swerve/ocp/ocp_problem.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -273,7 +274,8 @@ double OcpProblem::rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int 
 }
 
 double OcpProblem::rollout(PredictionData* data, const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
-                           Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept {
+                           Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs,
+                           double* stage_wear) const noexcept {
   if (first_step <= 0) {
     first_step = 0;
     states.col(0) = x0_;
@@ -285,6 +287,7 @@ double OcpProblem::rollout(PredictionData* data, const Eigen::Ref<const Eigen::M
       for (int j = k; j < horizon_; ++j) stage_costs[j] = std::numeric_limits<double>::infinity();
       return std::numeric_limits<double>::infinity();
     }
+    if (stage_wear != nullptr) stage_wear[k] = wear;
     stage_costs[kk] = stage_cost(k, states.col(kk + 1), inputs.col(kk), input_before(inputs, k), wear, nullptr);
   }
   return stage_costs.sum();
@@ -292,16 +295,28 @@ double OcpProblem::rollout(PredictionData* data, const Eigen::Ref<const Eigen::M
 
 CostBreakdown OcpProblem::evaluate(const Eigen::Ref<const Eigen::MatrixXd>& inputs,
                                    Eigen::Ref<Eigen::MatrixXd> states) const noexcept {
+  std::array<double, kMaxHorizon> stage_costs, stage_wear;
+  Eigen::Map<Eigen::VectorXd> costs(stage_costs.data(), horizon_);
+  if (!std::isfinite(rollout(nullptr, inputs, 0, states, costs, stage_wear.data()))) {
+    CostBreakdown failed;
+    failed.tracking = std::numeric_limits<double>::infinity();
+    return failed;
+  }
+  return breakdown(inputs, states, Eigen::Map<const Eigen::VectorXd>(stage_wear.data(), horizon_));
+}
+
+CostBreakdown OcpProblem::breakdown(const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                                    const Eigen::Ref<const Eigen::MatrixXd>& states,
+                                    const Eigen::Ref<const Eigen::VectorXd>& stage_wear) const noexcept {
   CostBreakdown parts;
-  states.col(0) = x0_;
+  if (inputs.rows() != nu_ || inputs.cols() != horizon_ || states.rows() != nx_ || states.cols() != horizon_ + 1 ||
+      stage_wear.size() != horizon_) {
+    parts.tracking = std::numeric_limits<double>::infinity();
+    return parts;
+  }
   for (int k = 0; k < horizon_; ++k) {
-    double wear = 0.0;
     const auto kk = static_cast<Eigen::Index>(k);
-    if (!model_->step(states.col(kk), inputs.col(kk), dt_, states.col(kk + 1), &wear) || !std::isfinite(wear)) {
-      parts.tracking = std::numeric_limits<double>::infinity();
-      return parts;
-    }
-    stage_cost(k, states.col(kk + 1), inputs.col(kk), input_before(inputs, k), wear, &parts);
+    stage_cost(k, states.col(kk + 1), inputs.col(kk), input_before(inputs, k), stage_wear[kk], &parts);
   }
   return parts;
 }

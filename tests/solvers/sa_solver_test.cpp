@@ -266,6 +266,69 @@ TEST(SimulatedAnnealing, HonoursTheDeadline) {
   EXPECT_DOUBLE_EQ(summary.solve_time_s, to_seconds(elapsed));
 }
 
+// A model whose step costs more on the clock once the body moves faster than `speed`: the swerve
+// prediction's slow-motion substeps make some plans' rollouts ~10x dearer than others, so the
+// start's rollout is no measure of the answer's.
+class DearAboveSpeedModel final : public PredictionModel {
+ public:
+  DearAboveSpeedModel(const PredictionModel& model, testing::WorkClock* clock, double speed, double cheap_s,
+                      double dear_s)
+      : model_(model), clock_(clock), speed_(speed), cheap_(to_duration(cheap_s)), dear_(to_duration(dear_s)) {}
+  int state_size() const noexcept override { return model_.state_size(); }
+  int input_size() const noexcept override { return model_.input_size(); }
+  bool has_jacobians() const noexcept override { return model_.has_jacobians(); }
+  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+            Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override {
+    clock_->advance(x.segment<3>(3).norm() > speed_ ? dear_ : cheap_);
+    return model_.step(x, u, dt, x_next, stage_wear);
+  }
+  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                      double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                      Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                      Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override {
+    clock_->advance(4 * (x.segment<3>(3).norm() > speed_ ? dear_ : cheap_));
+    return model_.step_jacobians(x, u, dt, x_next, a, b, stage_wear, wear_gradient);
+  }
+
+ private:
+  const PredictionModel& model_;
+  testing::WorkClock* clock_;
+  double speed_;
+  Duration cheap_, dear_;
+};
+
+TEST(SimulatedAnnealing, ReturnsByTheDeadlineWhenItsAnswerRollsOutDearerThanItsStart) {
+  // From rest, the start plan (zero inputs) stays still: 2 us a step. The answer runs at ~1 m/s,
+  // where a step costs 40 us: 1.6 ms a rollout. Rolling the answer out again to report its cost,
+  // with room kept only for the start's rollout, ended up to 1.5 ms late (the swerve vehicle's
+  // final stop, where the slow-motion substeps make the plans dear); the answer's cost now comes
+  // from its own rollout. With and without the polish.
+  const DoubleIntegratorModel model;
+  for (const double polish_share : {0.0, 0.3}) {
+    SCOPED_TRACE(polish_share);
+    testing::WorkClock clock;
+    const DearAboveSpeedModel priced(model, &clock, 0.5, 2e-6, 40e-6);
+    const OcpProblem problem = make_lq_problem(priced, 40);
+    SaOptions options;
+    options.max_iterations = 100000000;
+    options.polish_share = polish_share;
+    SimulatedAnnealingSolver solver(problem, options);
+    Solution solution;
+    solution.resize(6, 3, 40);
+    SolveSummary summary;
+    for (int solve = 0; solve < 3; ++solve) {
+      const TimePoint start = clock.now();
+      solver.solve(problem, {}, Deadline(start + 20ms, clock), &solution, &summary);
+      EXPECT_LE(to_seconds(clock.now() - start), 0.020) << "solve " << solve;
+      EXPECT_TRUE(solution.valid);
+      // The reported cost is the answer's.
+      Eigen::MatrixXd states(6, 41);
+      EXPECT_NEAR(summary.cost.total(), problem.evaluate(solution.inputs, states).total(), 1e-9 * summary.cost.total());
+      ASSERT_GT(solution.states.col(40).segment<3>(3).norm(), 0.5) << "the answer must be a dear plan";
+    }
+  }
+}
+
 TEST(SimulatedAnnealing, WarmStartReachesATargetCostInFewerIterationsThanCold) {
   const DoubleIntegratorModel model(0.2);
   OcpProblem problem = make_lq_problem(model, 15);

@@ -106,8 +106,11 @@ class OcpProblem {
                  Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept;
   // The same on the model's scratch `data` (model().create_data()): the problem holds no scratch
   // of its own, so rollouts on separate data may run on separate threads (batched proposals).
+  // With `stage_wear` (N entries, or null), each rolled stage's wear is written there too, so
+  // breakdown() can report the plan's cost without stepping the model again.
   double rollout(PredictionData* data, const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
-                 Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept;
+                 Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs,
+                 double* stage_wear = nullptr) const noexcept;
 
   // The tracking residuals of stage k at its end state x_{k+1} (rows: kPoseResidual..): pose error
   // times sqrt(2 s_k Q) (s_k = terminal_scale at k = N-1, else 1), heading wrapped, and with a
@@ -136,6 +139,12 @@ class OcpProblem {
 
   // One full evaluation with the cost split into its parts (for reports, not the hot loop).
   CostBreakdown evaluate(const Eigen::Ref<const Eigen::MatrixXd>& inputs, Eigen::Ref<Eigen::MatrixXd> states) const noexcept;
+  // The same split for a plan already rolled out: `states` (nx x N+1) and `stage_wear` (N) as
+  // rollout() wrote them for `inputs`. No model step, so a solver on a deadline can report its
+  // answer's cost for the price of the cost terms alone (a rollout near standstill costs 10x one in
+  // cruise, and re-rolling the answer overran SA's deadline by up to 1.5 ms).
+  CostBreakdown breakdown(const Eigen::Ref<const Eigen::MatrixXd>& inputs, const Eigen::Ref<const Eigen::MatrixXd>& states,
+                          const Eigen::Ref<const Eigen::VectorXd>& stage_wear) const noexcept;
 
  private:
   // u_{k-1}: the previous cycle's input for k = 0.

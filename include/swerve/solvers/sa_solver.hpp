@@ -77,6 +77,9 @@ class SimulatedAnnealingSolver final : public Solver {
   Eigen::MatrixXd inputs_, candidate_inputs_;            // nu x N projected
   Eigen::MatrixXd states_, candidate_states_;            // nx x N+1
   Eigen::VectorXd stage_costs_, candidate_stage_costs_;  // N
+  // N: each stage's wear, of the current plan, the candidate and the best plan (out->states), so
+  // the answer's cost is reported from its own rollout (OcpProblem::breakdown), not a new one.
+  Eigen::VectorXd stage_wear_, candidate_stage_wear_, best_stage_wear_;
   Eigen::VectorXd sigma_, reference_step_;               // nu
 
   // The polish: exact gradients, and the L-BFGS memory over the flattened inputs (nu N).
