@@ -34,7 +34,8 @@ ModelStatus DiscreteDynamics<T>::step(Data& data, const Eigen::Ref<const Vector>
     total += weight * rate;
     if (want_modules) {
       for (int i = 0; i < n; ++i) {
-        data.module_wear[static_cast<std::size_t>(i)] += weight * data.diagnostics[static_cast<std::size_t>(i)].wear_rate;
+        const auto k = static_cast<std::size_t>(i);
+        data.module_wear[k] += weight * data.diagnostics[k].wear_rate;
       }
     }
   };

@@ -281,8 +281,8 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
       const double signed_speed = j == k ? signs_[i] * planned_speeds_(i, k)
                                          : planned_speeds_(i, k) * std::cos(planned_angles_(i, k) - angle);
       inputs(2 * i, k) = rate;
-      inputs(2 * i + 1, k) =
-          drive_wheel_speed<double>(signed_speed, turn - dt * rate, options_.cosine_scaling, limits, radius, LimitShape::kHard);
+      inputs(2 * i + 1, k) = drive_wheel_speed<double>(signed_speed, turn - dt * rate, options_.cosine_scaling, limits,
+                                                       radius, LimitShape::kHard);
       angles_[i] = angle;
     }
     if (k == 0) {

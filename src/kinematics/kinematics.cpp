@@ -205,7 +205,8 @@ void Kinematics::choose_flips(ModuleHeadingMemory* memory, ModuleStates* states,
     const ModuleState& state = (*states)[i];
     if (state.speed < options_.hold_speed_threshold) continue;  // held (or reversed) modules
     // The angle steered from: measured, else remembered; with neither the raw direction costs nothing.
-    const double angle = measured != nullptr ? (*measured)[i].angle : (memory->known(i) ? memory->angle(i) : state.angle);
+    const double angle =
+        measured != nullptr ? (*measured)[i].angle : (memory->known(i) ? memory->angle(i) : state.angle);
     const FlipPolicy policy = options_.whole_robot_flip ? FlipPolicy::kNearest : FlipPolicy::kHysteresis;
     chosen[k] = choose_drive_direction<double>(state.angle, angle, memory->drive_sign(i), policy,
                                                options_.flip_hysteresis, limits);

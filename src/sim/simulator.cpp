@@ -126,7 +126,8 @@ bool Simulator::advance(const ModuleArray<ModuleCommand>& commands) noexcept {
     model_.derivative(next_state_, input_, state_dot_, diagnostics_.data());
     for (int i = 0; i < n; ++i) energy += h * diagnostics_[static_cast<std::size_t>(i)].frictional_power;
     state_dot_ = next_state_;  // reuse as the substep's start state (x_next may not alias x)
-    if (dynamics_.step(dynamics_data_, state_dot_, input_, h, 1, next_state_, nullptr, step_module_wear_.data()) != ModelStatus::kOk ||
+    if (dynamics_.step(dynamics_data_, state_dot_, input_, h, 1, next_state_, nullptr, step_module_wear_.data()) !=
+            ModelStatus::kOk ||
         !next_state_.allFinite()) {
       return false;
     }

@@ -67,7 +67,9 @@ DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int p
                                          double band, const ModuleLimits& limits, double widening = 0.0) {
   const bool end_stops = limits.has_steering_end_stops();
   // The heading half a turn from a wrapped one, wrapped, without another remainder.
-  const auto opposite_of = [](const T& wrapped) -> T { return scalar_value(wrapped) > 0.0 ? wrapped - kPi : wrapped + kPi; };
+  const auto opposite_of = [](const T& wrapped) -> T {
+    return scalar_value(wrapped) > 0.0 ? wrapped - kPi : wrapped + kPi;
+  };
   const auto reachable = [&](const T& target) {
     const double value = scalar_value(target);
     return !end_stops || (value >= limits.min_steering_angle && value <= limits.max_steering_angle);
@@ -181,8 +183,8 @@ void module_commands(const ModuleLayout& layout, const Eigen::Matrix<T, 3, 1>& t
                                     rule.flip_hysteresis, limits);
       rate = steering_rate_toward<T>(direction.turn, dt, limits, rule.shape);
       // Drive only as fast as the wheel points the right way at the end of this step.
-      wheel_speed = drive_wheel_speed<T>(static_cast<double>(direction.sign) * speed, direction.turn - rate * dt, rule.align_wheel, limits,
-                                         radius, rule.shape);
+      wheel_speed = drive_wheel_speed<T>(static_cast<double>(direction.sign) * speed, direction.turn - rate * dt,
+                                         rule.align_wheel, limits, radius, rule.shape);
       sign = direction.sign;
     } else {
       wheel_speed = drive_wheel_speed<T>(rolling_speed<T>(velocity, angle), T(0.0), false, limits, radius, rule.shape);

@@ -143,7 +143,8 @@ class OcpProblem {
   // rollout() wrote them for `inputs`. No model step, so a solver on a deadline can report its
   // answer's cost for the price of the cost terms alone (a rollout near standstill costs 10x one in
   // cruise, and re-rolling the answer overran SA's deadline by up to 1.5 ms).
-  CostBreakdown breakdown(const Eigen::Ref<const Eigen::MatrixXd>& inputs, const Eigen::Ref<const Eigen::MatrixXd>& states,
+  CostBreakdown breakdown(const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                          const Eigen::Ref<const Eigen::MatrixXd>& states,
                           const Eigen::Ref<const Eigen::VectorXd>& stage_wear) const noexcept;
 
  private:

@@ -94,8 +94,9 @@ class VehiclePredictionModel final : public PredictionModel {
     std::unique_ptr<Impl> impl_;
   };
   std::unique_ptr<PredictionData> create_data() const override;  // a Data
-  bool step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
-            double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override;
+  bool step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+            const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+            double* stage_wear) const noexcept override;
   bool twist_step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
                   double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
 
