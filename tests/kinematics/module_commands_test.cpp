@@ -98,6 +98,25 @@ TEST(ChooseDriveDirection, NeverTurnsPastAnEndStopWhileTheOtherWayRoundIsReachab
   EXPECT_EQ(choose_drive_direction<double>(kPi - 0.2, 1.5, 1, FlipPolicy::kNearest, 0.1, ModuleLimits{}).sign, 1);
 }
 
+TEST(ChooseDriveDirection, WithWideEndStopsTakesTheShorterTurnEvenBeyondAQuarterTurn) {
+  // Stops at +-3 rad: from -2.5 rad, a heading of -0.5 rad is 2.0 rad away; its reverse (2.64 rad)
+  // is reachable too, but 5.14 rad away the other way round (no turning through +-pi). Both turns
+  // exceed 90 deg, so the shorter one is kept, by either policy, whatever was driven before.
+  const ModuleLimits limits = limits_with_end_stops(3.0);
+  for (const FlipPolicy policy : {FlipPolicy::kNearest, FlipPolicy::kHysteresis}) {
+    for (const int previous : {1, 0}) {
+      const auto d = choose_drive_direction<double>(-0.5, -2.5, previous, policy, 0.1, limits);
+      EXPECT_EQ(d.sign, 1) << "previous " << previous;
+      EXPECT_NEAR(d.turn, 2.0, 1e-15);
+      EXPECT_NEAR(d.other_turn, kPi - 0.5 + 2.5, 1e-14);
+    }
+  }
+  // Driven reversed before: kept while its turn is the shorter.
+  const auto reversed = choose_drive_direction<double>(2.5, -2.5, -1, FlipPolicy::kHysteresis, 0.1, limits);
+  EXPECT_EQ(reversed.sign, -1);  // reverse -0.64 rad: 1.86 rad of turn against 5.0 forward
+  EXPECT_NEAR(reversed.turn, 2.5 - kPi + 2.5, 1e-14);
+}
+
 TEST(SteeringRateToward, MakesTheTurnWithinTheLimitAndSmoothOnlyNearIt) {
   ModuleLimits limits;
   limits.max_steering_rate = 2.0;

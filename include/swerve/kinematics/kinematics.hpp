@@ -20,9 +20,8 @@
 namespace swerve {
 
 struct KinematicsOptions {
-  // m/s. A module slower than this keeps its remembered heading (its direction would be noise);
-  // 1 mm/s is well below any useful command and well above the round-off of a zero twist.
-  double hold_speed_threshold = 1e-3;
+  // m/s. A module slower than this keeps its remembered heading (its direction would be noise).
+  double hold_speed_threshold = kHoldSpeed;
   // rad, half-width of the band around 90 deg of steering error inside which a module keeps its
   // previous forward/reversed decision. 0.1 rad is ~10x typical steering-encoder noise and costs
   // at most 6 deg of extra steering.

@@ -79,22 +79,21 @@ DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int p
   const T reverse = end_stops ? opposite_of(forward) : heading;
   const T turn_forward = end_stops ? T(forward - angle) : wrap_angle_of<T>(heading - angle);
   const T turn_reverse = end_stops ? T(reverse - angle) : opposite_of(turn_forward);
-  const int nearest = std::abs(scalar_value(turn_forward)) > kPi / 2 ? -1 : 1;
-  int sign = nearest;
-  if (policy == FlipPolicy::kHysteresis && previous_sign != 0) sign = previous_sign > 0 ? 1 : -1;
   const auto turn_of = [&](int s) -> const T& { return s > 0 ? turn_forward : turn_reverse; };
   const auto target_of = [&](int s) -> const T& { return s > 0 ? forward : reverse; };
+  // The way round of less steering; a tie keeps the forward one. Without end stops the two turns
+  // add up to half a turn, so this is "flip beyond 90 deg"; with wide end stops an unwrapped turn
+  // can exceed 90 deg both ways round.
+  int sign = std::abs(scalar_value(turn_reverse)) < std::abs(scalar_value(turn_forward)) ? -1 : 1;
   bool in_band = false;
-  if (policy == FlipPolicy::kHysteresis && sign != nearest) {
+  if (policy == FlipPolicy::kHysteresis && previous_sign != 0) {
+    sign = previous_sign > 0 ? 1 : -1;
     const double kept = std::abs(scalar_value(turn_of(sign)));
-    if (kept > kPi / 2 + band + widening) {
+    if (kept > kPi / 2 + band + widening && std::abs(scalar_value(turn_of(-sign))) < kept) {
       sign = -sign;
     } else {
       in_band = kept >= kPi / 2 - band && reachable(target_of(-sign));
     }
-  } else if (policy == FlipPolicy::kHysteresis && previous_sign != 0) {
-    // The nearest way round kept: inside the band when it needs at least 90 deg - band.
-    in_band = std::abs(scalar_value(turn_of(sign))) >= kPi / 2 - band && reachable(target_of(-sign));
   }
   if (!reachable(target_of(sign)) && reachable(target_of(-sign))) {
     sign = -sign;
@@ -147,14 +146,18 @@ T drive_wheel_speed(const T& signed_speed, const T& turn_left, bool align, const
   return clamp_by_value<T>(wheel_speed, T(-most), T(most));
 }
 
+// m/s: a module slower than this keeps its angle (its direction would be noise: the singularity
+// hold). 1 mm/s is well below any useful command and well above the round-off of a zero twist.
+inline constexpr double kHoldSpeed = 1e-3;
+
 struct ModuleCommandRule {
   FlipPolicy flip = FlipPolicy::kNearest;
   double flip_hysteresis = 0.0;  // rad, kHysteresis only
   LimitShape shape = LimitShape::kHard;
   bool align_wheel = true;       // drive_wheel_speed's cosine scaling
-  // m/s: a module slower than this keeps its angle (its direction would be noise: the singularity
-  // hold), and its wheel rolls with its velocity's component along that angle.
-  double hold_speed = 1e-3;
+  // m/s: below it the singularity hold (kHoldSpeed), and the wheel rolls with the velocity's
+  // component along the held angle.
+  double hold_speed = kHoldSpeed;
 };
 
 // Module inputs that carry out `twist_body` over the next dt from the steering angles `angles`
@@ -177,10 +180,8 @@ void module_commands(const ModuleLayout& layout, const Eigen::Matrix<T, 3, 1>& t
     int sign = previous_signs != nullptr ? previous_signs[i] : 0;
     if (std::hypot(scalar_value(velocity.x()), scalar_value(velocity.y())) >= rule.hold_speed) {
       const T speed = sqrt(velocity.squaredNorm());
-      const DriveDirection<T> direction =
-          choose_drive_direction<T>(atan2(velocity.y(), velocity.x()), angle,
-                                    previous_signs != nullptr ? previous_signs[i] : 0, rule.flip,
-                                    rule.flip_hysteresis, limits);
+      const DriveDirection<T> direction = choose_drive_direction<T>(atan2(velocity.y(), velocity.x()), angle, sign,
+                                                                    rule.flip, rule.flip_hysteresis, limits);
       rate = steering_rate_toward<T>(direction.turn, dt, limits, rule.shape);
       // Drive only as fast as the wheel points the right way at the end of this step.
       wheel_speed = drive_wheel_speed<T>(static_cast<double>(direction.sign) * speed, direction.turn - rate * dt,

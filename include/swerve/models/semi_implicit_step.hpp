@@ -50,8 +50,6 @@ struct PredictionOptions {
 
 
 inline constexpr double kSlowSpeed = 0.25;  // m/s: 5 slip-regularisation speeds of the paper's tire
-// Below this contact speed a module's direction is noise: it keeps its angle (the singularity hold).
-inline constexpr double kHoldSpeed = 1e-3;  // m/s
 // Deepest halving of a semi-implicit substep whose Newton solve finds no root (h / 16).
 inline constexpr int kMaxSplits = 4;
 
@@ -356,7 +354,6 @@ class SemiImplicitStep {
     ModuleCommandRule rule;
     rule.flip = FlipPolicy::kNearest;
     rule.shape = LimitShape::kSmooth;
-    rule.hold_speed = kHoldSpeed;
     module_commands<T>(layout_, twist_body, x.segment(StateIndex::kFirstSteering, modules_), dt, rule,
                        inputs.head(2 * modules_));
   }
