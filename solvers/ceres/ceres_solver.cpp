@@ -208,7 +208,8 @@ struct CeresSolver::Impl {
   Impl(const OcpProblem& shape, const CeresOptions& options)
       : residuals(shape, options.step_penalty_weight),
         parameters(Eigen::MatrixXd::Zero(shape.input_size(), shape.horizon())),
-        problem(problem_options()) {
+        problem(problem_options()),
+        start(shape) {
     const int nu = shape.input_size();
     const int horizon = shape.horizon();
     const int rows = residuals.num_residuals();
@@ -228,9 +229,9 @@ struct CeresSolver::Impl {
     solver_options.logging_type = ceres::SILENT;
     solver_options.callbacks.push_back(&callback);
 
-    start_inputs = candidate_inputs = Eigen::MatrixXd::Zero(nu, horizon);
-    start_states = candidate_states = report_states = Eigen::MatrixXd::Zero(shape.state_size(), horizon + 1);
-    stage_costs = Eigen::VectorXd::Zero(horizon);
+    candidate_inputs = Eigen::MatrixXd::Zero(nu, horizon);
+    candidate_states = Eigen::MatrixXd::Zero(shape.state_size(), horizon + 1);
+    stage_costs = candidate_stage_wear = Eigen::VectorXd::Zero(horizon);
     residual_scratch = Eigen::VectorXd::Zero(rows);
     jacobian_scratch.assign(static_cast<std::size_t>(rows) * static_cast<std::size_t>(nu * horizon), 0.0);
     for (int k = 0; k < horizon; ++k) {
@@ -264,9 +265,10 @@ struct CeresSolver::Impl {
   ceres::Solver::Options solver_options;
   ceres::Solver::Summary ceres_summary;
   DeadlineCallback callback;
-  Eigen::MatrixXd start_inputs, candidate_inputs;                  // nu x N
-  Eigen::MatrixXd start_states, candidate_states, report_states;  // nx x N+1
-  Eigen::VectorXd stage_costs;                                     // N
+  StartPlan start;                                // the cheapest guess, rolled out
+  Eigen::MatrixXd candidate_inputs;               // nu x N: Ceres' answer, projected
+  Eigen::MatrixXd candidate_states;               // nx x N+1
+  Eigen::VectorXd stage_costs, candidate_stage_wear;  // N
   Eigen::VectorXd residual_scratch;                                // for timing one Evaluate
   std::vector<double> jacobian_scratch;
   std::vector<double*> jacobian_blocks;
@@ -312,20 +314,17 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   Impl& s = *impl_;
   try {
     s.residuals.bind(problem);
-    const TimePoint solve_start = deadline.now();
-    long start_rollouts = 0;
-    const double start_cost = cheapest_start(problem, guesses, s.start_inputs, s.start_states, s.candidate_inputs,
-                                             s.candidate_states, s.stage_costs, &start_rollouts);
+    const double start_cost = s.start.choose(problem, guesses, deadline);
     summary->initial_cost = start_cost;
     if (!std::isfinite(start_cost)) {
       summary->reason = "the model failed on every initial guess";
       return SolveStatus::kNumericalError;
     }
     auto return_start = [&](const char* reason) {
-      out->inputs = s.start_inputs;
-      out->states = s.start_states;
+      out->inputs = s.start.inputs();
+      out->states = s.start.states();
       out->cost = start_cost;
-      summary->cost = problem.evaluate(out->inputs, s.report_states);
+      summary->cost = s.start.breakdown(problem);
       summary->iterations = 0;
       summary->rollouts = s.residuals.evaluations();
       summary->reason = reason;
@@ -334,13 +333,12 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
 
     // One Evaluate with Jacobians costs about kJacobianRolloutCost rollouts: when even pricing one
     // would overrun the deadline, the start is the answer.
-    const Duration guesses_time = deadline.now() - solve_start;
-    if (deadline.now() + kJacobianRolloutCost * guesses_time / start_rollouts >= deadline.at()) {
+    if (deadline.now() + kJacobianRolloutCost * s.start.longest_rollout() >= deadline.at()) {
       return return_start("the deadline left no time for a Ceres iteration");
     }
     // One Evaluate with Jacobians at the start prices an iteration; twice that is kept back for
     // the projection, rollout and report after Ceres returns (and Ceres' own wrap-up).
-    s.parameters = s.start_inputs;
+    s.parameters = s.start.inputs();
     const TimePoint evaluate_start = deadline.now();
     const bool start_differentiable =
         s.residuals.Evaluate(s.blocks.data(), s.residual_scratch.data(), s.jacobian_blocks.data());
@@ -363,12 +361,14 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     // penalty may leave it slightly off the change bounds, so it is projected before comparing.
     s.candidate_inputs = s.parameters;
     problem.project(s.candidate_inputs);
-    const double candidate_cost = problem.rollout(s.candidate_inputs, 0, s.candidate_states, s.stage_costs);
+    const double candidate_cost = problem.rollout(nullptr, s.candidate_inputs, 0, s.candidate_states, s.stage_costs,
+                                                  s.candidate_stage_wear.data());
     const bool improved = candidate_cost < start_cost;
-    out->inputs = improved ? s.candidate_inputs : s.start_inputs;
-    out->states = improved ? s.candidate_states : s.start_states;
+    out->inputs = improved ? s.candidate_inputs : s.start.inputs();
+    out->states = improved ? s.candidate_states : s.start.states();
     out->cost = improved ? candidate_cost : start_cost;
-    summary->cost = problem.evaluate(out->inputs, s.report_states);
+    summary->cost = improved ? problem.breakdown(out->inputs, out->states, s.candidate_stage_wear)
+                             : s.start.breakdown(problem);
     // Ceres' iteration 0 is the evaluation of the start, not a step.
     summary->iterations = std::max(0, static_cast<int>(result.iterations.size()) - 1);
     summary->rollouts = s.residuals.evaluations();

@@ -395,10 +395,11 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
 };
 
 struct IpoptSolver::Impl {
-  explicit Impl(const OcpProblem& shape) : nlp(new MultipleShootingNlp(shape)), app(IpoptApplicationFactory()) {
+  explicit Impl(const OcpProblem& shape)
+      : nlp(new MultipleShootingNlp(shape)), app(IpoptApplicationFactory()), start(shape) {
     inputs = best_inputs = Eigen::MatrixXd::Zero(shape.input_size(), shape.horizon());
     states = best_states = Eigen::MatrixXd::Zero(shape.state_size(), shape.horizon() + 1);
-    stage_costs = Eigen::VectorXd::Zero(shape.horizon());
+    stage_costs = stage_wear = best_stage_wear = Eigen::VectorXd::Zero(shape.horizon());
   }
   Ipopt::SmartPtr<MultipleShootingNlp> nlp;
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app;
@@ -406,8 +407,9 @@ struct IpoptSolver::Impl {
   // How long Ipopt takes to reach its first iterate (initialisation, first derivatives and
   // factorisation), from past solves; before the first, a multiple of the guesses' rollout time.
   Duration startup_estimate{};
+  StartPlan start;
   Eigen::MatrixXd inputs, best_inputs, states, best_states;
-  Eigen::VectorXd stage_costs;
+  Eigen::VectorXd stage_costs, stage_wear, best_stage_wear;
 };
 
 IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options)
@@ -440,25 +442,26 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   Impl& s = *impl_;
   details_.max_defect = std::numeric_limits<double>::infinity();  // until an iterate says otherwise
   try {
-    const TimePoint guesses_start = deadline.now();
-    long rollouts = 0;
-    double best_cost = cheapest_start(problem, guesses, s.best_inputs, s.best_states, s.inputs, s.states,
-                                      s.stage_costs, &rollouts);
+    double best_cost = s.start.choose(problem, guesses, deadline);
+    const long rollouts = s.start.rollouts();
     summary->initial_cost = best_cost;
     if (!std::isfinite(best_cost)) {
       summary->reason = "the model failed on every initial guess";
       return SolveStatus::kNumericalError;
     }
+    s.best_inputs = s.start.inputs();
+    s.best_states = s.start.states();
+    s.best_stage_wear = s.start.stage_wear();
     out->inputs = s.best_inputs;
     out->states = s.best_states;
     out->cost = best_cost;
-    summary->cost = problem.evaluate(out->inputs, s.states);
+    summary->cost = s.start.breakdown(problem);
     // Ipopt cannot be stopped before its first iterate: when that would overrun the deadline, the
     // best guess is the answer (a usable plan, as the deadline contract asks).
     const TimePoint now = deadline.now();
     if (s.startup_estimate == Duration::zero()) {
       // Ipopt's startup: the first Jacobians and a factorisation.
-      s.startup_estimate = (kJacobianRolloutCost + 2) * (now - guesses_start) / rollouts;
+      s.startup_estimate = (kJacobianRolloutCost + 2) * s.start.longest_rollout();
     }
     if (now + s.startup_estimate >= deadline.at()) {
       // Halved on every skip: one slow start (the very first solve pays Ipopt's one-time setup,
@@ -500,11 +503,12 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     bool improved = false;
     if (s.nlp->final_inputs(&s.inputs, &max_defect)) {
       problem.project(s.inputs);
-      const double cost = problem.rollout(s.inputs, 0, s.states, s.stage_costs);
+      const double cost = problem.rollout(nullptr, s.inputs, 0, s.states, s.stage_costs, s.stage_wear.data());
       if (cost <= best_cost) {
         best_cost = cost;
         s.best_inputs = s.inputs;
         s.best_states = s.states;
+        s.best_stage_wear = s.stage_wear;
         improved = true;
       }
       s.have_multipliers = true;
@@ -514,7 +518,7 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     out->inputs = s.best_inputs;
     out->states = s.best_states;
     out->cost = best_cost;
-    summary->cost = problem.evaluate(out->inputs, s.states);
+    summary->cost = problem.breakdown(out->inputs, out->states, s.best_stage_wear);
     switch (status) {
       case Ipopt::Solve_Succeeded:
       case Ipopt::Solved_To_Acceptable_Level:

@@ -139,7 +139,7 @@ struct NloptSolver::Evaluation {
 
 NloptSolver::NloptSolver(const OcpProblem& problem, NloptOptions options)
     : Solver(problem), options_(std::move(options)), nx_(problem.state_size()), nu_(problem.input_size()), horizon_(problem.horizon()),
-      evaluation_(std::make_unique<Evaluation>()) {
+      start_(problem), evaluation_(std::make_unique<Evaluation>()) {
   options_.validate();
   const auto size = static_cast<std::size_t>(nu_ * horizon_);
   x_.resize(size);
@@ -172,11 +172,10 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   e.deadline = deadline;
   e.evaluations = 0;
   e.deadline_hit = false;
-  const TimePoint first_rollout = deadline.now();
-  long start_rollouts = 0;
-  const double start_cost = cheapest_start(problem, guesses, e.best_inputs, e.best_states, e.inputs, e.states,
-                                           e.stage_costs, &start_rollouts);
-  e.longest = (deadline.now() - first_rollout) / start_rollouts;
+  const double start_cost = start_.choose(problem, guesses, deadline);
+  e.best_inputs = start_.inputs();
+  e.best_states = start_.states();
+  e.longest = start_.longest_rollout();
   if (e.derivatives != nullptr) e.longest *= kJacobianRolloutCost;  // an evaluation with the gradient
   Eigen::MatrixXd::Map(x_.data(), nu_, horizon_) = e.best_inputs;
   e.best_cost = start_cost;  // nothing worse than the start comes back

@@ -50,7 +50,12 @@ void SaOptions::validate() const {
 }
 
 SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, SaOptions options)
-    : Solver(problem), options_(options), nx_(problem.state_size()), nu_(problem.input_size()), horizon_(problem.horizon()) {
+    : Solver(problem),
+      options_(options),
+      nx_(problem.state_size()),
+      nu_(problem.input_size()),
+      horizon_(problem.horizon()),
+      start_(problem) {
   options_.validate();
   knot_count_ = (options_.knots == 0 || options_.knots > horizon_) ? horizon_ : options_.knots;
   group_size_ = problem.model().input_group_size();
@@ -256,22 +261,24 @@ void SimulatedAnnealingSolver::interpolate(const Eigen::MatrixXd& knots, int fir
 
 SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses,
                                                Deadline deadline, Solution* out, SolveSummary* summary) noexcept {
-  long rollouts = 0;
-  const double start_cost = cheapest_start(problem, guesses, base_, states_, candidate_inputs_, candidate_states_,
-                                           candidate_stage_costs_, &rollouts);
+  const double start_cost = start_.choose(problem, guesses, deadline);
+  long rollouts = start_.rollouts();
   if (!std::isfinite(start_cost)) {
     summary->reason = "the model failed on every initial guess";
     summary->rollouts = rollouts;
     return SolveStatus::kNumericalError;
   }
   knots_.setZero();
+  base_ = start_.inputs();
   raw_ = base_;
   inputs_ = base_;
-  const auto rollout_start = deadline.now();
-  double current_cost = problem.rollout(nullptr, inputs_, 0, states_, stage_costs_, stage_wear_.data());
-  // A full rollout, as timed on the start; the loop stops while one more proposal (the slowest
-  // seen) and one such rollout of slack for the scheduler still fit before the deadline.
-  const auto full_rollout = deadline.now() - rollout_start;
+  states_ = start_.states();
+  stage_costs_ = start_.stage_costs();
+  stage_wear_ = start_.stage_wear();
+  double current_cost = start_cost;
+  // A full rollout, as timed on the start's guesses; the loop stops while one more proposal (the
+  // slowest seen) and one such rollout of slack for the scheduler still fit before the deadline.
+  const auto full_rollout = start_.longest_rollout();
   const auto loop_start = deadline.now();
   // With a polish, the annealing ends early enough to leave it its share of the budget, unless a
   // gradient as last timed (with the polish's 1.5x allowance) would not fit in that share.
@@ -288,7 +295,6 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
           ? loop_start + std::chrono::duration_cast<Duration>((1.0 - options_.polish_share) * (deadline.at() - loop_start))
           : deadline.at();
   const double loop_budget = to_seconds(anneal_end - 2 * full_rollout - loop_start);
-  ++rollouts;
   summary->initial_cost = current_cost;
   out->inputs = inputs_;
   out->states = states_;

@@ -1,5 +1,6 @@
 #include "swerve/ocp/solver.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -40,35 +41,58 @@ void Solution::shift() noexcept {
   for (Eigen::Index k = 0; k + 1 < states.cols(); ++k) states.col(k) = states.col(k + 1);
 }
 
-double cheapest_start(const OcpProblem& problem, const InitialGuesses& guesses, Eigen::MatrixXd& inputs,
-                      Eigen::MatrixXd& states, Eigen::MatrixXd& candidate_inputs, Eigen::MatrixXd& candidate_states,
-                      Eigen::VectorXd& stage_costs, long* rollouts) noexcept {
-  double best_cost = std::numeric_limits<double>::infinity();
-  bool found = false;
+StartPlan::StartPlan(const OcpProblem& shape)
+    : inputs_(Eigen::MatrixXd::Zero(shape.input_size(), shape.horizon())),
+      states_(Eigen::MatrixXd::Zero(shape.state_size(), shape.horizon() + 1)),
+      candidate_inputs_(inputs_),
+      candidate_states_(states_),
+      stage_costs_(Eigen::VectorXd::Zero(shape.horizon())),
+      stage_wear_(stage_costs_),
+      candidate_stage_costs_(stage_costs_),
+      candidate_stage_wear_(stage_costs_) {}
+
+void StartPlan::try_candidate(const OcpProblem& problem, const Deadline& deadline) noexcept {
+  problem.project(candidate_inputs_);
+  const TimePoint rollout_start = deadline.now();
+  const double cost = problem.rollout(nullptr, candidate_inputs_, 0, candidate_states_, candidate_stage_costs_,
+                                      candidate_stage_wear_.data());
+  longest_rollout_ = std::max(longest_rollout_, deadline.now() - rollout_start);
+  ++rollouts_;
+  // The first candidate is kept even when its cost is not finite, so the buffers always hold a
+  // plan; a later one replaces it only when it is cheaper (a NaN cost never is).
+  if (!found_ || cost < cost_ || (!std::isfinite(cost_) && std::isfinite(cost))) {
+    found_ = true;
+    cost_ = cost;
+    inputs_.swap(candidate_inputs_);
+    states_.swap(candidate_states_);
+    stage_costs_.swap(candidate_stage_costs_);
+    stage_wear_.swap(candidate_stage_wear_);
+  }
+}
+
+double StartPlan::choose(const OcpProblem& problem, const InitialGuesses& guesses, const Deadline& deadline) noexcept {
+  found_ = false;
+  cost_ = std::numeric_limits<double>::infinity();
+  rollouts_ = skipped_ = 0;
+  longest_rollout_ = Duration::zero();
   for (int g = 0; g < guesses.count; ++g) {
     const Eigen::MatrixXd* guess = guesses.sequences[g];
     if (guess == nullptr || guess->rows() != problem.input_size() || guess->cols() != problem.horizon() ||
         !guess->allFinite()) {
       continue;
     }
-    candidate_inputs = *guess;
-    problem.project(candidate_inputs);
-    const double cost = problem.rollout(candidate_inputs, 0, candidate_states, stage_costs);
-    ++*rollouts;
-    if (!found || cost < best_cost) {
-      found = true;
-      best_cost = cost;
-      inputs.swap(candidate_inputs);
-      states.swap(candidate_states);
+    if (rollouts_ > 0 && deadline.now() + 2 * longest_rollout_ >= deadline.at()) {
+      ++skipped_;
+      continue;
     }
+    candidate_inputs_ = *guess;
+    try_candidate(problem, deadline);
   }
-  if (!found || !std::isfinite(best_cost)) {
-    inputs.setZero();
-    problem.project(inputs);
-    best_cost = problem.rollout(inputs, 0, states, stage_costs);
-    ++*rollouts;
+  if (!std::isfinite(cost_)) {  // no usable guess, or the model failed on each: zero inputs
+    candidate_inputs_.setZero();
+    try_candidate(problem, deadline);
   }
-  return best_cost;
+  return cost_;
 }
 
 SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,

@@ -590,11 +590,10 @@ class DeadlineRecorder final : public Solver {
   SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                        SolveSummary* summary) noexcept override {
     *remaining_s_ = to_seconds(deadline.remaining());
-    Eigen::MatrixXd candidate_inputs = out->inputs, candidate_states = out->states;
-    Eigen::VectorXd stage_costs(problem.horizon());
-    long rollouts = 0;
-    out->cost = cheapest_start(problem, guesses, out->inputs, out->states, candidate_inputs, candidate_states,
-                               stage_costs, &rollouts);
+    StartPlan start(problem);
+    out->cost = start.choose(problem, guesses, deadline);
+    out->inputs = start.inputs();
+    out->states = start.states();
     if (clock_ != nullptr && overshoot_s_ != nullptr) {
       clock_->advance(deadline.remaining() + to_duration(*overshoot_s_));
     }

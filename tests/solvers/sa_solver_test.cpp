@@ -329,6 +329,34 @@ TEST(SimulatedAnnealing, ReturnsByTheDeadlineWhenItsAnswerRollsOutDearerThanItsS
   }
 }
 
+TEST(SimulatedAnnealing, ReturnsByTheDeadlineWhenItsInitialGuessesRollOutDear) {
+  // Two guesses accelerate at 1 m/s^2 from rest: past 0.5 m/s a step costs 40 us, so each rollout
+  // costs ~1.4 ms. Rolling both out and then the chosen one again ended at ~4.3 ms, past a 2.5 ms
+  // deadline, with no proposal made (the Jetson target's misses near standstill). Now the second
+  // guess waits for room and the start's own rollout is reused.
+  const DoubleIntegratorModel model;
+  testing::WorkClock clock;
+  const DearAboveSpeedModel priced(model, &clock, 0.5, 2e-6, 40e-6);
+  const OcpProblem problem = make_lq_problem(priced, 40);
+  const Eigen::MatrixXd accelerate = Eigen::Vector3d(1.0, 0.0, 0.0).replicate(1, 40);
+  const Eigen::MatrixXd accelerate_sideways = Eigen::Vector3d(1.0, 0.2, 0.0).replicate(1, 40);
+  InitialGuesses guesses;
+  guesses.add(&accelerate);
+  guesses.add(&accelerate_sideways);
+  SimulatedAnnealingSolver solver(problem, SaOptions{});
+  Solution solution;
+  solution.resize(6, 3, 40);
+  SolveSummary summary;
+  const TimePoint start = clock.now();
+  const SolveStatus status = solver.solve(problem, guesses, Deadline(start + 2500us, clock), &solution, &summary);
+  EXPECT_LE(clock.now() - start, 2500us);
+  EXPECT_EQ(status, SolveStatus::kBudgetExhausted);
+  EXPECT_TRUE(solution.valid);
+  EXPECT_EQ(solution.inputs, accelerate) << "the one guess there was time for";
+  Eigen::MatrixXd states(6, 41);
+  EXPECT_NEAR(summary.cost.total(), problem.evaluate(solution.inputs, states).total(), 1e-9 * summary.cost.total());
+}
+
 TEST(SimulatedAnnealing, WarmStartReachesATargetCostInFewerIterationsThanCold) {
   const DoubleIntegratorModel model(0.2);
   OcpProblem problem = make_lq_problem(model, 15);

@@ -43,8 +43,9 @@ struct Solution {
   void shift() noexcept;
 };
 
-// Up to kMaxGuesses input sequences (nu x N) the solver starts from; it returns nothing worse than
-// the best of them (after projection onto the bounds).
+// Up to kMaxGuesses input sequences (nu x N) the solver starts from, the most promising first; it
+// returns nothing worse than the best of those its deadline let it roll out (after projection onto
+// the bounds), and the first usable one is always rolled out.
 struct InitialGuesses {
   static constexpr int kMaxGuesses = 4;
   const Eigen::MatrixXd* sequences[kMaxGuesses] = {nullptr, nullptr, nullptr, nullptr};
@@ -61,12 +62,46 @@ struct InitialGuesses {
 inline constexpr int kJacobianRolloutCost = 8;
 
 // The start every backend shares: the cheapest usable guess (right size, finite), projected onto
-// the bounds, or zero inputs projected when no guess is usable. Writes the start's inputs and
-// rollout states (candidate_*: scratch of the same sizes), adds the rollouts done to *rollouts and
-// returns the start's cost (+inf when the model failed). noexcept, no allocation.
-double cheapest_start(const OcpProblem& problem, const InitialGuesses& guesses, Eigen::MatrixXd& inputs,
-                      Eigen::MatrixXd& states, Eigen::MatrixXd& candidate_inputs, Eigen::MatrixXd& candidate_states,
-                      Eigen::VectorXd& stage_costs, long* rollouts) noexcept;
+// the bounds, or zero inputs projected when no guess is usable. Holds its own scratch, sized for
+// one problem shape at construction; choose() is noexcept and allocates nothing.
+class StartPlan {
+ public:
+  explicit StartPlan(const OcpProblem& shape);
+
+  // Rolls out the usable guesses in order and keeps the cheapest. The first usable guess is always
+  // rolled out; each further one only while the deadline leaves room for it and one more rollout,
+  // both priced at the dearest rollout so far: near standstill a rollout costs ~10x one in cruise,
+  // and a solve that spent its budget on its candidates' rollouts returned late with no iteration.
+  // Returns the start's cost (+inf when the model failed).
+  double choose(const OcpProblem& problem, const InitialGuesses& guesses, const Deadline& deadline) noexcept;
+
+  // The start chosen: inputs (nu x N), its rollout's states (nx x N+1), stage costs and wear (N).
+  const Eigen::MatrixXd& inputs() const noexcept { return inputs_; }
+  const Eigen::MatrixXd& states() const noexcept { return states_; }
+  const Eigen::VectorXd& stage_costs() const noexcept { return stage_costs_; }
+  const Eigen::VectorXd& stage_wear() const noexcept { return stage_wear_; }
+  double cost() const noexcept { return cost_; }
+  // The start's cost split into its parts, from its own rollout (no model step).
+  CostBreakdown breakdown(const OcpProblem& problem) const noexcept {
+    return problem.breakdown(inputs_, states_, stage_wear_);
+  }
+  // Of the last choose(): the rollouts done, the usable guesses left unrolled for want of time, and
+  // the dearest rollout on the deadline's clock (the backends' first price of a full rollout).
+  int rollouts() const noexcept { return rollouts_; }
+  int skipped() const noexcept { return skipped_; }
+  Duration longest_rollout() const noexcept { return longest_rollout_; }
+
+ private:
+  // Rolls candidate_inputs_ out on the candidate buffers and keeps it when cheaper than the best.
+  void try_candidate(const OcpProblem& problem, const Deadline& deadline) noexcept;
+
+  Eigen::MatrixXd inputs_, states_, candidate_inputs_, candidate_states_;
+  Eigen::VectorXd stage_costs_, stage_wear_, candidate_stage_costs_, candidate_stage_wear_;
+  double cost_ = 0.0;
+  bool found_ = false;
+  int rollouts_ = 0, skipped_ = 0;
+  Duration longest_rollout_{};
+};
 
 class Solver {
  public:

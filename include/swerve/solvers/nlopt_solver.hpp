@@ -45,6 +45,7 @@ class NloptSolver final : public Solver {
 
   NloptOptions options_;
   int nx_, nu_, horizon_;
+  StartPlan start_;  // the cheapest guess, rolled out
   std::unique_ptr<Evaluation> evaluation_;
   std::unique_ptr<OcpDerivatives> derivatives_;  // gradient algorithms
   unsigned step_row_count_ = 0;

@@ -71,6 +71,7 @@ class SimulatedAnnealingSolver final : public Solver {
   std::vector<int> knot_first_step_;  // per knot: the first and last step it influences
   std::vector<int> knot_last_step_;
 
+  StartPlan start_;                                      // the cheapest guess, rolled out
   Eigen::MatrixXd base_;                                 // nu x N
   Eigen::MatrixXd knots_, candidate_knots_;              // nu x K offsets
   Eigen::MatrixXd raw_, candidate_raw_;                  // nu x N before projection
