@@ -304,6 +304,26 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
   safe_stop(measured);
 }
 
+bool Controller::close_baseline_loop() noexcept {
+  // The baseline's plan is a twist sequence for its kinematic model. Played open loop through the
+  // prediction (drive lag, steering rate, tyre slip) it falls behind: from rest on curve_smooth the
+  // prediction priced its tracking at ~10x the annealer's answer, so the annealer never started
+  // near it, and its answer wore 2x the baseline's tyre in the first second. Its Riccati gains
+  // close the loop on the predicted poses instead, as the baseline closes it on the measured ones.
+  const PredictionModel& model = problem_->model();
+  baseline_states_.col(0) = problem_->initial_state();
+  Eigen::Vector3d previous = Eigen::Vector3d::Zero();
+  for (int k = 0; k < options_.horizon; ++k) {
+    previous = baseline_.policy_twist(k, baseline_states_.col(k).head<3>(), previous);
+    baseline_guess_.col(k) = previous;
+    double wear = 0.0;
+    if (!model.step(baseline_states_.col(k), baseline_guess_.col(k), options_.dt, baseline_states_.col(k + 1), &wear)) {
+      return false;
+    }
+  }
+  return baseline_guess_.allFinite();
+}
+
 void Controller::set_tube(bool baseline_usable) noexcept {
   const TrackingTolerance& tolerance = options_.tracking_tolerance;
   const bool rolled_out =
@@ -449,7 +469,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
       baseline_.module_inputs(now_.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
       baseline_.commit_first_step();
       if (twist_model_ != nullptr) {
-        baseline_guess_ = baseline_.twist_plan();
+        if (!close_baseline_loop()) baseline_guess_ = baseline_.twist_plan();
       } else {
         baseline_guess_ = baseline_inputs_;
       }

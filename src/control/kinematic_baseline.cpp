@@ -163,40 +163,65 @@ bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eig
     }
     if (!twists_.allFinite()) return false;
   }
-  // Drive limits: the largest twist of the same direction that no module speed exceeds, reached
-  // from the last command no faster than the drive acceleration limit allows any module (the
-  // plant's drives cannot do more, and a plan that ignores it overshoots).
-  const ModuleLayout& layout = kinematics_.layout();
-  const double max_speed = layout.limits().max_drive_speed;
-  const double max_change = layout.limits().max_drive_acceleration * dt;
-  // The ramp starts from the last command, but never further ahead of the measured twist than
-  // kRampLead periods of drive acceleration at any module: lagging drives stay within that (a drive
-  // following a ramp trails it by its time constant times the acceleration, 2 periods for the
-  // carriers' 0.1 s), and a vehicle that is blocked or slips does not wind the command up.
+  // Drive limits from the ramp's start on (see within_drive_limits). The ramp starts from the last
+  // command, but never further ahead of the measured twist than kRampLead periods of drive
+  // acceleration at any module: lagging drives stay within that (a drive following a ramp trails
+  // it by its time constant times the acceleration, 2 periods for the carriers' 0.1 s), and a
+  // vehicle that is blocked or slips does not wind the command up.
   constexpr double kRampLead = 4.0;
-  // `to`, or the twist towards it from `from` whose change moves no module's velocity by more than
-  // `most`: the same proportional scaling as the drive-speed limit, applied to the change.
-  const auto limit_change = [this](const Eigen::Vector3d& from, const Eigen::Vector3d& to, double most) {
-    const Eigen::Vector3d change = to - from;
-    Eigen::Vector3d limited;
-    if (kinematics_.desaturate_twist(change, most, DesaturationPriority::kProportional, &limited) !=
-            KinematicsStatus::kOk ||
-        limited == change) {
-      return to;
-    }
-    return Eigen::Vector3d(from + limited);
-  };
-  Eigen::Vector3d previous = limit_change(twist_body, last_command, kRampLead * max_change);
+  twist_body_ = twist_body;
+  ramp_start_ = limit_change(twist_body, last_command, kRampLead * drive_change_per_step());
+  Eigen::Vector3d previous = ramp_start_;
   for (int k = 0; k < horizon_; ++k) {
-    Eigen::Vector3d limited;
-    if (kinematics_.desaturate_twist(twists_.col(k), max_speed, DesaturationPriority::kProportional, &limited) ==
-        KinematicsStatus::kOk) {
-      twists_.col(k) = limited;
-    }
-    twists_.col(k) = limit_change(previous, twists_.col(k), max_change);
+    twists_.col(k) = within_drive_limits(previous, twists_.col(k));
     previous = twists_.col(k);
   }
   return true;
+}
+
+double KinematicBaseline::drive_change_per_step() const noexcept {
+  return kinematics_.layout().limits().max_drive_acceleration * options_.dt;
+}
+
+Eigen::Vector3d KinematicBaseline::limit_change(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                                                double most) const noexcept {
+  // `to`, or the twist towards it from `from` whose change moves no module's velocity by more than
+  // `most`: the same proportional scaling as the drive-speed limit, applied to the change.
+  const Eigen::Vector3d change = to - from;
+  Eigen::Vector3d limited;
+  if (kinematics_.desaturate_twist(change, most, DesaturationPriority::kProportional, &limited) !=
+          KinematicsStatus::kOk ||
+      limited == change) {
+    return to;
+  }
+  return Eigen::Vector3d(from + limited);
+}
+
+Eigen::Vector3d KinematicBaseline::within_drive_limits(const Eigen::Vector3d& previous,
+                                                       const Eigen::Vector3d& twist) const noexcept {
+  // The largest twist of the same direction that no module speed exceeds, reached from `previous`
+  // no faster than the drive acceleration limit allows any module (the plant's drives cannot do
+  // more, and a plan that ignores it overshoots).
+  Eigen::Vector3d limited = twist;
+  Eigen::Vector3d desaturated;
+  if (kinematics_.desaturate_twist(twist, kinematics_.layout().limits().max_drive_speed,
+                                   DesaturationPriority::kProportional, &desaturated) == KinematicsStatus::kOk) {
+    limited = desaturated;
+  }
+  return limit_change(previous, limited, drive_change_per_step());
+}
+
+Eigen::Vector3d KinematicBaseline::policy_twist(int k, const Eigen::Vector3d& pose_world,
+                                                const Eigen::Vector3d& previous_twist) const noexcept {
+  // The Riccati law u_k = f_k + K_k z_k of the last plan, z_k = (pose_k, u_k-1), with the heading
+  // unwrapped next to the one the gains were taken at; the change cost's u_-1 is the measured twist,
+  // as in the plan. Then the same drive limits as the plan's.
+  Vector6 z;
+  z.head<2>() = pose_world.head<2>();
+  z[2] = headings_[k] + wrap_angle(pose_world.z() - headings_[k]);
+  z.tail<3>() = k == 0 ? twist_body_ : previous_twist;
+  const Eigen::Vector3d u = feedforward_.col(k) + feedback_.block<3, 6>(0, 6 * k) * z;
+  return within_drive_limits(k == 0 ? ramp_start_ : previous_twist, u);
 }
 
 void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& steering_angles,

@@ -148,6 +148,37 @@ TEST(KinematicBaseline, RiccatiPlanEqualsTheDenseNormalEquationsOptimum) {
   }
 }
 
+TEST(KinematicBaseline, ItsPolicyReturnsThePlanAtThePlannedPosesAndCorrectsAPoseLeftBehind) {
+  // One Gauss-Newton pass takes the rotations at the headings the reference's yaw rate reaches, so
+  // the plan's own poses are pose_k+1 = pose_k + dt [R(psi_k) u_k], psi_k = psi_0 + dt sum r_ref.
+  ModuleLimits unbounded = testing::small_robot_limits();
+  unbounded.max_drive_speed = 1e3;
+  unbounded.max_drive_acceleration = 1e6;
+  const ModuleLayout layout = ModuleLayout::rectangle(0.6, 0.5, 0.1, unbounded);
+  BaselineOptions options;
+  options.gauss_newton_iterations = 1;
+  Eigen::MatrixXd poses, twists;
+  met_reference(Eigen::Vector3d(0.1, 0.05, 0.2), Eigen::Vector3d(0.3, 0.05, 0.2), options.horizon, options.dt, &poses,
+                &twists);
+  const Eigen::Vector3d start_pose(0.0, 0.0, 0.1), start_twist(0.25, 0.0, 0.1);
+  KinematicBaseline baseline(layout, testing::line_reference(0.5), options);
+  ASSERT_TRUE(baseline.plan_twists(start_pose, start_twist, start_twist, poses, twists));
+  const Eigen::MatrixXd& plan = baseline.twist_plan();
+  Eigen::Vector3d pose = start_pose, previous = Eigen::Vector3d::Zero();
+  double psi = start_pose.z();
+  for (int k = 0; k < options.horizon; ++k) {
+    const Eigen::Vector3d twist = baseline.policy_twist(k, pose, previous);
+    EXPECT_LT((twist - plan.col(k)).cwiseAbs().maxCoeff(), 1e-9) << "step " << k;
+    // Left 5 cm behind the planned pose (along the heading), the policy drives faster to catch up.
+    const Eigen::Vector3d behind = pose - 0.05 * Eigen::Vector3d(std::cos(pose.z()), std::sin(pose.z()), 0.0);
+    EXPECT_GT(baseline.policy_twist(k, behind, previous).x(), plan(0, k) + 1e-3) << "step " << k;
+    pose.head<2>() += options.dt * (Eigen::Rotation2Dd(psi) * twist.head<2>());
+    pose.z() += options.dt * twist.z();
+    psi += options.dt * twists(2, k);
+    previous = twist;
+  }
+}
+
 TEST(KinematicBaseline, PlanRespectsTheDriveAccelerationLimit) {
   const ModuleLayout layout = small_robot().layout;
   const double max_change = layout.limits().max_drive_acceleration * 0.05;  // 0.1 m/s per step

@@ -139,6 +139,9 @@ class Controller final : public TrackingController {
   void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                            const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
+  // Body-twist inputs: baseline_guess_ from the baseline's plan run as a policy through the
+  // prediction model (baseline_states_ its rollout); false when the model failed.
+  bool close_baseline_loop() noexcept;
   // Tracking tolerance: the tube for this cycle (the baseline plan rolled out when usable).
   void set_tube(bool baseline_usable) noexcept;
   void send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;

@@ -68,6 +68,12 @@ class KinematicBaseline final : public TrackingController {
                    const Eigen::Ref<const Eigen::MatrixXd>& reference_poses,
                    const Eigen::Ref<const Eigen::MatrixXd>& reference_twists) noexcept;
   const Eigen::MatrixXd& twist_plan() const noexcept { return twists_; }
+  // The last plan as a policy: stage k's twist at the pose `pose_world` (reached by whatever model
+  // the caller rolls out), after `previous_twist` (stage k-1's; unused at k = 0), by the plan's
+  // Riccati gains and within the same drive limits. At the poses the plan predicts it returns the
+  // plan. A caller that closes this loop through a model with lags (the wear-aware controller's
+  // prediction) gets the baseline's tracking there; the open-loop plan drifts off it.
+  Eigen::Vector3d policy_twist(int k, const Eigen::Vector3d& pose_world, const Eigen::Vector3d& previous_twist) const noexcept;
   // Module inputs (2n x N: steering rate, wheel speed per module) that execute the twist plan from
   // the steering angles `steering_angles` (n), under the steering-rate limit.
   void module_inputs(const Eigen::Ref<const Eigen::VectorXd>& steering_angles, Eigen::Ref<Eigen::MatrixXd> inputs) noexcept;
@@ -81,6 +87,12 @@ class KinematicBaseline final : public TrackingController {
   const BaselineOptions& options() const noexcept { return options_; }
 
  private:
+  // The drive limits: the per-step change of module speed the drive acceleration allows; `to`, or
+  // the twist towards it from `from` that changes no module's velocity by more than `most`; and
+  // `twist` within the drive speed, reached from `previous` within that change.
+  double drive_change_per_step() const noexcept;
+  Eigen::Vector3d limit_change(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double most) const noexcept;
+  Eigen::Vector3d within_drive_limits(const Eigen::Vector3d& previous, const Eigen::Vector3d& twist) const noexcept;
   // Safe-stop commands with `reason`; the ramp restarts from the measured twist next step.
   const ControlOutput& stop_safely(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
   BaselineOptions options_;
@@ -105,6 +117,8 @@ class KinematicBaseline final : public TrackingController {
   Eigen::VectorXd headings_;                          // N: the headings the rotations are taken at
   Eigen::MatrixXd feedback_;                          // 3 x 6N: the Riccati gains K_k
   Eigen::MatrixXd feedforward_;                       // 3 x N
+  Eigen::Vector3d twist_body_ = Eigen::Vector3d::Zero();  // the last plan's measured twist (its u_-1)
+  Eigen::Vector3d ramp_start_ = Eigen::Vector3d::Zero();  // where its drive-limit ramp starts
 
   ModuleStates module_states_;
   LatencyCompensator latency_;
