@@ -172,6 +172,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   plan_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
   baseline_inputs_ = Eigen::MatrixXd::Zero(2 * modules_, options_.horizon);
   baseline_guess_ = Eigen::MatrixXd::Zero(problem_->input_size(), options_.horizon);
+  baseline_policy_guess_ = baseline_guess_;
   baseline_states_ = Eigen::MatrixXd::Zero(problem_->state_size(), options_.horizon + 1);
   baseline_stage_costs_ = Eigen::VectorXd::Zero(options_.horizon);
   applied_decision_ = Eigen::VectorXd::Zero(problem_->input_size());
@@ -310,18 +311,21 @@ bool Controller::close_baseline_loop() noexcept {
   // prediction priced its tracking at ~10x the annealer's answer, so the annealer never started
   // near it, and its answer wore 2x the baseline's tyre in the first second. Its Riccati gains
   // close the loop on the predicted poses instead, as the baseline closes it on the measured ones.
+  // Both are offered: on a hard start the closed loop catches up harder and can cost more (the
+  // 3-wheel robot at t = 0: 69 against 37), and the solver starts from the cheaper.
   const PredictionModel& model = problem_->model();
   baseline_states_.col(0) = problem_->initial_state();
   Eigen::Vector3d previous = Eigen::Vector3d::Zero();
   for (int k = 0; k < options_.horizon; ++k) {
     previous = baseline_.policy_twist(k, baseline_states_.col(k).head<3>(), previous);
-    baseline_guess_.col(k) = previous;
+    baseline_policy_guess_.col(k) = previous;
     double wear = 0.0;
-    if (!model.step(baseline_states_.col(k), baseline_guess_.col(k), options_.dt, baseline_states_.col(k + 1), &wear)) {
+    if (!model.step(baseline_states_.col(k), baseline_policy_guess_.col(k), options_.dt, baseline_states_.col(k + 1),
+                    &wear)) {
       return false;
     }
   }
-  return baseline_guess_.allFinite();
+  return baseline_policy_guess_.allFinite();
 }
 
 void Controller::set_tube(bool baseline_usable) noexcept {
@@ -456,7 +460,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     const ReferenceSample sample = reference_->sample(t + k * options_.dt);
     problem_->set_reference(k, sample.pose_world, sample.twist_body);
   }
-  bool baseline_usable = false;
+  bool baseline_usable = false, policy_guess_usable = false;
   {  // the baseline plan is both an initial guess and the second fallback
     // Its acceleration limit starts from the twist commanded last cycle (see plan_twists). With
     // module-rate decisions that twist is not at hand, and the measured one stands in.
@@ -469,7 +473,8 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
       baseline_.module_inputs(now_.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
       baseline_.commit_first_step();
       if (twist_model_ != nullptr) {
-        if (!close_baseline_loop()) baseline_guess_ = baseline_.twist_plan();
+        baseline_guess_ = baseline_.twist_plan();
+        policy_guess_usable = options_.baseline_guess && close_baseline_loop();
       } else {
         baseline_guess_ = baseline_inputs_;
       }
@@ -484,6 +489,10 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   }
   InitialGuesses guesses;
   if (plan_.valid && plan_age_ == 1) guesses.add(&plan_.inputs);
+  if (policy_guess_usable) {
+    problem_->project(baseline_policy_guess_);
+    guesses.add(&baseline_policy_guess_);
+  }
   if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_guess_);
 
   solved_ = true;

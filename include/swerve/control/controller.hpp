@@ -89,7 +89,9 @@ struct ControllerOptions {
   PredictionOptions prediction;
   InputParameterization parameterization = InputParameterization::kBodyTwist;
   double twist_smoothness = 1.0;     // S on the change of the body twist per step (kBodyTwist)
-  bool baseline_guess = true;        // also start the solver from the kinematic baseline's plan
+  // Also start the solver from the kinematic baseline's plan: as planned, and with body-twist
+  // inputs also run as a policy through the prediction (see close_baseline_loop).
+  bool baseline_guess = true;
   int max_plan_age = 5;              // cycles a previous plan may stand in for a failed solve
   StalenessOptions stale_measurement;  // when a measurement is too old or frozen to act on
   TrackingTolerance tracking_tolerance;  // off by default
@@ -139,7 +141,7 @@ class Controller final : public TrackingController {
   void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                            const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
-  // Body-twist inputs: baseline_guess_ from the baseline's plan run as a policy through the
+  // Body-twist inputs: baseline_policy_guess_ from the baseline's plan run as a policy through the
   // prediction model (baseline_states_ its rollout); false when the model failed.
   bool close_baseline_loop() noexcept;
   // Tracking tolerance: the tube for this cycle (the baseline plan rolled out when usable).
@@ -169,6 +171,7 @@ class Controller final : public TrackingController {
   int plan_age_ = 0;
   Eigen::MatrixXd baseline_inputs_;  // 2n x N
   Eigen::MatrixXd baseline_guess_;   // nu x N: the baseline plan in the optimiser's inputs
+  Eigen::MatrixXd baseline_policy_guess_;  // nu x N (body twists): the plan's loop closed through the prediction
   Eigen::VectorXd applied_decision_; // nu: the decision applied last cycle
   Eigen::VectorXd applied_input_;    // 2n: the module inputs sent last cycle
   Eigen::VectorXd fallback_input_;   // 2n
