@@ -1111,12 +1111,14 @@ TEST(Controller, TheTubeWidensToTheBaselinePlansOwnPredictedError) {
 // guess is predicted to stay: the least over the guesses of the worst position error on the horizon.
 class GuessRecorder final : public Solver {
  public:
-  GuessRecorder(const OcpProblem& shape, double* worst_error_m) : Solver(shape), start_(shape), worst_(worst_error_m) {}
+  GuessRecorder(const OcpProblem& shape, double* worst_error_m, int* guess_count)
+      : Solver(shape), start_(shape), worst_(worst_error_m), count_(guess_count) {}
   const char* name() const noexcept override { return "guess_recorder"; }
 
  private:
   SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                        SolveSummary* summary) noexcept override {
+    *count_ = guesses.count;
     *worst_ = std::numeric_limits<double>::infinity();
     for (int g = 0; g < guesses.count; ++g) {
       Eigen::MatrixXd states(problem.state_size(), problem.horizon() + 1);
@@ -1133,6 +1135,7 @@ class GuessRecorder final : public Solver {
   }
   StartPlan start_;
   double* worst_;
+  int* count_;
 };
 
 TEST(Controller, TheBaselineGuessClosesItsLoopThroughTheLaggingPrediction) {
@@ -1146,8 +1149,9 @@ TEST(Controller, TheBaselineGuessClosesItsLoopThroughTheLaggingPrediction) {
   ControllerOptions options = fast_options();
   options.prediction.drive_lag = true;
   double worst_error_m = -1.0;
-  Controller controller(vehicle, testing::line_reference(0.5), options, [&worst_error_m](const OcpProblem& p) {
-    return std::make_unique<GuessRecorder>(p, &worst_error_m);
+  int guess_count = -1;
+  Controller controller(vehicle, testing::line_reference(0.5), options, [&](const OcpProblem& p) {
+    return std::make_unique<GuessRecorder>(p, &worst_error_m, &guess_count);
   });
   testing::ManualClock clock;
   controller.set_clock(clock);
@@ -1157,6 +1161,14 @@ TEST(Controller, TheBaselineGuessClosesItsLoopThroughTheLaggingPrediction) {
   std::printf("[          ] baseline guess: worst predicted position error %.4f m\n", worst_error_m);
   EXPECT_GE(worst_error_m, 0.0);
   EXPECT_LT(worst_error_m, 0.015);
+  // No plan yet: the baseline's plan closed through the prediction, and as planned (on a hard start
+  // the closed loop can cost more, and the solver starts from the cheaper).
+  EXPECT_EQ(guess_count, 2);
+  // A cycle on, the shifted plan comes first.
+  Eigen::VectorXd moved = at_rest();
+  moved[3] = 0.05;
+  controller.step(moved, options.dt);
+  EXPECT_EQ(guess_count, 3);
 }
 
 TEST(Controller, WithDriveLagThePredictionStartsFromTheWheelSpeedsItsCommandsHaveReached) {
