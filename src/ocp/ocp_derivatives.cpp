@@ -8,7 +8,11 @@
 namespace swerve {
 
 OcpDerivatives::OcpDerivatives(const OcpProblem& shape)
-    : horizon_(shape.horizon()), nx_(shape.state_size()), nu_(shape.input_size()) {
+    : horizon_(shape.horizon()),
+      nx_(shape.state_size()),
+      nu_(shape.input_size()),
+      data_model_(&shape.model()),
+      data_(shape.model().create_data()) {
   if (!shape.model().has_jacobians()) {
     throw ConfigError("OcpDerivatives: the problem's prediction model has no exact Jacobians (has_jacobians() is "
                       "false); gradient backends need them");
@@ -31,7 +35,10 @@ bool OcpDerivatives::linearize_stage(const OcpProblem& problem, int k, const Eig
   if (k < 0 || k >= horizon_) return false;
   const auto s = static_cast<std::size_t>(k);
   double wear = 0.0;
-  const bool ok = problem.model().step_jacobians(x_k, u_k, problem.dt(), x_next, a_[s], b_[s], &wear, wear_gradient_[s]);
+  // Its own scratch when the problem's model is the one it was made for, else the model's own.
+  PredictionData* data = &problem.model() == data_model_ ? data_.get() : nullptr;
+  const bool ok =
+      problem.model().step_jacobians(data, x_k, u_k, problem.dt(), x_next, a_[s], b_[s], &wear, wear_gradient_[s]);
   wear_[k] = wear;
   return ok && std::isfinite(wear);
 }

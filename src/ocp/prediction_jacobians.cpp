@@ -7,12 +7,20 @@
 #include "swerve/models/jet_chunks.hpp"
 #include "swerve/models/semi_implicit_step.hpp"
 #include "swerve/ocp/vehicle_prediction_model.hpp"
+#include "vehicle_prediction_data.hpp"
 
 namespace swerve {
 namespace detail {
 
+// The Jet twin of the double step: immutable, shared by every Data.
 struct PredictionJets {
-  PredictionJets(const VehicleParams& params, const PredictionOptions& options) : step(params, options) {
+  PredictionJets(const VehicleParams& params, const PredictionOptions& options) : step(params, options) {}
+  SemiImplicitStep<ModelJet> step;
+};
+
+// A Data's scratch for the twin.
+struct JetScratch {
+  explicit JetScratch(const SemiImplicitStep<ModelJet>& step) : data(step) {
     const int nx = step.state_size();
     const int nu = step.model().input_size();
     x = ModelJetVector::Zero(nx);
@@ -20,10 +28,11 @@ struct PredictionJets {
     twist = ModelJetVector::Zero(3);
     out = ModelJetVector::Zero(nx);
   }
-  SemiImplicitStep<ModelJet> step;
-  SemiImplicitStep<ModelJet>::Data data{step};
+  SemiImplicitStep<ModelJet>::Data data;
   ModelJetVector x, u, twist, out;  // u: module inputs (given, or mapped from the twist)
 };
+
+void JetScratchDeleter::operator()(JetScratch* scratch) const noexcept { delete scratch; }
 
 }  // namespace detail
 
@@ -39,6 +48,10 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
 }
 
 VehiclePredictionModel::~VehiclePredictionModel() = default;
+
+std::unique_ptr<detail::JetScratch, detail::JetScratchDeleter> VehiclePredictionModel::make_jet_scratch() const {
+  return std::unique_ptr<detail::JetScratch, detail::JetScratchDeleter>(new detail::JetScratch(jets_->step));
+}
 
 namespace {
 
@@ -58,13 +71,22 @@ bool VehiclePredictionModel::step_jacobians(const Eigen::Ref<const Eigen::Vector
                                             Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                             Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                                             Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  return step_jacobians(nullptr, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
+}
+
+bool VehiclePredictionModel::step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                            const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                            Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                                            Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                                            Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
   if (!jacobian_sizes_ok(state_size_, input_size_, x, u, dt, x_next, a, b, wear_gradient)) return false;
-  detail::PredictionJets& j = *jets_;
+  const SemiImplicitStep<ModelJet>& step = jets_->step;
+  detail::JetScratch& j = *scratch(data).jets;
   bool first = true;
   const bool ok = jet_jacobian(x, u, j.x, j.u, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
                                [&](ModelJet* wear) {
                                  SemiImplicitStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
-                                 return j.step.step(j.data, j.x, j.u, dt, j.out, wear);
+                                 return step.step(j.data, j.x, j.u, dt, j.out, wear);
                                });
   return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
 }
@@ -74,15 +96,24 @@ bool VehiclePredictionModel::twist_step_jacobians(const Eigen::Ref<const Eigen::
                                                   Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                                   Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                                                   Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  return twist_step_jacobians(nullptr, x, twist_body, dt, x_next, a, b, stage_wear, wear_gradient);
+}
+
+bool VehiclePredictionModel::twist_step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                                  const Eigen::Vector3d& twist_body, double dt,
+                                                  Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                                                  Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                                                  Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
   if (!jacobian_sizes_ok(state_size_, 3, x, twist_body, dt, x_next, a, b, wear_gradient)) return false;
-  detail::PredictionJets& j = *jets_;
+  const SemiImplicitStep<ModelJet>& step = jets_->step;
+  detail::JetScratch& j = *scratch(data).jets;
   bool first = true;
   const bool ok = jet_jacobian(x, twist_body, j.x, j.twist, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
                                [&](ModelJet* wear) {
                                  SemiImplicitStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
                                  const Eigen::Matrix<ModelJet, 3, 1> twist = j.twist;
-                                 j.step.module_inputs(j.x, twist, dt, j.u);
-                                 return j.step.step(j.data, j.x, j.u, dt, j.out, wear);
+                                 step.module_inputs(j.x, twist, dt, j.u);
+                                 return step.step(j.data, j.x, j.u, dt, j.out, wear);
                                });
   return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
 }

@@ -5,17 +5,9 @@
 
 #include "swerve/core/dcheck.hpp"
 #include "swerve/models/semi_implicit_step.hpp"
+#include "vehicle_prediction_data.hpp"
 
 namespace swerve {
-
-// VehiclePredictionModel's caller-owned scratch: the double step's and the module inputs a
-// twist_step maps to.
-struct VehiclePredictionModel::Data::Impl {
-  explicit Impl(const SemiImplicitStep<double>& step)
-      : values(step), inputs(Eigen::VectorXd::Zero(step.model().input_size())) {}
-  SemiImplicitStep<double>::Data values;
-  Eigen::VectorXd inputs;
-};
 
 const VehicleModel<double>& VehiclePredictionModel::vehicle() const noexcept { return values_->model(); }
 
@@ -25,7 +17,7 @@ VehiclePredictionModel::Data& VehiclePredictionModel::Data::operator=(Data&&) no
 VehiclePredictionModel::Data::~Data() = default;
 
 std::unique_ptr<PredictionData> VehiclePredictionModel::create_data() const {
-  return std::unique_ptr<Data>(new Data(std::make_unique<Data::Impl>(*values_)));
+  return std::unique_ptr<Data>(new Data(std::make_unique<Data::Impl>(*values_, make_jet_scratch())));
 }
 
 VehiclePredictionModel::Data::Impl& VehiclePredictionModel::scratch(PredictionData* data) const noexcept {

@@ -6,6 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <random>
+#include <thread>
+#include <vector>
 
 #include "support/linear_models.hpp"
 #include "support/swerve_problems.hpp"
@@ -57,6 +60,61 @@ TEST(OcpDerivatives, RefusesAModelWithoutJacobians) {
   const testing::ModelWithoutJacobians model;
   const OcpProblem problem(model, 3, 0.1, CostWeights{}, InputBounds{});
   EXPECT_THROW(OcpDerivatives{problem}, ConfigError);
+}
+
+TEST(OcpDerivatives, GradientsOnTwoThreadsMatchOneThreadBitForBit) {
+  // Each OcpDerivatives linearises on scratch of its own (the model's Jets included), so two may
+  // run at once. Checked that it can fail: with the model's shared Jet scratch, both threads
+  // counted mismatches.
+  const VehicleParams params = testing::make_params(ModuleLayout::rectangle(0.6, 0.5, 0.1));
+  const TwistPredictionModel model(params, PredictionOptions{});
+  OcpProblem problem(model, 20, 0.05, testing::SwerveTestProblem::weights(testing::SwerveScene::kTurn),
+                     testing::SwerveTestProblem::bounds(testing::SwerveScene::kTurn, -1.0));
+  Eigen::VectorXd x0 = Eigen::VectorXd::Zero(model.state_size());
+  x0.segment<3>(3) = Eigen::Vector3d(0.5, 0.0, 0.1);
+  ASSERT_TRUE(problem.set_initial_state(x0));
+  constexpr int kPlans = 8;
+  std::vector<Eigen::MatrixXd> plans;
+  std::mt19937 random(9);
+  std::uniform_real_distribution<double> jitter(-0.1, 0.1);
+  for (int p = 0; p < kPlans; ++p) {
+    Eigen::MatrixXd inputs(3, problem.horizon());
+    for (int k = 0; k < problem.horizon(); ++k) {
+      inputs.col(k) = Eigen::Vector3d(0.55 + jitter(random), jitter(random), 0.15 + jitter(random));
+    }
+    problem.project(inputs);
+    plans.push_back(inputs);
+  }
+  Eigen::MatrixXd states(model.state_size(), problem.horizon() + 1);
+  std::vector<double> expected_cost(kPlans);
+  std::vector<Eigen::MatrixXd> expected_gradient(kPlans, Eigen::MatrixXd(3, problem.horizon()));
+  {
+    OcpDerivatives derivatives(problem);
+    for (int p = 0; p < kPlans; ++p) {
+      const auto index = static_cast<std::size_t>(p);
+      expected_cost[index] = derivatives.cost_and_gradient(problem, plans[index], states, expected_gradient[index]);
+      ASSERT_TRUE(std::isfinite(expected_cost[index]));
+    }
+  }
+  std::vector<int> mismatches(2, 0);
+  const auto worker = [&](int id) {
+    OcpDerivatives derivatives(problem);
+    Eigen::MatrixXd own_states(model.state_size(), problem.horizon() + 1), gradient(3, problem.horizon());
+    for (int pass = 0; pass < 3; ++pass) {
+      for (int i = 0; i < kPlans; ++i) {
+        const auto index = static_cast<std::size_t>(id == 1 ? kPlans - 1 - i : i);
+        const double cost = derivatives.cost_and_gradient(problem, plans[index], own_states, gradient);
+        if (cost != expected_cost[index] || gradient != expected_gradient[index]) {
+          ++mismatches[static_cast<std::size_t>(id)];
+        }
+      }
+    }
+  };
+  std::thread first(worker, 0), second(worker, 1);
+  first.join();
+  second.join();
+  EXPECT_EQ(mismatches[0], 0);
+  EXPECT_EQ(mismatches[1], 0);
 }
 
 }  // namespace

@@ -3,10 +3,13 @@
 // and of the stage wear (from PredictionModel::step_jacobians, i.e. ceres::Jet), the analytic
 // gradients of the quadratic stage costs, and from both the single-shooting gradient of the total
 // cost by the adjoint (reverse) recursion. Sized once for a problem's shape; no allocation after.
+// It linearises on scratch of its own (PredictionModel::create_data() of the shape's model), so two
+// OcpDerivatives may work on separate threads.
 #pragma once
 
 #include <Eigen/Core>
 
+#include <memory>
 #include <vector>
 
 #include "swerve/ocp/ocp_problem.hpp"
@@ -55,6 +58,8 @@ class OcpDerivatives {
  private:
   int horizon_, nx_, nu_;
   int completed_stages_ = 0;
+  const PredictionModel* data_model_;         // the model data_ was made by
+  std::unique_ptr<PredictionData> data_;      // its step scratch (null: a model without any)
   std::vector<Eigen::MatrixXd> a_, b_;
   std::vector<Eigen::VectorXd> wear_gradient_;
   Eigen::VectorXd wear_;

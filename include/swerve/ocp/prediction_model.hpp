@@ -59,6 +59,16 @@ class PredictionModel {
     (void)x, (void)u, (void)dt, (void)x_next, (void)a, (void)b, (void)stage_wear, (void)wear_gradient;
     return false;
   }
+  // step_jacobians() on `data` (this model's create_data(); nullptr: the model's own scratch), so
+  // Jacobians on separate data may run on separate threads, as steps may. The default suits models
+  // without scratch.
+  virtual bool step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                              const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+                              Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                              Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+    (void)data;
+    return step_jacobians(x, u, dt, x_next, a, b, stage_wear, wear_gradient);
+  }
 };
 
 }  // namespace swerve

@@ -31,6 +31,10 @@ class TwistPredictionModel final : public PredictionModel {
                       double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                       Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                       Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override;
+  bool step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                      const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+                      Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                      Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override;
 
   // The module inputs (2n: steering rate, wheel speed per module) that carry out `twist_body` over
   // the next `dt` from state `x` (steering angles read from x). noexcept, no allocation.

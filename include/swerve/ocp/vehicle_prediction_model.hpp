@@ -42,6 +42,10 @@ template <typename T>
 class SemiImplicitStep;
 namespace detail {
 struct PredictionJets;
+struct JetScratch;
+struct JetScratchDeleter {
+  void operator()(JetScratch* scratch) const noexcept;  // prediction_jacobians.cpp, where it is complete
+};
 }  // namespace detail
 
 class VehiclePredictionModel final : public PredictionModel {
@@ -77,10 +81,10 @@ class VehiclePredictionModel final : public PredictionModel {
   void module_inputs(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
                      Eigen::Ref<Eigen::VectorXd> inputs) const noexcept;
 
-  // Scratch owned by the caller. The model itself is immutable: rollouts that each pass a Data of
-  // their own (made once, by create_data(); allocation-free after) may run on threads of their
-  // own, bit for bit as on one. The overloads without one use the model's own, so they are not
-  // re-entrant; nor, yet, are the Jacobians.
+  // Scratch owned by the caller, for the steps and their Jacobians. The model itself is immutable:
+  // rollouts and linearisations that each pass a Data of their own (made once, by create_data();
+  // allocation-free after) may run on threads of their own, bit for bit as on one. The overloads
+  // without one use the model's own, so they are not re-entrant.
   class Data final : public PredictionData {
    public:
     Data(Data&&) noexcept;
@@ -99,6 +103,14 @@ class VehiclePredictionModel final : public PredictionModel {
             double* stage_wear) const noexcept override;
   bool twist_step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
                   double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
+  bool step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                      const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+                      Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                      Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override;
+  bool twist_step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                            const Eigen::Vector3d& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+                            Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                            Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept;
 
   const VehicleModel<double>& vehicle() const noexcept;
   // Evaluations of the vehicle model (each with the twist Jacobian, or in double for the final
@@ -113,6 +125,8 @@ class VehiclePredictionModel final : public PredictionModel {
   int modules_, state_size_, input_size_;
   std::unique_ptr<SemiImplicitStep<double>> values_;
   std::unique_ptr<detail::PredictionJets> jets_;  // the Jet twin of values_ (prediction_jacobians.cpp)
+  // A Data's Jet scratch for the twin (prediction_jacobians.cpp, the one unit that knows Jets).
+  std::unique_ptr<detail::JetScratch, detail::JetScratchDeleter> make_jet_scratch() const;
   std::unique_ptr<Data> data_;                     // the scratch of the overloads without a Data
   Data::Impl& scratch(PredictionData* data) const noexcept;  // *data's, or the model's own for nullptr
 };
