@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <limits>
-#include <random>
 #include <thread>
 #include <vector>
 
@@ -66,24 +65,14 @@ TEST(OcpDerivatives, GradientsOnTwoThreadsMatchOneThreadBitForBit) {
   // Each OcpDerivatives linearises on scratch of its own (the model's Jets included), so two may
   // run at once. Checked that it can fail: with the model's shared Jet scratch, both threads
   // counted mismatches.
-  const VehicleParams params = testing::make_params(ModuleLayout::rectangle(0.6, 0.5, 0.1));
-  const TwistPredictionModel model(params, PredictionOptions{});
-  OcpProblem problem(model, 20, 0.05, testing::SwerveTestProblem::weights(testing::SwerveScene::kTurn),
-                     testing::SwerveTestProblem::bounds(testing::SwerveScene::kTurn, -1.0));
-  Eigen::VectorXd x0 = Eigen::VectorXd::Zero(model.state_size());
-  x0.segment<3>(3) = Eigen::Vector3d(0.5, 0.0, 0.1);
-  ASSERT_TRUE(problem.set_initial_state(x0));
+  testing::SwerveTestProblem scene(testing::SwerveScene::kTurn);
+  const OcpProblem& problem = scene.problem;
+  const PredictionModel& model = problem.model();
   constexpr int kPlans = 8;
   std::vector<Eigen::MatrixXd> plans;
-  std::mt19937 random(9);
-  std::uniform_real_distribution<double> jitter(-0.1, 0.1);
   for (int p = 0; p < kPlans; ++p) {
-    Eigen::MatrixXd inputs(3, problem.horizon());
-    for (int k = 0; k < problem.horizon(); ++k) {
-      inputs.col(k) = Eigen::Vector3d(0.55 + jitter(random), jitter(random), 0.15 + jitter(random));
-    }
-    problem.project(inputs);
-    plans.push_back(inputs);
+    plans.push_back(scene.jittered_inputs(0.1, 9u + static_cast<unsigned>(p)));
+    problem.project(plans.back());
   }
   Eigen::MatrixXd states(model.state_size(), problem.horizon() + 1);
   std::vector<double> expected_cost(kPlans);
