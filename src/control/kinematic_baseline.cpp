@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "swerve/core/config_error.hpp"
@@ -216,6 +217,9 @@ Eigen::Vector3d KinematicBaseline::policy_twist(int k, const Eigen::Vector3d& po
   // The Riccati law u_k = f_k + K_k z_k of the last plan, z_k = (pose_k, u_k-1), with the heading
   // unwrapped next to the one the gains were taken at; the change cost's u_-1 is the measured twist,
   // as in the plan. Then the same drive limits as the plan's.
+  if (k < 0 || k >= horizon_ || !pose_world.allFinite() || !previous_twist.allFinite()) {
+    return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
   Vector6 z;
   z.head<2>() = pose_world.head<2>();
   z[2] = headings_[k] + wrap_angle(pose_world.z() - headings_[k]);

@@ -177,6 +177,10 @@ TEST(KinematicBaseline, ItsPolicyReturnsThePlanAtThePlannedPosesAndCorrectsAPose
     psi += options.dt * twists(2, k);
     previous = twist;
   }
+  // Outside the horizon, or from a non-finite pose: NaN, which the caller's finiteness check catches.
+  EXPECT_FALSE(baseline.policy_twist(-1, start_pose, start_twist).allFinite());
+  EXPECT_FALSE(baseline.policy_twist(options.horizon, start_pose, start_twist).allFinite());
+  EXPECT_FALSE(baseline.policy_twist(0, Eigen::Vector3d(kNaN, 0.0, 0.0), start_twist).allFinite());
 }
 
 TEST(KinematicBaseline, PlanRespectsTheDriveAccelerationLimit) {

@@ -72,7 +72,8 @@ class KinematicBaseline final : public TrackingController {
   // the caller rolls out), after `previous_twist` (stage k-1's; unused at k = 0), by the plan's
   // Riccati gains and within the same drive limits. At the poses the plan predicts it returns the
   // plan. A caller that closes this loop through a model with lags (the wear-aware controller's
-  // prediction) gets the baseline's tracking there; the open-loop plan drifts off it.
+  // prediction) gets the baseline's tracking there; the open-loop plan drifts off it. Valid after
+  // plan_twists() returned true; NaN for k outside [0, N) or a non-finite pose or twist.
   Eigen::Vector3d policy_twist(int k, const Eigen::Vector3d& pose_world, const Eigen::Vector3d& previous_twist) const noexcept;
   // Module inputs (2n x N: steering rate, wheel speed per module) that execute the twist plan from
   // the steering angles `steering_angles` (n), under the steering-rate limit.
