@@ -489,10 +489,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   }
   InitialGuesses guesses;
   if (plan_.valid && plan_age_ == 1) guesses.add(&plan_.inputs);
-  if (policy_guess_usable) {
-    problem_->project(baseline_policy_guess_);
-    guesses.add(&baseline_policy_guess_);
-  }
+  if (policy_guess_usable) guesses.add(&baseline_policy_guess_);  // the solver projects each guess
   if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_guess_);
 
   solved_ = true;

@@ -6,11 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <limits>
-#include <thread>
 #include <vector>
 
 #include "support/linear_models.hpp"
 #include "support/swerve_problems.hpp"
+#include "support/two_threads.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
 
@@ -85,23 +85,14 @@ TEST(OcpDerivatives, GradientsOnTwoThreadsMatchOneThreadBitForBit) {
       ASSERT_TRUE(std::isfinite(expected_cost[index]));
     }
   }
-  std::vector<int> mismatches(2, 0);
-  const auto worker = [&](int id) {
-    OcpDerivatives derivatives(problem);
-    Eigen::MatrixXd own_states(model.state_size(), problem.horizon() + 1), gradient(3, problem.horizon());
-    for (int pass = 0; pass < 3; ++pass) {
-      for (int i = 0; i < kPlans; ++i) {
-        const auto index = static_cast<std::size_t>(id == 1 ? kPlans - 1 - i : i);
+  const auto mismatches = testing::mismatches_on_two_threads(
+      kPlans, 3, [&] { return OcpDerivatives(problem); },
+      [&](OcpDerivatives& derivatives, int p) {
+        const auto index = static_cast<std::size_t>(p);
+        Eigen::MatrixXd own_states(model.state_size(), problem.horizon() + 1), gradient(3, problem.horizon());
         const double cost = derivatives.cost_and_gradient(problem, plans[index], own_states, gradient);
-        if (cost != expected_cost[index] || gradient != expected_gradient[index]) {
-          ++mismatches[static_cast<std::size_t>(id)];
-        }
-      }
-    }
-  };
-  std::thread first(worker, 0), second(worker, 1);
-  first.join();
-  second.join();
+        return cost == expected_cost[index] && gradient == expected_gradient[index];
+      });
   EXPECT_EQ(mismatches[0], 0);
   EXPECT_EQ(mismatches[1], 0);
 }

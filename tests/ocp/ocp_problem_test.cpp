@@ -9,11 +9,11 @@
 #include <limits>
 #include <memory>
 #include <random>
-#include <thread>
 #include <vector>
 
 #include "support/linear_models.hpp"
 #include "support/swerve_problems.hpp"
+#include "support/two_threads.hpp"
 #include "swerve/core/config_error.hpp"
 
 namespace swerve {
@@ -396,22 +396,14 @@ TEST(OcpProblem, RolloutsOnTheirOwnDataOnTwoThreadsMatchOneThreadBitForBit) {
         ASSERT_TRUE(std::isfinite(expected_cost[index]));
       }
     }
-    std::vector<int> mismatches(2, 0);
-    const auto worker = [&](int id) {
-      const std::unique_ptr<PredictionData> data = model.create_data();
-      Eigen::MatrixXd states;
-      for (int pass = 0; pass < 4; ++pass) {
-        for (int i = 0; i < kPlans; ++i) {
-          const int p = id == 1 ? kPlans - 1 - i : i;
+    const auto mismatches = testing::mismatches_on_two_threads(
+        kPlans, 4, [&] { return model.create_data(); },
+        [&](const std::unique_ptr<PredictionData>& data, int p) {
           const auto index = static_cast<std::size_t>(p);
+          Eigen::MatrixXd states;
           const double cost = roll(data.get(), p, &states);
-          if (cost != expected_cost[index] || states != expected_states[index]) ++mismatches[static_cast<std::size_t>(id)];
-        }
-      }
-    };
-    std::thread first(worker, 0), second(worker, 1);
-    first.join();
-    second.join();
+          return cost == expected_cost[index] && states == expected_states[index];
+        });
     EXPECT_EQ(mismatches[0], 0);
     EXPECT_EQ(mismatches[1], 0);
   }

@@ -14,10 +14,10 @@
 #include <cmath>
 #include <numeric>
 #include <random>
-#include <thread>
 #include <vector>
 
 #include "models/model_fixtures.hpp"
+#include "support/two_threads.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/sim/simulator.hpp"
 
@@ -328,26 +328,15 @@ TEST(VehiclePredictionModel, RolloutsWithTheirOwnDataOnTwoThreadsMatchOneThreadB
       ASSERT_TRUE(rollout(data.get(), s, &expected_states[static_cast<std::size_t>(s)], &expected_wear[static_cast<std::size_t>(s)]));
     }
   }
-  // Each thread runs every sequence three times, the second in the opposite order, so the two
-  // threads' rollouts overlap in every combination.
-  std::vector<int> mismatches(2, 0);
-  const auto worker = [&](int id) {
-    const std::unique_ptr<PredictionData> data = model.create_data();
-    for (int pass = 0; pass < 3; ++pass) {
-      for (int i = 0; i < kSequences; ++i) {
-        const int s = id == 1 ? kSequences - 1 - i : i;
+  // Each thread runs every sequence three times.
+  const auto mismatches = testing::mismatches_on_two_threads(
+      kSequences, 3, [&] { return model.create_data(); },
+      [&](const std::unique_ptr<PredictionData>& data, int s) {
+        const auto index = static_cast<std::size_t>(s);
         Eigen::VectorXd state;
         double wear = 0.0;
-        const auto index = static_cast<std::size_t>(s);
-        if (!rollout(data.get(), s, &state, &wear) || state != expected_states[index] || wear != expected_wear[index]) {
-          ++mismatches[static_cast<std::size_t>(id)];
-        }
-      }
-    }
-  };
-  std::thread first(worker, 0), second(worker, 1);
-  first.join();
-  second.join();
+        return rollout(data.get(), s, &state, &wear) && state == expected_states[index] && wear == expected_wear[index];
+      });
   EXPECT_EQ(mismatches[0], 0);
   EXPECT_EQ(mismatches[1], 0);
 }
