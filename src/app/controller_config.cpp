@@ -138,6 +138,7 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
       c.mpc.prediction.substeps = prediction->get_int_or("substeps", c.mpc.prediction.substeps, 1, 1000);
       c.mpc.prediction.slow_substeps = prediction->get_int_or("slow_substeps", c.mpc.prediction.slow_substeps, 1, 1000);
       c.mpc.prediction.drive_lag = prediction->get_bool_or("drive_lag", c.mpc.prediction.drive_lag);
+      c.mpc.prediction.steering_lag = prediction->get_bool_or("steering_lag", c.mpc.prediction.steering_lag);
       c.mpc.prediction.max_newton_iterations =
           prediction->get_int_or("max_newton_iterations", c.mpc.prediction.max_newton_iterations, 1, 100);
     }

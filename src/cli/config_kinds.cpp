@@ -115,6 +115,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                      {"substeps", o.prediction.substeps},
                      {"slow_substeps", o.prediction.slow_substeps},
                      {"drive_lag", o.prediction.drive_lag},
+                     {"steering_lag", o.prediction.steering_lag},
                      {"max_newton_iterations", o.prediction.max_newton_iterations}};
   const SaOptions& sa = c.solver.sa;
   j["solver"] = {{"backend", c.solver.backend},

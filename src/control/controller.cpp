@@ -157,12 +157,16 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
+  const VehiclePredictionModel* module_model = nullptr;
   if (twist) {
     auto twist_model = std::make_unique<TwistPredictionModel>(vehicle, options_.prediction);
     twist_model_ = twist_model.get();
+    module_model = &twist_model->module_model();
     model_ = std::move(twist_model);
   } else {
-    model_ = std::make_unique<VehiclePredictionModel>(vehicle, options_.prediction);
+    auto vehicle_model = std::make_unique<VehiclePredictionModel>(vehicle, options_.prediction);
+    module_model = vehicle_model.get();
+    model_ = std::move(vehicle_model);
   }
   problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, layout_, vehicle.mass),
                                           twist ? twist_bounds(layout_, options_.dt) : input_bounds(layout_, options_.dt));
@@ -182,15 +186,21 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   output_.modules = ModuleArray<ModuleCommand>(modules_);
   now_ = Eigen::VectorXd::Zero(6 + modules_);
   prediction_state_ = Eigen::VectorXd::Zero(problem_->state_size());
-  // The prediction carries wheel speeds (PredictionOptions::drive_lag): the controller estimates
-  // them from the commands it sent, through the same first-order lag.
-  if (problem_->state_size() > 6 + modules_) {
+  // The prediction carries wheel speeds (PredictionOptions::drive_lag) or steering rates
+  // (steering_lag): the controller estimates them from the commands it sent, through the same
+  // first-order lags.
+  if (module_model->wheel_speed_states() > 0) {
     drive_time_constant_ = vehicle.actuators.drive_time_constant;
     if (vehicle.plant.actuator_saturation) {
       max_wheel_acceleration_ = layout_.limits().max_drive_acceleration / layout_.wheel_radius();
     }
     wheel_speeds_ = Eigen::VectorXd::Zero(modules_);
     sent_wheel_speeds_ = Eigen::VectorXd::Zero(modules_);
+  }
+  if (module_model->steering_rate_states() > 0) {
+    steering_time_constant_ = vehicle.actuators.steering_time_constant;
+    steering_rates_ = Eigen::VectorXd::Zero(modules_);
+    sent_steering_rates_ = Eigen::VectorXd::Zero(modules_);
   }
 }
 
@@ -225,19 +235,26 @@ double Controller::rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& 
   return rolling_speed<double>(v_contact, measured[StateIndex::steering(module)]) / layout_.wheel_radius();
 }
 
-void Controller::estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {
+void Controller::estimate_actuators(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {
   const double elapsed = t - wheel_speeds_time_;
+  double mean = 0.0;
   if (wheel_speeds_known_ && elapsed > 0.0 && elapsed <= 4.0 * options_.dt) {
     // The time since the last commands were sent, through the drives' lag and clamp.
     const DriveLag lag{drive_time_constant_, max_wheel_acceleration_};
-    for (int i = 0; i < modules_; ++i) {
-      double mean = 0.0;
+    for (Eigen::Index i = 0; i < wheel_speeds_.size(); ++i) {
       drive_response(wheel_speeds_[i], sent_wheel_speeds_[i], lag, elapsed, &wheel_speeds_[i], &mean);
+    }
+    const DriveLag steering_lag{steering_time_constant_, std::numeric_limits<double>::infinity()};
+    for (Eigen::Index i = 0; i < steering_rates_.size(); ++i) {
+      drive_response(steering_rates_[i], sent_steering_rates_[i], steering_lag, elapsed, &steering_rates_[i], &mean);
     }
   } else {
     // No commands of ours to follow (start, reset, a rejected or stale measurement, time that went
-    // back or jumped by more than four periods): rolling with the body.
-    for (int i = 0; i < modules_; ++i) wheel_speeds_[i] = rolling_wheel_speed(measured, i);
+    // back or jumped by more than four periods): rolling with the body, the steering at rest.
+    for (Eigen::Index i = 0; i < wheel_speeds_.size(); ++i) {
+      wheel_speeds_[i] = rolling_wheel_speed(measured, static_cast<int>(i));
+    }
+    steering_rates_.setZero();
   }
   wheel_speeds_time_ = t;
   wheel_speeds_estimated_ = true;
@@ -383,8 +400,13 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
 
 const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   latency_.record(output_.modules);
-  if (wheel_speeds_.size() > 0) {
-    for (int i = 0; i < modules_; ++i) sent_wheel_speeds_[i] = output_.modules[i].wheel_speed;
+  if (wheel_speeds_.size() > 0 || steering_rates_.size() > 0) {
+    for (Eigen::Index i = 0; i < wheel_speeds_.size(); ++i) {
+      sent_wheel_speeds_[i] = output_.modules[static_cast<int>(i)].wheel_speed;
+    }
+    for (Eigen::Index i = 0; i < steering_rates_.size(); ++i) {
+      sent_steering_rates_[i] = output_.modules[static_cast<int>(i)].steering_rate;
+    }
     wheel_speeds_known_ = wheel_speeds_estimated_;
   }
   const TimePoint end = clock().now();
@@ -449,9 +471,10 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   latency_.estimate(measured, measured_at, t, now_);
   // Update the problem in place: state, last applied input, reference window.
   prediction_state_.head(6 + modules_) = now_;
-  if (wheel_speeds_.size() > 0) {
-    estimate_wheel_speeds(now_, t);
-    prediction_state_.tail(modules_) = wheel_speeds_;
+  if (wheel_speeds_.size() > 0 || steering_rates_.size() > 0) {
+    estimate_actuators(now_, t);
+    prediction_state_.segment(6 + modules_, wheel_speeds_.size()) = wheel_speeds_;
+    prediction_state_.tail(steering_rates_.size()) = steering_rates_;
   }
   problem_->set_initial_state(prediction_state_);
   if (!previous_input_known_) assume_previous_input(now_);

@@ -26,6 +26,9 @@ VehiclePredictionModel::Data::Impl& VehiclePredictionModel::scratch(PredictionDa
   return *static_cast<Data*>(data)->impl_;
 }
 
+int VehiclePredictionModel::wheel_speed_states() const noexcept { return values_->wheel_speed_states(); }
+int VehiclePredictionModel::steering_rate_states() const noexcept { return values_->steering_rate_states(); }
+
 long VehiclePredictionModel::model_evaluations() const noexcept { return model_evaluations(*data_); }
 
 long VehiclePredictionModel::model_evaluations(const PredictionData& data) noexcept {

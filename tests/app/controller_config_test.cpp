@@ -77,10 +77,13 @@ TEST(ControllerConfig, ReadsTheTrackingToleranceAndTheGeometryHeadingWeight) {
   EXPECT_FALSE(load("").mpc.tracking_tolerance.enabled());
 }
 
-TEST(ControllerConfig, ReadsTheDriveLagSwitchOfThePrediction) {
+TEST(ControllerConfig, ReadsTheDriveAndSteeringLagSwitchesOfThePrediction) {
   EXPECT_TRUE(load("  prediction: {drive_lag: true}\n").mpc.prediction.drive_lag);
   EXPECT_FALSE(load("").mpc.prediction.drive_lag);
   expect_rejected("  prediction: {drive_lag: sometimes}\n", "controller.prediction.drive_lag");
+  EXPECT_TRUE(load("  prediction: {steering_lag: true}\n").mpc.prediction.steering_lag);
+  EXPECT_FALSE(load("").mpc.prediction.steering_lag);
+  expect_rejected("  prediction: {steering_lag: 2}\n", "controller.prediction.steering_lag");
 }
 
 TEST(ControllerConfig, ReadsTheWearReferenceMassAndRejectsABadOne) {

@@ -808,8 +808,10 @@ TEST(Controller, StepAllocatesNothingAfterTheFirstCycles) {
     for (int k = 0; k < 3; ++k, t += options.dt) {
       EXPECT_TRUE(plant.step(controller.step(state, t).modules, &state, nullptr));
     }
+    const bool lag = params.plant.actuator_lag;
     EXPECT_EQ(controller.problem().state_size(),
-              6 + params.layout.size() * (options.prediction.drive_lag && params.plant.actuator_lag ? 2 : 1));
+              6 + params.layout.size() * (1 + (options.prediction.drive_lag && lag ? 1 : 0) +
+                                          (options.prediction.steering_lag && lag ? 1 : 0)));
     return allocations_over_cycles(controller, plant, options.dt, &state, &t);
   };
   VehicleParams params = small_robot();
@@ -822,6 +824,8 @@ TEST(Controller, StepAllocatesNothingAfterTheFirstCycles) {
   params.plant.actuator_lag = true;
   ControllerOptions options = closed_loop_options(1.0, InputParameterization::kBodyTwist);
   options.prediction.drive_lag = true;
+  EXPECT_EQ(allocations_after_warm_up(params, options), 0);
+  options.prediction.steering_lag = true;  // and the steering rates
   EXPECT_EQ(allocations_after_warm_up(params, options), 0);
 }
 
@@ -1225,6 +1229,51 @@ TEST(Controller, WithDriveLagThePredictionStartsFromTheWheelSpeedsItsCommandsHav
   controller.reset();
   controller.step(state, 12 * options.dt);
   for (int i = 0; i < 4; ++i) EXPECT_NEAR(wheel_state(i), 5.0, 1e-12) << "module " << i;
+}
+
+TEST(Controller, WithSteeringLagThePredictionStartsFromTheSteeringRatesItsCommandsHaveReached) {
+  // The plant's steering drives lag (tau 50 ms, no clamp). With drive_lag and steering_lag the
+  // prediction's state is (pose, twist, angles, wheel speeds, steering rates); the steering rates
+  // start at rest and then follow the rates sent, e^-t/tau of the way short, over the time passed.
+  VehicleParams vehicle = small_robot();
+  vehicle.plant.actuator_lag = true;
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.prediction.drive_lag = true;
+  options.prediction.steering_lag = true;
+  Controller controller(vehicle, testing::line_reference(0.5), options,
+                        [&script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, &script); });
+  controller.set_clock(script.clock);
+  ASSERT_EQ(controller.problem().state_size(), 6 + 3 * 4);
+  const auto rate_state = [&controller](int i) { return controller.problem().initial_state()[14 + i]; };
+  const double tau = vehicle.actuators.steering_time_constant;
+  // Cruising with the modules turned 0.1 rad off the way they go: the plan's twist steers them back.
+  Eigen::VectorXd state = cruising();
+  for (int i = 0; i < 4; ++i) state[StateIndex::steering(i)] = 0.1;
+  const ControlOutput& first = controller.step(state, 0.0);
+  ASSERT_EQ(first.source, CommandSource::kOptimizer) << reason_of(first);
+  double sent[4], reached[4];
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(rate_state(i), 0.0) << "module " << i;
+    sent[i] = first.modules[i].steering_rate;
+    ASSERT_GT(std::abs(sent[i]), 1e-3) << "module " << i;  // the scripted plan steers
+  }
+  const ControlOutput& second = controller.step(state, options.dt);
+  for (int i = 0; i < 4; ++i) {
+    reached[i] = sent[i] * (1.0 - std::exp(-options.dt / tau));
+    EXPECT_NEAR(rate_state(i), reached[i], 1e-12) << "module " << i;
+    sent[i] = second.modules[i].steering_rate;
+  }
+  // Two periods on: from where the rate had got to, towards the newer command.
+  controller.step(state, 3 * options.dt);
+  for (int i = 0; i < 4; ++i) {
+    const double decay = std::exp(-2.0 * options.dt / tau);
+    EXPECT_NEAR(rate_state(i), sent[i] + (reached[i] - sent[i]) * decay, 1e-12) << "module " << i;
+  }
+  // A reset restarts from rest.
+  controller.reset();
+  controller.step(state, 4 * options.dt);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(rate_state(i), 0.0) << "module " << i;
 }
 
 TEST(Controller, TheHeadingWeightFromGeometryIsThePositionWeightTimesTheOutermostModuleRadiusSquared) {

@@ -167,6 +167,28 @@ TEST_F(PredictionJacobians, MatchWithTheWheelSpeedsAsLaggedStates) {
   }
 }
 
+TEST_F(PredictionJacobians, MatchWithTheWheelSpeedsAndSteeringRatesAsLaggedStates) {
+  // drive_lag and steering_lag: x[10..13] the wheel speeds, x[14..17] the steering rates, each
+  // followed through its lag substep by substep (five under 0.25 m/s, one above).
+  PredictionOptions options;
+  options.drive_lag = true;
+  options.steering_lag = true;
+  const TwistPredictionModel lagged(params, options);
+  ASSERT_EQ(lagged.state_size(), StateIndex::prefix_size(4) + 8);
+  for (int trial = 0; trial < 4; ++trial) {
+    const double speed = trial < 2 ? uniform(0.3, 0.8) : uniform(0.05, 0.2);
+    const Eigen::Vector3d twist(speed, uniform(-0.1, 0.1), uniform(-0.2, 0.2));
+    Eigen::VectorXd x(lagged.state_size());
+    x << moving_state(params, twist, uniform(0.0, 0.05), uniform(-3.0, 3.0)), Eigen::VectorXd::Zero(8);
+    for (int i = 0; i < 4; ++i) {
+      x[StateIndex::prefix_size(4) + i] = twist.x() / 0.1 + uniform(-1.0, 1.0);
+      x[StateIndex::prefix_size(4) + 4 + i] = uniform(-1.0, 1.0);
+    }
+    const Eigen::Vector3d command = twist + Eigen::Vector3d(uniform(-0.05, 0.05), uniform(-0.05, 0.05), uniform(-0.1, 0.1));
+    expect_jacobians_match(lagged, x, command, 1e-5, trial < 2 ? "twist, lagged actuators" : "twist, lagged actuators, slow");
+  }
+}
+
 TEST_F(PredictionJacobians, RejectWrongSizesAndNonFiniteInput) {
   const int nx = twist_model.state_size();
   Eigen::VectorXd x = moving_state(params, Eigen::Vector3d(0.5, 0.0, 0.0), 0.0, 0.0), x_next(nx), gradient(nx + 3);

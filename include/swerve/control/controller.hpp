@@ -135,9 +135,10 @@ class Controller final : public TrackingController {
   void assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   // rad/s: module `module`'s wheel rolling with the measured body twist at its measured angle.
   double rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept;
-  // The drives' wheel speeds at t (prediction with drive_lag): the commands sent last cycle followed
-  // through the drive lag since then, or rolling with the body when there were none.
-  void estimate_wheel_speeds(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept;
+  // The drives' wheel speeds (prediction with drive_lag) and steering rates (steering_lag) at t: the
+  // commands sent last cycle followed through the lags since then, or rolling with the body and the
+  // steering at rest when there were none.
+  void estimate_actuators(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept;
   void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                            const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
@@ -182,13 +183,16 @@ class Controller final : public TrackingController {
   Eigen::VectorXd baseline_stage_costs_;  // N
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
-  Eigen::VectorXd prediction_state_; // nx: now_, then (drive_lag) the estimated wheel speeds
+  Eigen::VectorXd prediction_state_; // nx: now_, then the estimated wheel speeds and steering rates
   Eigen::VectorXd wheel_speeds_;     // n (empty without drive_lag): estimated at this step's t
   Eigen::VectorXd sent_wheel_speeds_;  // n: the wheel speeds commanded last cycle
+  Eigen::VectorXd steering_rates_;   // n (empty without steering_lag): estimated at this step's t
+  Eigen::VectorXd sent_steering_rates_;  // n: the steering rates commanded last cycle
   double drive_time_constant_ = 0.0;  // s: the drives' lag (drive_lag)
+  double steering_time_constant_ = 0.0;  // s: the steering drives' lag (steering_lag)
   double max_wheel_acceleration_ = std::numeric_limits<double>::infinity();  // rad/s^2: their clamp
   double wheel_speeds_time_ = 0.0;   // s: the t wheel_speeds_ were estimated for
-  bool wheel_speeds_known_ = false;  // whether wheel_speeds_ continues from commands of ours
+  bool wheel_speeds_known_ = false;  // whether the actuator estimates continue from commands of ours
   bool wheel_speeds_estimated_ = false;  // this step estimated them (else the chain restarts)
   double overshoot_s_ = 0.0;         // decaying maximum of step end - solver deadline (s)
   TimePoint solve_deadline_{};       // this step's, when a solve ran

@@ -1,7 +1,7 @@
 // The prediction's discrete dynamics, for any scalar type: double for the optimiser's rollouts,
 // ceres::Jet for their exact Jacobians. SemiImplicitStep<T> advances the vehicle model with ideal
-// actuators (optionally the drives' lag, PredictionOptions::drive_lag) over one controller step and
-// returns its stage wear; ocp/vehicle_prediction_model.hpp wraps it as the MPC's PredictionModel and
+// actuators (optionally with the drives' and the steering drives' lags: PredictionOptions::drive_lag
+// and steering_lag) over one controller step and returns its stage wear; ocp/vehicle_prediction_model.hpp wraps it as the MPC's PredictionModel and
 // says why each part is there. Branches (the 180 deg flip, clamps, the slow-motion substeps) are
 // chosen on the values, so the Jet evaluation differentiates the branch the double evaluation takes.
 //
@@ -45,6 +45,10 @@ struct PredictionOptions {
   // (when the vehicle's plant has one: plant.actuator_lag), so the state is (pose, twist, steering
   // angles, wheel speeds). Off: the drives reach their commands at once.
   bool drive_lag = false;
+  // The steering rates as states that follow their commands through the steering drives' lag (when
+  // the plant has one), appended after the wheel speeds. Off: each module steers at its commanded
+  // rate at once.
+  bool steering_lag = false;
   void validate() const;         // throws ConfigError
 };
 
@@ -219,6 +223,9 @@ class SemiImplicitStep {
     // With options.drive_lag the wheel speeds are states of the prediction (see step()).
     lag_states_ = options.drive_lag && drive_lag_ > 0.0 ? modules_ : 0;
     drive_response_.time_constant = drive_lag_;
+    const double steering_lag = params.plant.actuator_lag ? params.actuators.steering_time_constant : 0.0;
+    steering_lag_states_ = options.steering_lag && steering_lag > 0.0 ? modules_ : 0;
+    steering_response_.time_constant = steering_lag;
     if (params.plant.actuator_saturation) {
       drive_response_.max_acceleration = params.layout.limits().max_drive_acceleration / params.layout.wheel_radius();
     }
@@ -259,9 +266,20 @@ class SemiImplicitStep {
       split_states.assign(kMaxSplits, Vector::Zero(nx));
       wheel_states = ModuleStates(step.modules_);
       wheel_speeds_next = Vector::Zero(step.lag_states_);
+      wheel_commands = Vector::Zero(step.lag_states_);
+      wheel_speeds_now = Vector::Zero(step.lag_states_);
+      wheel_speeds_mean = Vector::Zero(step.lag_states_);
+      steering_commands = Vector::Zero(step.steering_lag_states_);
+      steering_rates_now = Vector::Zero(step.steering_lag_states_);
+      steering_rates_end = Vector::Zero(step.steering_lag_states_);
     }
     Vector u_applied, trial_state, state_dot, substep_state, seeded_state, constant_inputs;
     Vector wheel_speeds_next;  // drive lag: the wheel speeds at the end of the step
+    // Drive lag: each wheel's command, its speed at the current substep's start, and its mean over
+    // the substep.
+    Vector wheel_commands, wheel_speeds_now, wheel_speeds_mean;
+    // Steering lag: each module's commanded rate, its rate at the current substep's start and end.
+    Vector steering_commands, steering_rates_now, steering_rates_end;
     Eigen::VectorXd state_values, input_values;
     std::vector<ModuleDiagnostics<T>> diagnostics;
     bool replay = false;  // see begin_chunk
@@ -277,8 +295,10 @@ class SemiImplicitStep {
 
   const VehicleModel<T>& model() const noexcept { return model_; }
   // The prediction's state: the model's (pose, twist, steering angles), then with drive_lag the n
-  // wheel speeds (rad/s).
-  int state_size() const noexcept { return model_.state_size() + lag_states_; }
+  // wheel speeds (rad/s), then with steering_lag the n steering rates (rad/s).
+  int state_size() const noexcept { return model_.state_size() + lag_states_ + steering_lag_states_; }
+  int wheel_speed_states() const noexcept { return lag_states_; }
+  int steering_rate_states() const noexcept { return steering_lag_states_; }
   // Evaluations of the vehicle model's derivative in double by the semi-implicit steps so far.
   static long model_evaluations(const Data& d) noexcept { return BodyTwistSolver::evaluations(d.twist); }
 
@@ -292,8 +312,11 @@ class SemiImplicitStep {
   //
   // Drive lag (PredictionOptions::drive_lag): wheel i starts the step at its state x[6 + n + i]
   // and follows its command through the drive's first-order lag and acceleration clamp, as the
-  // plant's drive does (drive_response). The step runs on the wheel's mean speed over dt, and the
-  // state moves on to its speed at the end. Without it the wheels
+  // plant's drive does (drive_response). Each implicit substep runs on the wheel's speed at its end
+  // and charges the drive's work at its mean speed (see semi_implicit_substep); the state moves on
+  // to the speed at the step's end. Steering lag (PredictionOptions::steering_lag) likewise: the
+  // steering rates are states after the wheel speeds, and each substep's angle advances by the
+  // rate's mean over it. Without drive lag the wheels
   // reach their commands at once, and the prediction missed the wear of modules whose lagging
   // wheels fight one another while the body turns: on the 8-module carrier's hard start the
   // plant wore 172 and 235 J in two half-second windows where the prediction, from the same states
@@ -313,10 +336,20 @@ class SemiImplicitStep {
       T& rate = d.u_applied[InputIndex::steering_rate(i)];
       rate = clamp_by_value<T>(rate, (limits.min_steering_angle - angle) / dt, (limits.max_steering_angle - angle) / dt);
     }
+    // With lagged actuators the inputs applied over the whole step are the mean rates and speeds
+    // (RK4, and the slow-motion test below); the semi-implicit substeps follow them substep by
+    // substep from the states below.
     for (int i = 0; i < lag_states_; ++i) {
       T& wheel = d.u_applied[InputIndex::wheel_speed(i)];
-      const T command = wheel;
-      drive_response<T>(x_full[model_size + i], command, drive_response_, dt, &d.wheel_speeds_next[i], &wheel);
+      d.wheel_commands[i] = wheel;
+      d.wheel_speeds_now[i] = x_full[model_size + i];
+      drive_response<T>(d.wheel_speeds_now[i], d.wheel_commands[i], drive_response_, dt, &d.wheel_speeds_next[i], &wheel);
+    }
+    for (int i = 0; i < steering_lag_states_; ++i) {
+      T& rate = d.u_applied[InputIndex::steering_rate(i)];
+      d.steering_commands[i] = rate;
+      d.steering_rates_now[i] = x_full[model_size + lag_states_ + i];
+      drive_response<T>(d.steering_rates_now[i], d.steering_commands[i], steering_response_, dt, &d.steering_rates_end[i], &rate);
     }
     T wear(0.0);
     bool ok = true;
@@ -338,8 +371,11 @@ class SemiImplicitStep {
         ok = semi_implicit_substep(d, d.substep_state, h, x_next, &wear, 0);
         d.substep_state = x_next;
       }
+      d.wheel_speeds_next = d.wheel_speeds_now;
+      d.steering_rates_end = d.steering_rates_now;
     }
-    if (lag_states_ > 0) x_next_full.tail(lag_states_) = d.wheel_speeds_next;
+    x_next_full.segment(model_size, lag_states_) = d.wheel_speeds_next;
+    x_next_full.segment(model_size + lag_states_, steering_lag_states_) = d.steering_rates_end;
     if (stage_wear != nullptr) *stage_wear = wear;
     return ok && std::isfinite(scalar_value(wear));
   }
@@ -438,10 +474,29 @@ class SemiImplicitStep {
                              int depth) const noexcept {
     const auto slot = static_cast<std::size_t>(d.substep_index++);
     if (slot >= d.split.size()) return false;
+    // Lagged drives: the implicit step runs on each wheel's speed at the substep's end (a velocity
+    // source ramping at a leads the body by a tau_t there, as in the plant; the mean speed left the
+    // body a h / 2 further behind and priced a ramp's rollout 1.4-3x the plant's), and the drives'
+    // work below on its mean (the integral of force times speed).
+    for (int i = 0; i < lag_states_; ++i) {
+      drive_response<T>(d.wheel_speeds_now[i], d.wheel_commands[i], drive_response_, h,
+                        &d.u_applied[InputIndex::wheel_speed(i)], &d.wheel_speeds_mean[i]);
+    }
+    // Lagged steering: the angle advances by the rate's mean over the substep.
+    for (int i = 0; i < steering_lag_states_; ++i) {
+      drive_response<T>(d.steering_rates_now[i], d.steering_commands[i], steering_response_, h, &d.steering_rates_end[i],
+                        &d.u_applied[InputIndex::steering_rate(i)]);
+    }
     // Steering advances explicitly under the (already end-stop-clipped) rate.
+    const ModuleLimits& limits = layout_.limits();
     d.trial_state = x;
     for (int i = 0; i < modules_; ++i) {
-      d.trial_state[StateIndex::steering(i)] = x[StateIndex::steering(i)] + h * d.u_applied[InputIndex::steering_rate(i)];
+      T& rate = d.u_applied[InputIndex::steering_rate(i)];
+      const T& angle = x[StateIndex::steering(i)];
+      if (steering_lag_states_ > 0 && limits.has_steering_end_stops()) {
+        rate = clamp_by_value<T>(rate, (limits.min_steering_angle - angle) / h, (limits.max_steering_angle - angle) / h);
+      }
+      d.trial_state[StateIndex::steering(i)] = angle + h * rate;
     }
     const Vector3 v0 = x.template segment<3>(StateIndex::kVx);
     Vector3 v;
@@ -466,6 +521,8 @@ class SemiImplicitStep {
              semi_implicit_substep(d, middle, 0.5 * h, x_next, wear, depth + 1);
     }
     d.trial_state.template segment<3>(StateIndex::kVx) = v;
+    for (int i = 0; i < lag_states_; ++i) d.wheel_speeds_now[i] = d.u_applied[InputIndex::wheel_speed(i)];
+    for (int i = 0; i < steering_lag_states_; ++i) d.steering_rates_now[i] = d.steering_rates_end[i];
     T wear_rate(0.0);
     if constexpr (std::is_same_v<T, double>) {
       // The solver's last evaluation was at v+: its forces and wear rate are the step's.
@@ -482,7 +539,7 @@ class SemiImplicitStep {
       T drive_work(0.0);
       for (int i = 0; i < modules_; ++i) {
         drive_work += h * d.diagnostics[static_cast<std::size_t>(i)].fx_wheel * wheel_radius_ *
-                      d.u_applied[InputIndex::wheel_speed(i)];
+                      (lag_states_ > 0 ? d.wheel_speeds_mean[i] : d.u_applied[InputIndex::wheel_speed(i)]);
       }
       const T dissipated = drive_work - (kinetic_energy(v) - kinetic_energy(v0));
       step_wear = lagged_wear(step_wear, wear_coefficient_ * positive_part(dissipated), v0);
@@ -538,7 +595,9 @@ class SemiImplicitStep {
   double wheel_radius_ = 0.0, wear_coefficient_ = 0.0;
   double drive_lag_ = 0.0, mass_ = 0.0, slip_speed_epsilon_ = 0.0, slip_stiffness_sum_ = 0.0;
   int lag_states_ = 0;  // n with PredictionOptions::drive_lag on a plant with drive lag, else 0
+  int steering_lag_states_ = 0;  // n with PredictionOptions::steering_lag on a plant with steering lag
   DriveLag drive_response_;
+  DriveLag steering_response_;  // no acceleration clamp: the plant's steering rate has none
 };
 
 }  // namespace swerve

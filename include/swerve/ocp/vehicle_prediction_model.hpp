@@ -119,6 +119,10 @@ class VehiclePredictionModel final : public PredictionModel {
   long model_evaluations() const noexcept;
   static long model_evaluations(const PredictionData& data) noexcept;  // `data`: a Data
   const PredictionOptions& options() const noexcept { return options_; }
+  // The state's lagged actuators (see SemiImplicitStep::state_size): n wheel speeds from index
+  // 6 + n with drive_lag on a plant whose drives lag, else none; then n steering rates likewise.
+  int wheel_speed_states() const noexcept;
+  int steering_rate_states() const noexcept;
 
  private:
   PredictionOptions options_;
