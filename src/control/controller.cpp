@@ -246,7 +246,8 @@ void Controller::estimate_actuators(const Eigen::Ref<const Eigen::VectorXd>& mea
     }
     const DriveLag steering_lag{steering_time_constant_, std::numeric_limits<double>::infinity()};
     for (Eigen::Index i = 0; i < steering_rates_.size(); ++i) {
-      drive_response(steering_rates_[i], sent_steering_rates_[i], steering_lag, elapsed, &steering_rates_[i], &mean);
+      drive_response(steering_rates_[i], sent_steering_rates_[i], steering_lag, elapsed, &steering_rates_[i],
+                     &mean);
     }
   } else {
     // No commands of ours to follow (start, reset, a rejected or stale measurement, time that went

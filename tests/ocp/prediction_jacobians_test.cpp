@@ -184,8 +184,10 @@ TEST_F(PredictionJacobians, MatchWithTheWheelSpeedsAndSteeringRatesAsLaggedState
       x[StateIndex::prefix_size(4) + i] = twist.x() / 0.1 + uniform(-1.0, 1.0);
       x[StateIndex::prefix_size(4) + 4 + i] = uniform(-1.0, 1.0);
     }
-    const Eigen::Vector3d command = twist + Eigen::Vector3d(uniform(-0.05, 0.05), uniform(-0.05, 0.05), uniform(-0.1, 0.1));
-    expect_jacobians_match(lagged, x, command, 1e-5, trial < 2 ? "twist, lagged actuators" : "twist, lagged actuators, slow");
+    const Eigen::Vector3d command =
+        twist + Eigen::Vector3d(uniform(-0.05, 0.05), uniform(-0.05, 0.05), uniform(-0.1, 0.1));
+    expect_jacobians_match(lagged, x, command, 1e-5,
+                           trial < 2 ? "twist, lagged actuators" : "twist, lagged actuators, slow");
   }
 }
 

@@ -275,7 +275,8 @@ TEST(VehiclePredictionModel, WithDriveLagARampsWearOverAHorizonStaysNearThePlant
     ASSERT_TRUE(plant.advance(commands));
   }
   const double worn = std::accumulate(plant.module_wear().begin(), plant.module_wear().end(), 0.0);
-  std::printf("[          ] 1 s ramp: predicted %.5f J, plant %.5f J (%.2fx)\n", predicted, worn, predicted / worn);
+  std::printf("[          ] 1 s ramp: predicted %.5f J, plant %.5f J (%.2fx)\n", predicted, worn,
+              predicted / worn);
   EXPECT_GT(worn, 0.0);
   EXPECT_NEAR(predicted, worn, 0.15 * worn);
   // The rollout's body speed follows the plant's: 1 m/s less the lags.
@@ -304,8 +305,8 @@ TEST(VehiclePredictionModel, WithSteeringLagTheAnglesAdvanceByTheLaggedRatesMean
   const double decay = std::exp(-h / tau);
   for (int i = 0; i < 4; ++i) {
     const double r0 = x[10 + i], c = commands[i];
-    EXPECT_NEAR(x_next[StateIndex::steering(i)] - x[StateIndex::steering(i)], c * h + (r0 - c) * tau * (1.0 - decay),
-                1e-12)
+    EXPECT_NEAR(x_next[StateIndex::steering(i)] - x[StateIndex::steering(i)],
+                c * h + (r0 - c) * tau * (1.0 - decay), 1e-12)
         << "module " << i;
     EXPECT_NEAR(x_next[10 + i], c + (r0 - c) * decay, 1e-12) << "module " << i;
   }
@@ -360,12 +361,14 @@ TEST(VehiclePredictionModel, WithSteeringLagASteeringSwingAtWalkingPaceCostsWhat
     ASSERT_TRUE(plant.advance(commands));
   }
   const double worn = std::accumulate(plant.module_wear().begin(), plant.module_wear().end(), 0.0);
-  std::printf("[          ] steering swing at 0.15 m/s: plant %.6f J, lagged steering %.6f J (%.2fx), "
-              "instant steering %.6f J (%.2fx)\n",
-              worn, lagged_wear, lagged_wear / worn, instant_wear, instant_wear / worn);
+  std::printf(
+      "[          ] steering swing at 0.15 m/s: plant %.6f J, lagged steering %.6f J (%.2fx), "
+      "instant steering %.6f J (%.2fx)\n",
+      worn, lagged_wear, lagged_wear / worn, instant_wear, instant_wear / worn);
   EXPECT_NEAR(lagged_wear, worn, 0.3 * worn);
   for (int i = 0; i < 4; ++i) {
-    EXPECT_NEAR(x_lagged[StateIndex::steering(i)], plant.state()[StateIndex::steering(i)], 1e-3) << "module " << i;
+    EXPECT_NEAR(x_lagged[StateIndex::steering(i)], plant.state()[StateIndex::steering(i)], 1e-3)
+        << "module " << i;
   }
 }
 

@@ -183,10 +183,10 @@ class Controller final : public TrackingController {
   Eigen::VectorXd baseline_stage_costs_;  // N
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
-  Eigen::VectorXd prediction_state_; // nx: now_, then the estimated wheel speeds and steering rates
+  Eigen::VectorXd prediction_state_;  // nx: now_, then the estimated wheel speeds and steering rates
   Eigen::VectorXd wheel_speeds_;     // n (empty without drive_lag): estimated at this step's t
   Eigen::VectorXd sent_wheel_speeds_;  // n: the wheel speeds commanded last cycle
-  Eigen::VectorXd steering_rates_;   // n (empty without steering_lag): estimated at this step's t
+  Eigen::VectorXd steering_rates_;     // n (empty without steering_lag): estimated at this step's t
   Eigen::VectorXd sent_steering_rates_;  // n: the steering rates commanded last cycle
   double drive_time_constant_ = 0.0;  // s: the drives' lag (drive_lag)
   double steering_time_constant_ = 0.0;  // s: the steering drives' lag (steering_lag)

@@ -1,9 +1,10 @@
 // The prediction's discrete dynamics, for any scalar type: double for the optimiser's rollouts,
 // ceres::Jet for their exact Jacobians. SemiImplicitStep<T> advances the vehicle model with ideal
 // actuators (optionally with the drives' and the steering drives' lags: PredictionOptions::drive_lag
-// and steering_lag) over one controller step and returns its stage wear; ocp/vehicle_prediction_model.hpp wraps it as the MPC's PredictionModel and
-// says why each part is there. Branches (the 180 deg flip, clamps, the slow-motion substeps) are
-// chosen on the values, so the Jet evaluation differentiates the branch the double evaluation takes.
+// and steering_lag) over one controller step and returns its stage wear;
+// ocp/vehicle_prediction_model.hpp wraps it as the MPC's PredictionModel and says why each part is
+// there. Branches (the 180 deg flip, clamps, the slow-motion substeps) are chosen on the values, so
+// the Jet evaluation differentiates the branch the double evaluation takes.
 //
 // The backward-Euler body twist v+ solves G(v+, p) = v+ - v0 - h a(v+, p) = 0 (p: state and
 // inputs). Newton's method finds its value in double (BodyTwistSolver); its derivatives follow from
@@ -343,13 +344,15 @@ class SemiImplicitStep {
       T& wheel = d.u_applied[InputIndex::wheel_speed(i)];
       d.wheel_commands[i] = wheel;
       d.wheel_speeds_now[i] = x_full[model_size + i];
-      drive_response<T>(d.wheel_speeds_now[i], d.wheel_commands[i], drive_response_, dt, &d.wheel_speeds_next[i], &wheel);
+      drive_response<T>(d.wheel_speeds_now[i], d.wheel_commands[i], drive_response_, dt,
+                        &d.wheel_speeds_next[i], &wheel);
     }
     for (int i = 0; i < steering_lag_states_; ++i) {
       T& rate = d.u_applied[InputIndex::steering_rate(i)];
       d.steering_commands[i] = rate;
       d.steering_rates_now[i] = x_full[model_size + lag_states_ + i];
-      drive_response<T>(d.steering_rates_now[i], d.steering_commands[i], steering_response_, dt, &d.steering_rates_end[i], &rate);
+      drive_response<T>(d.steering_rates_now[i], d.steering_commands[i], steering_response_, dt,
+                        &d.steering_rates_end[i], &rate);
     }
     T wear(0.0);
     bool ok = true;
@@ -484,8 +487,8 @@ class SemiImplicitStep {
     }
     // Lagged steering: the angle advances by the rate's mean over the substep.
     for (int i = 0; i < steering_lag_states_; ++i) {
-      drive_response<T>(d.steering_rates_now[i], d.steering_commands[i], steering_response_, h, &d.steering_rates_end[i],
-                        &d.u_applied[InputIndex::steering_rate(i)]);
+      drive_response<T>(d.steering_rates_now[i], d.steering_commands[i], steering_response_, h,
+                        &d.steering_rates_end[i], &d.u_applied[InputIndex::steering_rate(i)]);
     }
     // Steering advances explicitly under the (already end-stop-clipped) rate.
     const ModuleLimits& limits = layout_.limits();
@@ -494,7 +497,8 @@ class SemiImplicitStep {
       T& rate = d.u_applied[InputIndex::steering_rate(i)];
       const T& angle = x[StateIndex::steering(i)];
       if (steering_lag_states_ > 0 && limits.has_steering_end_stops()) {
-        rate = clamp_by_value<T>(rate, (limits.min_steering_angle - angle) / h, (limits.max_steering_angle - angle) / h);
+        rate = clamp_by_value<T>(rate, (limits.min_steering_angle - angle) / h,
+                                 (limits.max_steering_angle - angle) / h);
       }
       d.trial_state[StateIndex::steering(i)] = angle + h * rate;
     }
