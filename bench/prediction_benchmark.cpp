@@ -2,7 +2,9 @@
 // N = 20 rollouts of the twist-parameterised prediction (TwistPredictionModel's step) per second,
 // for 4, 8, 10 and 16 modules, and the vehicle-model evaluations each stage costs. Two motions:
 // cruise (0.8 m/s along an arc, the annealer's proposals as small twist perturbations around it)
-// and start (from rest towards 0.5 m/s, where the slow-motion substeps apply).
+// and start (from rest towards 0.5 m/s, where the slow-motion substeps apply). lags:1 is the
+// shipped default's prediction (drive_lag and steering_lag: the wheel speeds and steering rates as
+// lagged states, rolling and at rest at the start); lags:0 the actuators that follow at once.
 #include <benchmark/benchmark.h>
 
 #include <array>
@@ -26,10 +28,17 @@ struct RolloutCase {
   Eigen::VectorXd start, x, x_next;
   std::vector<std::array<Eigen::Vector3d, kHorizon>> proposals;
 
-  RolloutCase(int modules, bool from_rest)
+  static PredictionOptions options(bool lags) {
+    PredictionOptions options;
+    options.drive_lag = lags;
+    options.steering_lag = lags;
+    return options;
+  }
+
+  RolloutCase(int modules, bool from_rest, bool lags)
       : params(testing::make_params(
             ModuleLayout::multi_axle(modules / 2, 0.6, 0.5, 0.1, ModuleLimits{2.0, 2.0, 3.0, -kPi, kPi}))),
-        model(params) {
+        model(params, options(lags)) {
     const int nx = model.state_size();
     start = Eigen::VectorXd::Zero(nx);
     const Eigen::Vector3d cruise(0.8, 0.0, 0.8 / 3.0);
@@ -38,6 +47,10 @@ struct RolloutCase {
       for (int i = 0; i < modules; ++i) {
         const Eigen::Vector2d& p = params.layout.position_body(i);
         start[StateIndex::steering(i)] = std::atan2(cruise.y() + cruise.z() * p.x(), cruise.x() - cruise.z() * p.y());
+        if (model.wheel_speed_states() > 0) {  // rolling
+          const Eigen::Vector2d v = point_velocity<double>(cruise, p);
+          start[StateIndex::prefix_size(modules) + i] = v.norm() / params.layout.wheel_radius();
+        }
       }
     }
     x = x_next = start;
@@ -70,7 +83,7 @@ struct RolloutCase {
 };
 
 void BM_Prediction_Rollout(benchmark::State& state) {
-  RolloutCase rollout_case(static_cast<int>(state.range(0)), state.range(1) != 0);
+  RolloutCase rollout_case(static_cast<int>(state.range(0)), state.range(1) != 0, state.range(2) != 0);
   const long evaluations_before = rollout_case.model.model_evaluations();
   long rollouts = 0;
   double wear = 0.0;
@@ -89,8 +102,8 @@ void BM_Prediction_Rollout(benchmark::State& state) {
                    : 0.0;
 }
 BENCHMARK(BM_Prediction_Rollout)
-    ->ArgsProduct({{4, 8, 10, 16}, {0, 1}})
-    ->ArgNames({"modules", "from_rest"})
+    ->ArgsProduct({{4, 8, 10, 16}, {0, 1}, {0, 1}})
+    ->ArgNames({"modules", "from_rest", "lags"})
     ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
