@@ -125,8 +125,9 @@ ControllerOptions fast_options(InputParameterization parameterization = InputPar
   return options;
 }
 
-Controller make_fake_controller(FakeScript* script, ControllerOptions options = fast_options()) {
-  Controller controller(small_robot(), testing::line_reference(0.5), options,
+Controller make_fake_controller(FakeScript* script, ControllerOptions options = fast_options(),
+                                const VehicleParams& vehicle = small_robot()) {
+  Controller controller(vehicle, testing::line_reference(0.5), options,
                         [script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, script); });
   controller.set_clock(script->clock);
   return controller;
@@ -1184,9 +1185,7 @@ TEST(Controller, WithDriveLagThePredictionStartsFromTheWheelSpeedsItsCommandsHav
   FakeScript script;
   ControllerOptions options = fast_options();
   options.prediction.drive_lag = true;
-  Controller controller(vehicle, testing::line_reference(0.5), options,
-                        [&script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, &script); });
-  controller.set_clock(script.clock);
+  Controller controller = make_fake_controller(&script, options, vehicle);
   ASSERT_EQ(controller.problem().state_size(), 6 + 2 * 4);
   const auto wheel_state = [&controller](int i) { return controller.problem().initial_state()[10 + i]; };
   const double alpha = vehicle.layout.limits().max_drive_acceleration / vehicle.layout.wheel_radius();
@@ -1241,9 +1240,7 @@ TEST(Controller, WithSteeringLagThePredictionStartsFromTheSteeringRatesItsComman
   ControllerOptions options = fast_options();
   options.prediction.drive_lag = true;
   options.prediction.steering_lag = true;
-  Controller controller(vehicle, testing::line_reference(0.5), options,
-                        [&script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, &script); });
-  controller.set_clock(script.clock);
+  Controller controller = make_fake_controller(&script, options, vehicle);
   ASSERT_EQ(controller.problem().state_size(), 6 + 3 * 4);
   const auto rate_state = [&controller](int i) { return controller.problem().initial_state()[14 + i]; };
   const double tau = vehicle.actuators.steering_time_constant;
