@@ -210,7 +210,7 @@ void Controller::reset() noexcept {
   applied_input_.setZero();
   applied_decision_.setZero();
   previous_input_known_ = false;
-  wheel_speeds_known_ = false;
+  actuators_known_ = false;
   baseline_.reset();
   monitor_.reset();
   latency_.reset();
@@ -236,9 +236,9 @@ double Controller::rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& 
 }
 
 void Controller::estimate_actuators(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {
-  const double elapsed = t - wheel_speeds_time_;
+  const double elapsed = t - actuators_time_;
   double mean = 0.0;
-  if (wheel_speeds_known_ && elapsed > 0.0 && elapsed <= 4.0 * options_.dt) {
+  if (actuators_known_ && elapsed > 0.0 && elapsed <= 4.0 * options_.dt) {
     // The time since the last commands were sent, through the drives' lag and clamp.
     const DriveLag lag{drive_time_constant_, max_wheel_acceleration_};
     for (Eigen::Index i = 0; i < wheel_speeds_.size(); ++i) {
@@ -257,8 +257,8 @@ void Controller::estimate_actuators(const Eigen::Ref<const Eigen::VectorXd>& mea
     }
     steering_rates_.setZero();
   }
-  wheel_speeds_time_ = t;
-  wheel_speeds_estimated_ = true;
+  actuators_time_ = t;
+  actuators_estimated_ = true;
 }
 
 void Controller::assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
@@ -408,7 +408,7 @@ const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
     for (Eigen::Index i = 0; i < steering_rates_.size(); ++i) {
       sent_steering_rates_[i] = output_.modules[static_cast<int>(i)].steering_rate;
     }
-    wheel_speeds_known_ = wheel_speeds_estimated_;
+    actuators_known_ = actuators_estimated_;
   }
   const TimePoint end = clock().now();
   output_.step_time_s = to_seconds(end - step_start);
@@ -439,7 +439,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
   const Deadline deadline(step_deadline - solve_margin(), clock());
   solved_ = false;
-  wheel_speeds_estimated_ = false;
+  actuators_estimated_ = false;
   output_.solve = SolveSummary{};
   output_.measurement_stale = false;
   // The previous plan moves on by one cycle whatever happens now.

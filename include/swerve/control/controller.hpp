@@ -191,9 +191,9 @@ class Controller final : public TrackingController {
   double drive_time_constant_ = 0.0;  // s: the drives' lag (drive_lag)
   double steering_time_constant_ = 0.0;  // s: the steering drives' lag (steering_lag)
   double max_wheel_acceleration_ = std::numeric_limits<double>::infinity();  // rad/s^2: their clamp
-  double wheel_speeds_time_ = 0.0;   // s: the t wheel_speeds_ were estimated for
-  bool wheel_speeds_known_ = false;  // whether the actuator estimates continue from commands of ours
-  bool wheel_speeds_estimated_ = false;  // this step estimated them (else the chain restarts)
+  double actuators_time_ = 0.0;       // s: the t the actuator estimates are for
+  bool actuators_known_ = false;      // whether the actuator estimates continue from commands of ours
+  bool actuators_estimated_ = false;  // this step estimated them (else the chain restarts)
   double overshoot_s_ = 0.0;         // decaying maximum of step end - solver deadline (s)
   TimePoint solve_deadline_{};       // this step's, when a solve ran
   bool solved_ = false;              // whether this step ran the solver

@@ -275,11 +275,12 @@ class SemiImplicitStep {
       steering_rates_end = Vector::Zero(step.steering_lag_states_);
     }
     Vector u_applied, trial_state, state_dot, substep_state, seeded_state, constant_inputs;
-    Vector wheel_speeds_next;  // drive lag: the wheel speeds at the end of the step
+    Vector wheel_speeds_next;  // drive lag: the wheel speeds at the end of the whole step
     // Drive lag: each wheel's command, its speed at the current substep's start, and its mean over
     // the substep.
     Vector wheel_commands, wheel_speeds_now, wheel_speeds_mean;
-    // Steering lag: each module's commanded rate, its rate at the current substep's start and end.
+    // Steering lag: each module's commanded rate, its rate at the current substep's (or with RK4
+    // the step's) start and end.
     Vector steering_commands, steering_rates_now, steering_rates_end;
     Eigen::VectorXd state_values, input_values;
     std::vector<ModuleDiagnostics<T>> diagnostics;
@@ -337,9 +338,9 @@ class SemiImplicitStep {
       T& rate = d.u_applied[InputIndex::steering_rate(i)];
       rate = clamp_by_value<T>(rate, (limits.min_steering_angle - angle) / dt, (limits.max_steering_angle - angle) / dt);
     }
-    // With lagged actuators the inputs applied over the whole step are the mean rates and speeds
-    // (RK4, and the slow-motion test below); the semi-implicit substeps follow them substep by
-    // substep from the states below.
+    // Lagged actuators start at their states (*_now). The wheels' mean speeds over the whole step
+    // decide the slow-motion substeps below; RK4 runs on the means over the step, and the
+    // semi-implicit substeps follow each lag substep by substep instead.
     for (int i = 0; i < lag_states_; ++i) {
       T& wheel = d.u_applied[InputIndex::wheel_speed(i)];
       d.wheel_commands[i] = wheel;
@@ -348,16 +349,19 @@ class SemiImplicitStep {
                         &d.wheel_speeds_next[i], &wheel);
     }
     for (int i = 0; i < steering_lag_states_; ++i) {
-      T& rate = d.u_applied[InputIndex::steering_rate(i)];
-      d.steering_commands[i] = rate;
+      d.steering_commands[i] = d.u_applied[InputIndex::steering_rate(i)];
       d.steering_rates_now[i] = x_full[model_size + lag_states_ + i];
-      drive_response<T>(d.steering_rates_now[i], d.steering_commands[i], steering_response_, dt,
-                        &d.steering_rates_end[i], &rate);
     }
     T wear(0.0);
     bool ok = true;
     if (options_.method == PredictionMethod::kRk4) {
+      for (int i = 0; i < steering_lag_states_; ++i) {
+        drive_response<T>(d.steering_rates_now[i], d.steering_commands[i], steering_response_, dt,
+                          &d.steering_rates_end[i], &d.u_applied[InputIndex::steering_rate(i)]);
+      }
       ok = rk4_.step(d.rk4, x, d.u_applied, dt, options_.substeps, x_next, &wear) == ModelStatus::kOk;
+      d.wheel_speeds_now = d.wheel_speeds_next;
+      d.steering_rates_now = d.steering_rates_end;
     } else {
       // Slow motion (body and every commanded contact speed under 0.25 m/s) is where one implicit
       // step per controller step mispredicts wear most; there it takes more, shorter steps.
@@ -374,11 +378,9 @@ class SemiImplicitStep {
         ok = semi_implicit_substep(d, d.substep_state, h, x_next, &wear, 0);
         d.substep_state = x_next;
       }
-      d.wheel_speeds_next = d.wheel_speeds_now;
-      d.steering_rates_end = d.steering_rates_now;
     }
-    x_next_full.segment(model_size, lag_states_) = d.wheel_speeds_next;
-    x_next_full.segment(model_size + lag_states_, steering_lag_states_) = d.steering_rates_end;
+    x_next_full.segment(model_size, lag_states_) = d.wheel_speeds_now;
+    x_next_full.segment(model_size + lag_states_, steering_lag_states_) = d.steering_rates_now;
     if (stage_wear != nullptr) *stage_wear = wear;
     return ok && std::isfinite(scalar_value(wear));
   }
