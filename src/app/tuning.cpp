@@ -96,15 +96,62 @@ void QualityTuningOptions::validate() const {
   }
 }
 
-bool ScenarioScore::acceptable() const {
+namespace {
+
+// Issue 15's tracking bounds: max(1.1x, + 0.02 m) and max(1.1x, + 0.5 deg) of the baseline's.
+double position_bound(const ScenarioScore& s) {
+  return std::max(1.1 * s.baseline_rmse_m, s.baseline_rmse_m + 0.02);
+}
+double heading_bound(const ScenarioScore& s) {
   constexpr double kHalfDegree = 0.5 * 3.14159265358979323846 / 180.0;
-  return completed && deadline_misses == 0 && rmse_m <= std::max(1.1 * baseline_rmse_m, baseline_rmse_m + 0.02) &&
-         heading_rmse_rad <= std::max(1.1 * baseline_heading_rmse_rad, baseline_heading_rmse_rad + kHalfDegree);
+  return std::max(1.1 * s.baseline_heading_rmse_rad, s.baseline_heading_rmse_rad + kHalfDegree);
+}
+
+}  // namespace
+
+bool ScenarioScore::acceptable() const {
+  return completed && deadline_misses == 0 && rmse_m <= position_bound(*this) &&
+         heading_rmse_rad <= heading_bound(*this);
+}
+
+double ScenarioScore::tracking_excess() const {
+  return std::max(rmse_m / position_bound(*this), heading_rmse_rad / heading_bound(*this));
 }
 
 const char* QualityTuningResult::rule() {
   return "the least geometric-mean wear ratio among candidates that ran every scenario with position and heading "
          "RMSE within max(1.1x, +0.02 m / +0.5 deg) of the baseline's and no deadline miss";
+}
+
+const char* QualityTuningResult::closest_rule() {
+  return "among candidates that ran every scenario without a deadline miss, the one whose worst scenario is "
+         "least "
+         "outside those RMSE bounds, then the least geometric-mean wear ratio";
+}
+
+int closest_candidate(const std::vector<CandidateScore>& candidates, std::size_t scenario_count) {
+  int closest = -1;
+  double closest_excess = 0.0;
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const CandidateScore& c = candidates[i];
+    if (scenario_count == 0 || c.scenarios.size() != scenario_count) continue;
+    double worst = 0.0;
+    bool real_time = true;
+    for (const ScenarioScore& s : c.scenarios) {
+      real_time = real_time && s.completed && s.deadline_misses == 0;
+      worst = std::max(worst, s.tracking_excess());
+    }
+    if (!real_time || !std::isfinite(worst)) continue;
+    const bool better_choice =
+        closest < 0 || worst < closest_excess ||
+        (worst == closest_excess &&
+         c.geomean_wear_ratio < candidates[static_cast<std::size_t>(closest)].geomean_wear_ratio);
+    if (better_choice) {
+      closest = static_cast<int>(i);
+      closest_excess = worst;
+    }
+  }
+  return closest;
 }
 
 namespace {
@@ -283,6 +330,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     if (progress) progress(++done, rest, 3);
     choose();
   }
+  if (result.best < 0) result.closest = closest_candidate(result.candidates, scenarios.size());
   return result;
 }
 

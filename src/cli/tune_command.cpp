@@ -2,23 +2,24 @@
 // With --scenarios: by closed-loop quality against the kinematic baseline (horizon and SA knots),
 // printing every candidate and the winner, and writing its YAML (--write). Without: sizing only,
 // the optimiser proposals per solve at each horizon.
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
-
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 
 #include "command_registry.hpp"
-#include "swerve/app/vehicle_config.hpp"
 #include "swerve/app/run_report.hpp"
 #include "swerve/app/scenario_config.hpp"
 #include "swerve/app/tuning.hpp"
+#include "swerve/app/vehicle_config.hpp"
+#include "swerve/core/error_text.hpp"
 
 namespace swerve::cli {
 namespace {
@@ -37,7 +38,26 @@ struct TuneArguments {
   double work_clock = 0.0;                  // s per read; 0: the steady clock
   bool horizons_given = false;
   bool quiet = false;
+  bool accept_tracking_loss = false;  // --write the closest candidate when none keeps the bounds
+  bool force = false;                 // --write may replace an existing file
 };
+
+// Before a search of many minutes, not after it: --write names a file that may be written (an
+// existing one only with --force) in a directory that exists and is writable.
+void check_write_file(const std::string& path, bool force) {
+  namespace fs = std::filesystem;
+  const std::string shown = "--write " + printable_value(path, std::string::npos);
+  std::error_code error;
+  const fs::path file(path);
+  if (fs::is_directory(file, error)) throw std::runtime_error(shown + ": is a directory; nothing was run");
+  if (fs::exists(file, error) && !force)
+    throw std::runtime_error(shown + ": exists (--force replaces it); nothing was run");
+  const fs::path directory = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  if (!fs::is_directory(directory, error) || access(directory.c_str(), W_OK) != 0) {
+    throw std::runtime_error(shown + ": cannot write into " +
+                             printable_value(directory.string(), std::string::npos) + "; nothing was run");
+  }
+}
 
 nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& target) {
   nlohmann::json rows = nlohmann::json::array();
@@ -56,9 +76,17 @@ nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& ta
                     {"geomean_wear_ratio", c.geomean_wear_ratio}, {"unacceptable", c.unacceptable},
                     {"scenarios", scenarios}});
   }
-  return {{"target", target.name}, {"control_period_s", target.control_period}, {"solve_budget_s", target.solve_budget},
-          {"cpu_slowdown", target.cpu_slowdown}, {"budget_here_s", result.budget_here_s},
-          {"rule", QualityTuningResult::rule()}, {"best", result.best}, {"incumbent", result.incumbent}, {"candidates", rows}};
+  return {{"target", target.name},
+          {"control_period_s", target.control_period},
+          {"solve_budget_s", target.solve_budget},
+          {"cpu_slowdown", target.cpu_slowdown},
+          {"budget_here_s", result.budget_here_s},
+          {"rule", QualityTuningResult::rule()},
+          {"best", result.best},
+          {"incumbent", result.incumbent},
+          {"closest_rule", QualityTuningResult::closest_rule()},
+          {"closest", result.closest},
+          {"candidates", rows}};
 }
 
 int tune_by_quality_command(const TuneArguments& a) {
@@ -73,6 +101,14 @@ int tune_by_quality_command(const TuneArguments& a) {
     options.validate();
   } catch (const ConfigError& error) {
     throw UsageError(std::string("tune: ") + error.what());
+  }
+  if (!a.write_file.empty()) check_write_file(a.write_file, a.force);
+  if (!a.out_dir.empty()) {
+    try {
+      prepare_output_directory(a.out_dir);
+    } catch (const std::runtime_error& error) {
+      throw std::runtime_error(std::string("--out ") + error.what() + "; nothing was run");
+    }
   }
   std::vector<ScenarioConfig> scenarios;
   for (const std::string& file : a.scenario_files) scenarios.push_back(load_scenario_config_file(file));
@@ -120,40 +156,73 @@ int tune_by_quality_command(const TuneArguments& a) {
   std::printf("per scenario: wear / RMSE, each as a ratio to the kinematic baseline's; (no): outside the bounds\n");
   std::printf("rule: %s\n", QualityTuningResult::rule());
   if (!a.out_dir.empty()) {
-    prepare_output_directory(a.out_dir);
     std::ofstream(a.out_dir + "/tune.json") << to_json(result, target).dump(2) << "\n";
     std::printf("written: %s/tune.json\n", a.out_dir.c_str());
   }
-  if (result.best < 0) {
-    std::printf("no candidate kept the baseline's tracking without a deadline miss on every scenario: raise the budget, "
-                "or try other horizons and knots\n");
-    return kExitFailure;
-  }
-  const CandidateScore& best = result.candidates[static_cast<std::size_t>(result.best)];
-  std::printf("best: horizon %d (%.2f s of lookahead at %.0f ms), %d SA knots, deadline margin %.2f: geometric-mean "
-              "wear %.3f of the baseline's\n",
-              best.candidate.horizon, best.candidate.horizon * target.control_period, 1e3 * target.control_period,
-              best.candidate.knots, best.candidate.deadline_margin, best.geomean_wear_ratio);
-  if (!a.write_file.empty()) {
+  // The chosen candidate's YAML, headed by how it was chosen and what it scored.
+  const auto write = [&](const CandidateScore& chosen, const std::string& how) {
     std::ostringstream header;
-    header << "# Tuned by `swerve-mpc tune` for target " << target.name << " (" << target.description << ") from "
-           << a.controller_file << ":\n# horizon " << best.candidate.horizon << ", dt " << target.control_period
-           << " s, SA knots " << best.candidate.knots << ", deadline margin " << best.candidate.deadline_margin
-           << ", solve budget " << target.solve_budget
-           << " s; geometric-mean wear " << best.geomean_wear_ratio << " of the kinematic baseline's on";
-    for (const ScenarioScore& s : best.scenarios) header << " " << s.scenario;
+    header << "# Tuned by `swerve-mpc tune` for target " << target.name << " (" << target.description
+           << ") from " << a.controller_file << ":\n# horizon " << chosen.candidate.horizon << ", dt "
+           << target.control_period << " s, SA knots " << chosen.candidate.knots << ", deadline margin "
+           << chosen.candidate.deadline_margin << ", solve budget " << target.solve_budget
+           << " s; geometric-mean wear " << chosen.geomean_wear_ratio << " of the kinematic baseline's on";
+    for (const ScenarioScore& s : chosen.scenarios) header << " " << s.scenario;
     if (!a.seeds.empty()) {
       header << " (medians over simulator seeds";
       for (const std::uint64_t seed : a.seeds) header << " " << seed;
       header << ")";
     }
     const CandidateScore& own = result.candidates[static_cast<std::size_t>(result.incumbent)];
-    header << "\n# (the controller file's own horizon " << own.candidate.horizon << " and " << own.candidate.knots
-           << " knots: " << own.geomean_wear_ratio << "), at " << target.cpu_slowdown
-           << "x this machine's time.\n# Rule: " << QualityTuningResult::rule() << ".\n";
-    write_tuned_controller(a.controller_file, best.candidate, target, header.str(), a.write_file);
+    header << "\n# (the controller file's own horizon " << own.candidate.horizon << " and "
+           << own.candidate.knots << " knots: " << own.geomean_wear_ratio << "), at " << target.cpu_slowdown
+           << "x this machine's time.\n# Rule: " << how << ".\n";
+    for (const ScenarioScore& s : chosen.scenarios) {
+      if (s.acceptable()) continue;
+      header << "# Outside the tracking bounds on " << s.scenario << ": position RMSE " << s.rmse_m
+             << " m against " << s.baseline_rmse_m << " m, heading " << s.heading_rmse_rad << " rad against "
+             << s.baseline_heading_rmse_rad << " rad (the baseline's), " << s.tracking_excess()
+             << "x the bound.\n";
+    }
+    write_tuned_controller(a.controller_file, chosen.candidate, target, header.str(), a.write_file);
     std::printf("written: %s\n", a.write_file.c_str());
+  };
+  if (result.best < 0) {
+    std::printf(
+        "no candidate kept the baseline's tracking without a deadline miss on every scenario: raise the "
+        "budget, "
+        "or try other horizons and knots\n");
+    if (result.closest < 0) {
+      std::printf("and every candidate missed a deadline on some scenario: nothing fits the budget\n");
+      return kExitFailure;
+    }
+    const CandidateScore& closest = result.candidates[static_cast<std::size_t>(result.closest)];
+    const ScenarioScore* worst = &closest.scenarios.front();
+    for (const ScenarioScore& s : closest.scenarios) {
+      if (s.tracking_excess() > worst->tracking_excess()) worst = &s;
+    }
+    std::printf(
+        "closest: horizon %d, %d SA knots, deadline margin %.2f (worst: %s at %.2fx its RMSE bound)\n"
+        "closest rule: %s\n",
+        closest.candidate.horizon, closest.candidate.knots, closest.candidate.deadline_margin,
+        worst->scenario.c_str(), worst->tracking_excess(), QualityTuningResult::closest_rule());
+    if (a.write_file.empty()) return kExitFailure;
+    if (!a.accept_tracking_loss) {
+      std::printf(
+          "not written: it does not keep the baseline's tracking; --accept-tracking-loss writes it\n");
+      return kExitFailure;
+    }
+    write(closest, std::string(QualityTuningResult::closest_rule()) +
+                       " (no candidate met the rule: " + QualityTuningResult::rule() + ")");
+    return kExitOk;
   }
+  const CandidateScore& best = result.candidates[static_cast<std::size_t>(result.best)];
+  std::printf(
+      "best: horizon %d (%.2f s of lookahead at %.0f ms), %d SA knots, deadline margin %.2f: geometric-mean "
+      "wear %.3f of the baseline's\n",
+      best.candidate.horizon, best.candidate.horizon * target.control_period, 1e3 * target.control_period,
+      best.candidate.knots, best.candidate.deadline_margin, best.geomean_wear_ratio);
+  if (!a.write_file.empty()) write(best, QualityTuningResult::rule());
   return kExitOk;
 }
 
@@ -223,6 +292,11 @@ Command make_tune_command() {
                            "comma-separated [each scenario's own]")
                 ->delimiter(',');
             app.add_option("--write", a->write_file, "Write the best candidate's controller YAML here (quality)");
+            app.add_flag(
+                "--accept-tracking-loss", a->accept_tracking_loss,
+                "With --write, when no candidate keeps the baseline's tracking: write the one closest to it "
+                "that misses no deadline (quality)");
+            app.add_flag("--force", a->force, "Let --write replace an existing file");
             app.add_option("--out", a->out_dir, "Write tune.json here (quality)");
             app.add_flag("-q,--quiet", a->quiet, "No progress bar");
             add_work_clock_option(app, &a->work_clock);

@@ -229,6 +229,61 @@ TEST(TuneByQuality, AcceptsARunWithinTheBaselinesTrackingBoundsAndWithoutMisses)
   EXPECT_FALSE(s.acceptable());
 }
 
+TEST(TuneByQuality, MeasuresTheTrackingExcessAsTheWorseRatioToEitherBound) {
+  ScenarioScore s;
+  s.completed = true;
+  s.baseline_rmse_m = 0.5;            // position bound 0.55 (1.1x)
+  s.baseline_heading_rmse_rad = 0.1;  // heading bound 0.11 (1.1x)
+  s.rmse_m = 0.66;
+  s.heading_rmse_rad = 0.055;
+  EXPECT_NEAR(s.tracking_excess(), 1.2, 1e-12);  // 0.66 / 0.55 against 0.055 / 0.11
+  s.rmse_m = 0.275;
+  s.heading_rmse_rad = 0.143;
+  EXPECT_NEAR(s.tracking_excess(), 1.3, 1e-12);  // the heading's 0.143 / 0.11
+  s.baseline_rmse_m = 0.01;                      // small: + 0.02 m, a 0.03 m bound
+  s.rmse_m = 0.015;
+  s.heading_rmse_rad = 0.0;
+  EXPECT_NEAR(s.tracking_excess(), 0.5, 1e-12);
+  EXPECT_TRUE(s.acceptable());
+}
+
+// Hand-built scores: a candidate that ran every scenario (2) without a deadline miss, by its worst
+// scenario's excess, then by the least wear; one that missed a deadline or did not run everything
+// never qualifies.
+TEST(TuneByQuality, TheClosestCandidateIsTheOneWhoseWorstScenarioIsNearestTheBoundsWithoutAMiss) {
+  const auto scenario = [](double rmse_ratio, int misses) {
+    ScenarioScore s;
+    s.completed = true;
+    s.baseline_rmse_m = 1.0;  // bound 1.1 m
+    s.rmse_m = 1.1 * rmse_ratio;
+    s.baseline_heading_rmse_rad = 1.0;
+    s.heading_rmse_rad = 0.0;
+    s.deadline_misses = misses;
+    return s;
+  };
+  const auto candidate = [](std::vector<ScenarioScore> scenarios, double geomean) {
+    CandidateScore c;
+    c.scenarios = std::move(scenarios);
+    c.geomean_wear_ratio = geomean;
+    c.finalist = c.scenarios.size() == 2;
+    return c;
+  };
+  std::vector<CandidateScore> candidates{
+      candidate({scenario(1.30, 0), scenario(1.00, 0)}, 0.30),  // worst 1.30
+      candidate({scenario(1.10, 0), scenario(1.20, 1)}, 0.20),  // a miss
+      candidate({scenario(1.05, 0)}, 0.10),                     // one scenario only
+      candidate({scenario(1.20, 0), scenario(1.25, 0)}, 0.50),  // worst 1.25: the closest
+      candidate({scenario(0.90, 0), scenario(1.25, 0)}, 0.40),  // worst 1.25 as well, less wear
+  };
+  EXPECT_EQ(closest_candidate(candidates, 2), 4);
+  candidates[4].scenarios[0].completed = false;  // a run that stopped early
+  EXPECT_EQ(closest_candidate(candidates, 2), 3);
+  candidates[3].scenarios[1].deadline_misses = 2;
+  candidates[0].scenarios[0].deadline_misses = 1;
+  EXPECT_EQ(closest_candidate(candidates, 2), -1);
+  EXPECT_EQ(closest_candidate({}, 2), -1);
+}
+
 TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsTheRest) {
   const std::string base = config_file("controllers/default.yaml");
   const std::string path = ::testing::TempDir() + "tuned_controller.yaml";

@@ -78,6 +78,9 @@ struct ScenarioScore {
   // Issue 15's bounds: position RMSE <= max(1.1 b, b + 0.02 m), heading RMSE <= max(1.1 b,
   // b + 0.5 deg), no deadline miss, the run completed.
   bool acceptable() const;
+  // How far outside those tracking bounds: the larger of position RMSE / its bound and heading
+  // RMSE / its bound (<= 1: within both).
+  double tracking_excess() const;
 };
 
 struct CandidateScore {
@@ -93,8 +96,18 @@ struct QualityTuningResult {
   std::vector<CandidateScore> candidates;
   int best = -1;                         // index into candidates; -1 when no finalist is acceptable everywhere
   int incumbent = -1;                    // the controller's own horizon and knots (always a finalist)
+  // Only when best < 0: closest_candidate(), the candidate that misses no deadline and tracks
+  // closest to the bounds (the tracking-first choice for a target too slow for the bounds); -1
+  // when best >= 0 or when every candidate missed a deadline somewhere.
+  int closest = -1;
   static const char* rule();             // the selection rule, as printed
+  static const char* closest_rule();     // closest's rule, as printed
 };
+
+// Among the candidates that ran all `scenario_count` scenarios, each to the end without a deadline
+// miss: the one whose worst scenario is least outside the tracking bounds
+// (ScenarioScore::tracking_excess), ties broken by the least geometric-mean wear. -1 if none.
+int closest_candidate(const std::vector<CandidateScore>& candidates, std::size_t scenario_count);
 
 // (candidates done, candidates in this round, round) after each candidate's round.
 using TuningProgress = std::function<void(int, int, int)>;
