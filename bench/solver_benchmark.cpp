@@ -6,7 +6,7 @@
 //                   the reference one step on) from the shifted plan.
 // Each solve runs to its backend's own convergence test (Ipopt tol 1e-6, SLSQP ftol 1e-12, Ceres
 // 1e-10, SA its 3000 proposals), no deadline. Counters: per-solve p50/p99, iterations per solve,
-// time per iteration, cost. Goal (issue 9): Ipopt warm, 4 modules, N = 20: p99 <= 10 ms.
+// time per iteration, cost. Goal (issues 9, 17): Ipopt warm, 4 modules, N = 20: p99 <= 10 ms.
 //   BM_Solver_GapToIpoptReference: the curve scenario's closed loop with the default SA controller
 // at a solve budget of budget_ms and an SA polish share of polish_pct %; every 40th cycle the same
 // problem is solved by Ipopt to tol 1e-9 without a deadline (from SA's plan and from the held
@@ -93,32 +93,38 @@ void BM_Solver_Cold(benchmark::State& state) {
   state.SetLabel(backend);
 }
 
-void BM_Solver_Warm(benchmark::State& state) {
-  const std::string backend = kBackends[state.range(0)];
-  const int modules = static_cast<int>(state.range(1));
-  const int horizon = static_cast<int>(state.range(2));
-  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, horizon, -1.0, modules);
-  std::unique_ptr<Solver> solver = make_solver(converging(backend), s.problem);
+// Receding horizon: one untimed solve, then per benchmark iteration one cycle on (the state the
+// plan predicted, the reference one step on) from the shifted plan.
+void run_warm_cycles(benchmark::State& state, Solver& solver, testing::SwerveTestProblem& s) {
+  const int horizon = s.problem.horizon();
   Solution solution;
   solution.resize(s.problem.state_size(), s.problem.input_size(), horizon);
   Eigen::MatrixXd guess = s.problem.previous_input().replicate(1, horizon);
   InitialGuesses guesses;
   guesses.add(&guess);
   SolveSummary summary;
-  solver->solve(s.problem, guesses, SolverClock::now() + 600s, &solution, &summary);  // cycle 0, untimed
+  solver.solve(s.problem, guesses, SolverClock::now() + 600s, &solution, &summary);  // cycle 0, untimed
   Samples samples;
   int cycle = 0;
   for (auto _ : state) {
-    // The next cycle: the state the plan predicted, the reference one step on, the shifted plan.
     ++cycle;
     s.problem.set_initial_state(solution.states.col(1));
     s.problem.set_previous_input(solution.inputs.col(0));
     s.set_cycle(cycle);
     solution.shift();
     guess = solution.inputs;
-    timed_solve(state, *solver, s.problem, guesses, &solution, &samples);
+    timed_solve(state, solver, s.problem, guesses, &solution, &samples);
   }
   samples.report(state);
+}
+
+void BM_Solver_Warm(benchmark::State& state) {
+  const std::string backend = kBackends[state.range(0)];
+  const int modules = static_cast<int>(state.range(1));
+  const int horizon = static_cast<int>(state.range(2));
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, horizon, -1.0, modules);
+  std::unique_ptr<Solver> solver = make_solver(converging(backend), s.problem);
+  run_warm_cycles(state, *solver, s);
   state.SetLabel(backend);
 }
 
@@ -132,6 +138,31 @@ void solver_grid(benchmark::internal::Benchmark* b) {
 }
 BENCHMARK(BM_Solver_Cold)->Apply(solver_grid)->Iterations(3)->UseManualTime()->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Solver_Warm)->Apply(solver_grid)->Iterations(10)->UseManualTime()->Unit(benchmark::kMillisecond);
+
+// Ipopt's Hessian (issue 17): the exact one (per-stage forward differences of the Jet gradients)
+// against Ipopt's L-BFGS, each with its warm-start settings (see IpoptOptions), warm as above, on
+// 4 and 10 modules at N = 20, 20 cycles.
+void BM_Solver_IpoptHessian(benchmark::State& state) {
+  const bool exact = state.range(0) == 0;
+  const int modules = static_cast<int>(state.range(1));
+  const int horizon = static_cast<int>(state.range(2));
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, horizon, -1.0, modules);
+  SolverConfig config = converging("ipopt");
+  if (!exact) {
+    config.ipopt.hessian = "limited-memory";
+    config.ipopt.warm_start_multipliers = false;
+    config.ipopt.warm_mu_init = 1e-4;
+  }
+  std::unique_ptr<Solver> solver = make_solver(config, s.problem);
+  run_warm_cycles(state, *solver, s);
+  state.SetLabel(exact ? "exact" : "limited-memory");
+}
+BENCHMARK(BM_Solver_IpoptHessian)
+    ->ArgNames({"hessian", "modules", "N"})
+    ->ArgsProduct({{0, 1}, {4, 10}, {20}})
+    ->Iterations(20)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
 
 void BM_Solver_GapToIpoptReference(benchmark::State& state) {
   const ScenarioConfig scenario = load_scenario_config_file(SWERVE_SOURCE_DIR "/configs/scenarios/curve.yaml");

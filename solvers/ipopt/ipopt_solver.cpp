@@ -46,15 +46,20 @@ void IpoptOptions::validate() const {
     throw_invalid_field("IpoptOptions", "lbfgs_history", lbfgs_history, "must be in 1..100");
   }
   if (print_level < 0 || print_level > 12) throw_invalid_field("IpoptOptions", "print_level", print_level, "must be in 0..12");
+  if (hessian != "exact" && hessian != "limited-memory") {
+    throw_invalid_field("IpoptOptions", "hessian", hessian, "must be exact or limited-memory");
+  }
 }
 
 // The multiple-shooting NLP. Variables are stored stage by stage, [u_k (nu), x_{k+1} (nx)] for
-// k = 0..N-1, so the constraint Jacobian is block banded.
+// k = 0..N-1, so the constraint Jacobian is block banded, and so is the Hessian of the Lagrangian:
+// stage k's terms (tracking at x_{k+1}; effort, rate, wear and dynamics at x_k, u_k) touch only
+// its own block and u_k's rows against the block before.
 class MultipleShootingNlp final : public Ipopt::TNLP {
  public:
-  explicit MultipleShootingNlp(const OcpProblem& shape)
+  MultipleShootingNlp(const OcpProblem& shape, bool exact_hessian)
       : horizon_(shape.horizon()), nx_(shape.state_size()), nu_(shape.input_size()), block_(nu_ + nx_),
-        derivatives_(shape) {
+        exact_hessian_(exact_hessian), derivatives_(shape) {
     for (int i = 0; i < nu_; ++i) {
       if (std::isfinite(shape.bounds().max_step[i])) rate_inputs_.push_back(i);
     }
@@ -69,6 +74,18 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     constraints_ = Eigen::VectorXd::Zero(constraints());
     z_lower_ = Eigen::VectorXd::Zero(variables());
     z_upper_ = Eigen::VectorXd::Zero(variables());
+    if (exact_hessian_) {
+      probe_ = std::make_unique<OcpDerivatives>(shape);
+      hessian_blocks_.assign(static_cast<std::size_t>(horizon_), Eigen::MatrixXd::Zero(block_, block_));
+      hessian_couplings_.assign(static_cast<std::size_t>(horizon_), Eigen::MatrixXd::Zero(nu_, nx_));
+      const int nz = nx_ + nu_;
+      point_ = Eigen::VectorXd::Zero(nz);
+      probe_next_ = Eigen::VectorXd::Zero(nx_);
+      gradient_ = gradient_step_ = Eigen::VectorXd::Zero(nz);
+      stage_hessian_ = Eigen::MatrixXd::Zero(nz, nz);
+      tracked_ = tracked_step_ = Eigen::VectorXd::Zero(nx_);
+      tracking_hessian_ = Eigen::MatrixXd::Zero(OcpProblem::kTrackedStates, OcpProblem::kTrackedStates);
+    }
   }
 
   int variables() const { return horizon_ * block_; }
@@ -127,7 +144,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     m = constraints();
     // Per stage: identity on x_{k+1}, -B_k on u_k, -A_k on x_k (k >= 1); rate rows +1 / -1.
     nnz_jac_g = horizon_ * (nx_ + nx_ * nu_) + (horizon_ - 1) * nx_ * nx_ + rate_count_ * (2 * horizon_ - 1);
-    nnz_h_lag = 0;  // limited-memory quasi-Newton
+    nnz_h_lag = exact_hessian_ ? hessian_entries() : 0;  // 0: limited-memory quasi-Newton
     index_style = C_STYLE;
     return true;
   }
@@ -242,6 +259,43 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
       for (int c = 0; c < rate_count_; ++c) {
         values[e++] = 1.0;
         if (k > 0) values[e++] = -1.0;
+      }
+    }
+    return true;
+  }
+
+  // The Hessian of obj_factor * f + multipliers^T g, per stage k (z_k = [x_k; u_k]):
+  //   tracking:       d2/dx_{k+1}^2 of the stage's tracking cost (forward differences of its exact
+  //                   gradient; it costs no model step),
+  //   effort, rate:   their constant weights (1/2 r^2 with r linear in the inputs),
+  //   wear, dynamics: d2/dz_k^2 of obj_factor lambda W_k(z_k) - mu_k^T F(z_k), forward differences of
+  //                   the Jet gradients (A_k, B_k, dW_k) that linearize_stage gives;
+  // the rate rows are linear. Forward differences with a relative step of 1e-6 (Nocedal & Wright,
+  // 2nd ed., 8.1: the gradient's error over h plus h times the third derivative).
+  bool eval_h(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Number obj_factor, Ipopt::Index m,
+              const Ipopt::Number* multipliers, bool new_lambda, Ipopt::Index nele_hess, Ipopt::Index* i_row,
+              Ipopt::Index* j_col, Ipopt::Number* values) override {
+    (void)n, (void)m, (void)new_x, (void)new_lambda, (void)nele_hess;
+    if (!exact_hessian_) return false;
+    if (values == nullptr) {
+      write_hessian_structure(i_row, j_col);
+      return true;
+    }
+    if (!lagrangian_hessian(x, obj_factor, multipliers)) return false;
+    int e = 0;
+    for (int k = 0; k < horizon_; ++k) {
+      const std::size_t stage = static_cast<std::size_t>(k);
+      if (k > 0) {
+        // u_k against [u_{k-1}, x_k]: the rate term's -S, then the wear's and dynamics' cross terms.
+        for (int i = 0; i < nu_; ++i) {
+          const double rate_weight = problem_->rate_root()[i] * problem_->rate_root()[i];
+          for (int j = 0; j < nu_; ++j) values[e++] = i == j ? -obj_factor * rate_weight : 0.0;
+          for (int j = 0; j < nx_; ++j) values[e++] = hessian_couplings_[stage](i, j);
+        }
+      }
+      const Eigen::MatrixXd& diagonal = hessian_blocks_[stage];
+      for (int i = 0; i < block_; ++i) {
+        for (int j = 0; j <= i; ++j) values[e++] = diagonal(i, j);
       }
     }
     return true;
@@ -375,7 +429,104 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     }
   }
 
+  // Per stage k: the lower triangle of its block [u_k, x_{k+1}] and, for k >= 1, u_k's rows against
+  // the block before, [u_{k-1}, x_k].
+  int hessian_entries() const { return horizon_ * block_ * (block_ + 1) / 2 + (horizon_ - 1) * nu_ * block_; }
+
+  void write_hessian_structure(Ipopt::Index* i_row, Ipopt::Index* j_col) const {
+    int e = 0;
+    auto add = [&](int row, int column) {
+      i_row[e] = row;
+      j_col[e] = column;
+      ++e;
+    };
+    for (int k = 0; k < horizon_; ++k) {
+      if (k > 0) {
+        for (int i = 0; i < nu_; ++i) {
+          for (int j = 0; j < block_; ++j) add(k * block_ + i, (k - 1) * block_ + j);
+        }
+      }
+      for (int i = 0; i < block_; ++i) {
+        for (int j = 0; j <= i; ++j) add(k * block_ + i, k * block_ + j);
+      }
+    }
+  }
+
+  // Forward-difference step for a coordinate of value v.
+  static double difference_step(double v) { return 1e-6 * std::max(1.0, std::abs(v)); }
+
+  // obj_factor lambda dW_k - [A_k B_k]^T mu_k at z = [x_k; u_k] (gradient_ or gradient_step_).
+  bool stage_lagrangian_gradient(int k, const Eigen::VectorXd& z, double obj_factor, const Ipopt::Number* multipliers,
+                                 Eigen::VectorXd* gradient) {
+    if (!probe_->linearize_stage(*problem_, k, z.head(nx_), z.tail(nu_), probe_next_)) return false;
+    const Eigen::Map<const Eigen::VectorXd> mu(multipliers + k * nx_, nx_);
+    const double wear_factor = obj_factor * problem_->weights().wear;
+    gradient->head(nx_).noalias() = wear_factor * probe_->wear_gradient(k).head(nx_) - probe_->a(k).transpose() * mu;
+    gradient->tail(nu_).noalias() = wear_factor * probe_->wear_gradient(k).tail(nu_) - probe_->b(k).transpose() * mu;
+    return gradient->allFinite();
+  }
+
+  // Fills hessian_blocks_ (lower triangles used) and hessian_couplings_ (u_k against x_k) at x.
+  // false when the model fails at a perturbed point.
+  bool lagrangian_hessian(const Ipopt::Number* x, double obj_factor, const Ipopt::Number* multipliers) {
+    const int nz = nx_ + nu_;
+    const int tracked = OcpProblem::kTrackedStates;
+    for (int k = 0; k < horizon_; ++k) {
+      const std::size_t stage = static_cast<std::size_t>(k);
+      Eigen::MatrixXd& diagonal = hessian_blocks_[stage];
+      diagonal.setZero();
+      // Tracking at x_{k+1}: columns of d/dx_{k+1} of its gradient (the inputs do not enter it).
+      point_.head(nx_) = state_after(x, k);
+      problem_->stage_cost_without_wear(k, point_.head(nx_), input(x, k), input_before(x, k), tracked_, d_u_,
+                                        d_u_before_);
+      for (int j = 0; j < tracked; ++j) {
+        const double h = difference_step(point_[j]);
+        point_[j] += h;
+        problem_->stage_cost_without_wear(k, point_.head(nx_), input(x, k), input_before(x, k), tracked_step_, d_u_,
+                                          d_u_before_);
+        point_[j] = state_after(x, k)[j];
+        tracking_hessian_.col(j) = (tracked_step_.head(tracked) - tracked_.head(tracked)) / h;
+      }
+      diagonal.block(nu_, nu_, tracked, tracked) =
+          0.5 * obj_factor * (tracking_hessian_ + tracking_hessian_.transpose());
+      // Effort and rate: R + S on u_k, and S again from stage k + 1's rate term.
+      for (int i = 0; i < nu_; ++i) {
+        const double rate_weight = problem_->rate_root()[i] * problem_->rate_root()[i];
+        const double effort_weight = problem_->effort_root()[i] * problem_->effort_root()[i];
+        diagonal(i, i) += obj_factor * (effort_weight + rate_weight + (k + 1 < horizon_ ? rate_weight : 0.0));
+      }
+    }
+    for (int k = 0; k < horizon_; ++k) {
+      // Wear and dynamics of stage k over z_k = [x_k; u_k]; x_0 is no variable, so only u_0 there.
+      const std::size_t stage = static_cast<std::size_t>(k);
+      const int first = k == 0 ? nx_ : 0;
+      point_.head(nx_) = state_at(x, k);
+      point_.tail(nu_) = input(x, k);
+      if (!stage_lagrangian_gradient(k, point_, obj_factor, multipliers, &gradient_)) return false;
+      for (int j = first; j < nz; ++j) {
+        const double value = point_[j];
+        const double h = difference_step(value);
+        point_[j] = value + h;
+        const bool ok = stage_lagrangian_gradient(k, point_, obj_factor, multipliers, &gradient_step_);
+        point_[j] = value;
+        if (!ok) return false;
+        stage_hessian_.col(j) = (gradient_step_ - gradient_) / h;
+      }
+      // Symmetric part of the columns computed (u_0's block alone at k = 0).
+      const auto u_u = stage_hessian_.bottomRightCorner(nu_, nu_);
+      hessian_blocks_[stage].topLeftCorner(nu_, nu_) += 0.5 * (u_u + u_u.transpose());
+      if (k > 0) {
+        const auto x_x = stage_hessian_.topLeftCorner(nx_, nx_);
+        hessian_blocks_[stage - 1].bottomRightCorner(nx_, nx_) += 0.5 * (x_x + x_x.transpose());
+        hessian_couplings_[stage] =
+            0.5 * (stage_hessian_.bottomLeftCorner(nu_, nx_) + stage_hessian_.topRightCorner(nx_, nu_).transpose());
+      }
+    }
+    return true;
+  }
+
   int horizon_, nx_, nu_, block_;
+  bool exact_hessian_;
   int rate_count_ = 0;
   std::vector<int> rate_inputs_;
   OcpDerivatives derivatives_;
@@ -383,6 +534,12 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   Deadline deadline_{};
   Eigen::MatrixXd next_states_;  // F(x_k, u_k), nx x N
   Eigen::VectorXd d_x_next_, d_u_, d_u_before_;
+  // The exact Hessian: a second linearisation scratch (derivatives_ keeps the iterate's Jacobians
+  // for eval_jac_g), per stage its diagonal block and u_k's coupling to x_k, and scratch.
+  std::unique_ptr<OcpDerivatives> probe_;
+  std::vector<Eigen::MatrixXd> hessian_blocks_, hessian_couplings_;
+  Eigen::VectorXd point_, probe_next_, gradient_, gradient_step_, tracked_, tracked_step_;
+  Eigen::MatrixXd stage_hessian_, tracking_hessian_;
   double objective_ = 0.0;
   bool values_ready_ = false, values_ok_ = false, derivatives_ready_ = false, derivatives_ok_ = false;
   Eigen::VectorXd start_, final_, lambda_, z_lower_, z_upper_, constraints_;
@@ -395,8 +552,8 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
 };
 
 struct IpoptSolver::Impl {
-  explicit Impl(const OcpProblem& shape)
-      : nlp(new MultipleShootingNlp(shape)), app(IpoptApplicationFactory()), start(shape) {
+  Impl(const OcpProblem& shape, bool exact_hessian)
+      : nlp(new MultipleShootingNlp(shape, exact_hessian)), app(IpoptApplicationFactory()), start(shape) {
     inputs = best_inputs = Eigen::MatrixXd::Zero(shape.input_size(), shape.horizon());
     states = best_states = Eigen::MatrixXd::Zero(shape.state_size(), shape.horizon() + 1);
     stage_costs = stage_wear = best_stage_wear = Eigen::VectorXd::Zero(shape.horizon());
@@ -415,7 +572,7 @@ struct IpoptSolver::Impl {
 IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options)
     : Solver(problem), options_(std::move(options)) {
   options_.validate();
-  impl_ = std::make_unique<Impl>(problem);
+  impl_ = std::make_unique<Impl>(problem, options_.hessian == "exact");
   impl_->startup_estimate = to_duration(options_.startup_estimate);
   Ipopt::IpoptApplication& app = *impl_->app;
   app.Options()->SetStringValue("sb", "yes");  // no banner
@@ -426,8 +583,12 @@ IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options)
   app.Options()->SetIntegerValue("max_iter", options_.max_iterations);
   app.Options()->SetStringValue("mu_strategy", options_.mu_strategy);
   app.Options()->SetStringValue("linear_solver", options_.linear_solver);
-  app.Options()->SetStringValue("hessian_approximation", "limited-memory");
-  app.Options()->SetIntegerValue("limited_memory_max_history", options_.lbfgs_history);
+  if (options_.hessian == "exact") {
+    app.Options()->SetStringValue("hessian_approximation", "exact");
+  } else {
+    app.Options()->SetStringValue("hessian_approximation", "limited-memory");
+    app.Options()->SetIntegerValue("limited_memory_max_history", options_.lbfgs_history);
+  }
   if (app.Initialize() != Ipopt::Solve_Succeeded) throw ConfigError("IpoptSolver: Ipopt failed to initialise");
 }
 
@@ -460,8 +621,10 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     // best guess is the answer (a usable plan, as the deadline contract asks).
     const TimePoint now = deadline.now();
     if (s.startup_estimate == Duration::zero()) {
-      // Ipopt's startup: the first Jacobians and a factorisation.
-      s.startup_estimate = (kJacobianRolloutCost + 2) * s.start.longest_rollout();
+      // Ipopt's startup: the first Jacobians and a factorisation, and with the exact Hessian one
+      // more linearisation per state and input coordinate.
+      const int linearisations = options_.hessian == "exact" ? 2 + problem.state_size() + problem.input_size() : 1;
+      s.startup_estimate = (kJacobianRolloutCost * linearisations + 2) * s.start.longest_rollout();
     }
     if (now + s.startup_estimate >= deadline.at()) {
       // Halved on every skip: one slow start (the very first solve pays Ipopt's one-time setup,

@@ -163,6 +163,7 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
         o.mu_strategy = ipopt->get_choice_or("mu_strategy", {"adaptive", "monotone"}, o.mu_strategy);
         o.linear_solver = ipopt->get_choice_or("linear_solver", {"mumps"}, o.linear_solver);
         o.print_level = ipopt->get_int_or("print_level", o.print_level, 0, 12);
+        o.hessian = ipopt->get_choice_or("hessian", {"exact", "limited-memory"}, o.hessian);
         o.lbfgs_history = ipopt->get_int_or("lbfgs_history", o.lbfgs_history, 1, 100);
         o.warm_start = ipopt->get_bool_or("warm_start", o.warm_start);
         o.warm_start_multipliers = ipopt->get_bool_or("warm_start_multipliers", o.warm_start_multipliers);

@@ -32,14 +32,22 @@ struct IpoptOptions {
   std::string mu_strategy = "adaptive";  // adaptive | monotone
   std::string linear_solver = "mumps";   // the one Debian's Ipopt ships
   int print_level = 0;             // 0..12
-  int lbfgs_history = 6;           // `limited_memory_max_history`
+  // The Hessian of the Lagrangian Ipopt steps with. "exact": the cost's and the dynamics'
+  // curvature, each stage's block by forward differences of the exact (Jet) gradients (about
+  // state + input size linearisations per stage and iteration); a warm solve of the conformance
+  // problem takes 3-4 iterations. "limited-memory": Ipopt's L-BFGS (lbfgs_history pairs), cheaper per
+  // iteration but ~200 iterations on the same problem.
+  std::string hessian = "exact";
+  int lbfgs_history = 6;           // `limited_memory_max_history` (hessian: limited-memory)
   // After a solve on this solver the next starts with `mu_init` = warm_mu_init (its primal start,
-  // the best guess, is normally the shifted plan, near the optimum). The previous multipliers,
-  // shifted one step, are off by default: on the swerve problem they made the next solve slower
-  // (286 iterations against 161 without them, and 249 cold).
+  // the best guess, is normally the shifted plan, near the optimum), and with the previous
+  // multipliers shifted one step when warm_start_multipliers is on. With the exact Hessian both
+  // pay (conformance problem, warm: 3.4 iterations against 6.1 without them); with the
+  // limited-memory one the multipliers made the next solve slower (286 iterations against 161),
+  // so set warm_start_multipliers: false and warm_mu_init: 1e-4 there.
   bool warm_start = true;
-  bool warm_start_multipliers = false;
-  double warm_mu_init = 1e-4;
+  bool warm_start_multipliers = true;
+  double warm_mu_init = 1e-6;
   // Seconds Ipopt needs to reach its first iterate on the target (first Jacobians and
   // factorisation), if known; 0: estimated from the guesses' rollouts, then measured every solve.
   // A solve whose deadline leaves less returns its best guess, and halves the estimate.
