@@ -7,6 +7,8 @@
 // Each solve runs to its backend's own convergence test (Ipopt tol 1e-6, SLSQP ftol 1e-12, Ceres
 // 1e-10, SA its 3000 proposals), no deadline. Counters: per-solve p50/p99, iterations per solve,
 // time per iteration, cost. Goal (issues 9, 17): Ipopt warm, 4 modules, N = 20: p99 <= 10 ms.
+//   BM_Solver_CostAtBudget: the cost each backend reaches warm within 2, 5, 10 and 20 ms, against
+// a tight Ipopt reference (4 and 10 modules, N = 20).
 //   BM_Solver_GapToIpoptReference: the curve scenario's closed loop with the default SA controller
 // at a solve budget of budget_ms and an SA polish share of polish_pct %; every 40th cycle the same
 // problem is solved by Ipopt to tol 1e-9 without a deadline (from SA's plan and from the held
@@ -161,6 +163,75 @@ BENCHMARK(BM_Solver_IpoptHessian)
     ->ArgNames({"hessian", "modules", "N"})
     ->ArgsProduct({{0, 1}, {4, 10}, {20}})
     ->Iterations(20)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+
+// Anytime quality (issue 17): what each backend reaches within a budget. Receding horizon on the
+// conformance suite's sidestep problem (N = 20), the same sequence of problems for every backend:
+// each cycle starts one step on along the tight reference plan (Ipopt, exact Hessian, tol 1e-9, no
+// deadline, warm from the shifted plan), and the backend, with its library defaults, solves from
+// that shifted plan with a deadline budget_ms away. Counters: the cost gap to the reference
+// (median, p90, max, in %), the largest overrun past the deadline, iterations per solve.
+void BM_Solver_CostAtBudget(benchmark::State& state) {
+  const std::string backend = kBackends[state.range(0)];
+  const int modules = static_cast<int>(state.range(1));
+  const Duration budget = std::chrono::milliseconds(state.range(2));
+  const int horizon = 20;
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, horizon, -1.0, modules);
+  SolverConfig reference_config = converging("ipopt");
+  reference_config.ipopt.tol = 1e-9;
+  std::unique_ptr<Solver> reference_solver = make_solver(reference_config, s.problem);
+  SolverConfig config;
+  config.backend = backend;
+  std::unique_ptr<Solver> solver = make_solver(config, s.problem);
+  Solution reference, trial;
+  reference.resize(s.problem.state_size(), s.problem.input_size(), horizon);
+  trial.resize(s.problem.state_size(), s.problem.input_size(), horizon);
+  Eigen::MatrixXd guess = s.problem.previous_input().replicate(1, horizon);
+  InitialGuesses guesses;
+  guesses.add(&guess);
+  SolveSummary summary;
+  // Cycle 0, untimed: the reference cold, and the backend once so its warm state exists.
+  reference_solver->solve(s.problem, guesses, SolverClock::now() + 600s, &reference, &summary);
+  solver->solve(s.problem, guesses, SolverClock::now() + budget, &trial, &summary);
+  std::vector<double> gaps;
+  double iterations = 0.0, late_ms = 0.0;
+  int cycle = 0;
+  for (auto _ : state) {
+    ++cycle;
+    s.problem.set_initial_state(reference.states.col(1));
+    s.problem.set_previous_input(reference.inputs.col(0));
+    s.set_cycle(cycle);
+    reference.shift();
+    guess = reference.inputs;
+    if (!has_solution(reference_solver->solve(s.problem, guesses, SolverClock::now() + 600s, &reference, &summary))) {
+      state.SkipWithError("the reference solve failed");
+      return;
+    }
+    const auto start = SolverClock::now();
+    const auto deadline = start + budget;
+    const bool solved = has_solution(solver->solve(s.problem, guesses, deadline, &trial, &summary));
+    const auto end = SolverClock::now();
+    state.SetIterationTime(std::chrono::duration<double>(end - start).count());
+    if (!solved) {
+      state.SkipWithError("the backend returned no plan");
+      return;
+    }
+    gaps.push_back(100.0 * (trial.cost / reference.cost - 1.0));
+    iterations += summary.iterations;
+    late_ms = std::max(late_ms, 1e3 * std::chrono::duration<double>(end - deadline).count());
+  }
+  state.counters["gap_p50_pct"] = percentile(gaps, 50.0);
+  state.counters["gap_p90_pct"] = percentile(gaps, 90.0);
+  state.counters["gap_max_pct"] = gaps.empty() ? 0.0 : *std::max_element(gaps.begin(), gaps.end());
+  state.counters["late_max_ms"] = late_ms;
+  state.counters["iterations"] = gaps.empty() ? 0.0 : iterations / static_cast<double>(gaps.size());
+  state.SetLabel(backend);
+}
+BENCHMARK(BM_Solver_CostAtBudget)
+    ->ArgNames({"backend", "modules", "budget_ms"})
+    ->ArgsProduct({{0, 1, 2, 3}, {4, 10}, {2, 5, 10, 20}})
+    ->Iterations(10)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);
 

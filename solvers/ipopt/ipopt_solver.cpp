@@ -93,9 +93,10 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
 
   // Per solve: the problem, the start point (inputs nu x N and their rollout states nx x N+1).
   void prepare(const OcpProblem& problem, const Eigen::MatrixXd& inputs, const Eigen::MatrixXd& states,
-               Deadline deadline, bool warm_multipliers) {
+               Deadline deadline, bool warm_multipliers, Duration iteration_estimate) {
     problem_ = &problem;
     deadline_ = deadline;
+    iteration_estimate_ = iteration_estimate;
     for (int k = 0; k < horizon_; ++k) {
       start_.segment(k * block_, nu_) = inputs.col(k);
       start_.segment(k * block_ + nu_, nx_) = states.col(k + 1);
@@ -106,7 +107,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     evaluations_ = 0;
     last_iteration_ = deadline.now();
     first_callback_ = TimePoint{};
-    longest_iteration_ = Duration::zero();
+    longest_iteration_ = longest_step_ = Duration::zero();
   }
 
   // The final iterate's inputs (nu x N) and its largest dynamics defect.
@@ -133,6 +134,8 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   bool has_final() const { return have_final_; }
   // When iteration 0 (Ipopt's initialisation: first evaluations and factorisation) ended.
   TimePoint first_callback() const { return first_callback_; }
+  // The longest iteration of the last solve after its first iterate (zero if it made none).
+  Duration longest_step() const { return longest_step_; }
   int iterations() const { return iterations_; }
   long evaluations() const { return evaluations_; }
   Ipopt::SolverReturn final_status() const { return final_status_; }
@@ -275,13 +278,15 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   bool eval_h(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Number obj_factor, Ipopt::Index m,
               const Ipopt::Number* multipliers, bool new_lambda, Ipopt::Index nele_hess, Ipopt::Index* i_row,
               Ipopt::Index* j_col, Ipopt::Number* values) override {
-    (void)n, (void)m, (void)new_x, (void)new_lambda, (void)nele_hess;
+    (void)n, (void)m, (void)new_lambda, (void)nele_hess;
     if (!exact_hessian_) return false;
     if (values == nullptr) {
       write_hessian_structure(i_row, j_col);
       return true;
     }
-    if (!lagrangian_hessian(x, obj_factor, multipliers)) return false;
+    // The columns difference against the iterate's own linearisation (eval_jac_g's).
+    if (new_x || !derivatives_ready_) evaluate_derivatives(x);
+    if (!derivatives_ok_ || !lagrangian_hessian(x, obj_factor, multipliers)) return false;
     int e = 0;
     for (int k = 0; k < horizon_; ++k) {
       const std::size_t stage = static_cast<std::size_t>(k);
@@ -312,9 +317,14 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     const TimePoint now = deadline_.now();
     if (iter == 0) first_callback_ = now;
     longest_iteration_ = std::max(longest_iteration_, now - last_iteration_);
+    if (iter > 0) longest_step_ = std::max(longest_step_, now - last_iteration_);
     last_iteration_ = now;
-    // Stop when one more iteration (the longest so far) and the final rollout would not fit.
-    return now + longest_iteration_ + longest_iteration_ / 4 < deadline_.at();
+    // Stop when one more iteration and the final rollout would not fit. The next iteration is
+    // foreseen as the longest so far, and at least as the past solves' iterations: the time to the
+    // first iterate holds no Hessian, so alone it underestimated an exact-Hessian iteration ~20x
+    // (10 modules with lags: 3 ms to the first iterate, 70 ms per iteration).
+    const Duration next = std::max(longest_iteration_, iteration_estimate_);
+    return now + next + next / 4 < deadline_.at();
   }
 
   void finalize_solution(Ipopt::SolverReturn status, Ipopt::Index n, const Ipopt::Number* x, const Ipopt::Number* z_L,
@@ -455,19 +465,18 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   // Forward-difference step for a coordinate of value v.
   static double difference_step(double v) { return 1e-6 * std::max(1.0, std::abs(v)); }
 
-  // obj_factor lambda dW_k - [A_k B_k]^T mu_k at z = [x_k; u_k] (gradient_ or gradient_step_).
-  bool stage_lagrangian_gradient(int k, const Eigen::VectorXd& z, double obj_factor, const Ipopt::Number* multipliers,
-                                 Eigen::VectorXd* gradient) {
-    if (!probe_->linearize_stage(*problem_, k, z.head(nx_), z.tail(nu_), probe_next_)) return false;
+  // obj_factor lambda dW_k - [A_k B_k]^T mu_k from stage k's linearisation in `linearised`.
+  bool stage_lagrangian_gradient(const OcpDerivatives& linearised, int k, double obj_factor,
+                                 const Ipopt::Number* multipliers, Eigen::VectorXd* gradient) const {
     const Eigen::Map<const Eigen::VectorXd> mu(multipliers + k * nx_, nx_);
     const double wear_factor = obj_factor * problem_->weights().wear;
-    gradient->head(nx_).noalias() = wear_factor * probe_->wear_gradient(k).head(nx_) - probe_->a(k).transpose() * mu;
-    gradient->tail(nu_).noalias() = wear_factor * probe_->wear_gradient(k).tail(nu_) - probe_->b(k).transpose() * mu;
+    gradient->head(nx_).noalias() = wear_factor * linearised.wear_gradient(k).head(nx_) - linearised.a(k).transpose() * mu;
+    gradient->tail(nu_).noalias() = wear_factor * linearised.wear_gradient(k).tail(nu_) - linearised.b(k).transpose() * mu;
     return gradient->allFinite();
   }
 
-  // Fills hessian_blocks_ (lower triangles used) and hessian_couplings_ (u_k against x_k) at x.
-  // false when the model fails at a perturbed point.
+  // Fills hessian_blocks_ (lower triangles used) and hessian_couplings_ (u_k against x_k) at x,
+  // whose linearisation derivatives_ holds. false when the model fails at a perturbed point.
   bool lagrangian_hessian(const Ipopt::Number* x, double obj_factor, const Ipopt::Number* multipliers) {
     const int nz = nx_ + nu_;
     const int tracked = OcpProblem::kTrackedStates;
@@ -502,12 +511,13 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
       const int first = k == 0 ? nx_ : 0;
       point_.head(nx_) = state_at(x, k);
       point_.tail(nu_) = input(x, k);
-      if (!stage_lagrangian_gradient(k, point_, obj_factor, multipliers, &gradient_)) return false;
+      if (!stage_lagrangian_gradient(derivatives_, k, obj_factor, multipliers, &gradient_)) return false;
       for (int j = first; j < nz; ++j) {
         const double value = point_[j];
         const double h = difference_step(value);
         point_[j] = value + h;
-        const bool ok = stage_lagrangian_gradient(k, point_, obj_factor, multipliers, &gradient_step_);
+        const bool ok = probe_->linearize_stage(*problem_, k, point_.head(nx_), point_.tail(nu_), probe_next_) &&
+                        stage_lagrangian_gradient(*probe_, k, obj_factor, multipliers, &gradient_step_);
         point_[j] = value;
         if (!ok) return false;
         stage_hessian_.col(j) = (gradient_step_ - gradient_) / h;
@@ -548,7 +558,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   int iterations_ = 0;
   long evaluations_ = 0;
   TimePoint last_iteration_{}, first_callback_{};
-  Duration longest_iteration_{};
+  Duration longest_iteration_{}, longest_step_{}, iteration_estimate_{};
 };
 
 struct IpoptSolver::Impl {
@@ -564,6 +574,9 @@ struct IpoptSolver::Impl {
   // How long Ipopt takes to reach its first iterate (initialisation, first derivatives and
   // factorisation), from past solves; before the first, a multiple of the guesses' rollout time.
   Duration startup_estimate{};
+  // How long one iteration takes (the Hessian, the factorisation, the line search), from past
+  // solves; never below the estimate from this solve's rollout time (see do_solve).
+  Duration iteration_estimate{};
   StartPlan start;
   Eigen::MatrixXd inputs, best_inputs, states, best_states;
   Eigen::VectorXd stage_costs, stage_wear, best_stage_wear;
@@ -620,19 +633,24 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     // Ipopt cannot be stopped before its first iterate: when that would overrun the deadline, the
     // best guess is the answer (a usable plan, as the deadline contract asks).
     const TimePoint now = deadline.now();
-    if (s.startup_estimate == Duration::zero()) {
-      // Ipopt's startup: the first Jacobians and a factorisation, and with the exact Hessian one
-      // more linearisation per state and input coordinate.
-      const int linearisations = options_.hessian == "exact" ? 2 + problem.state_size() + problem.input_size() : 1;
-      s.startup_estimate = (kJacobianRolloutCost * linearisations + 2) * s.start.longest_rollout();
-    }
-    if (now + s.startup_estimate >= deadline.at()) {
+    // Ipopt's startup: the first Jacobians and a factorisation (no Hessian yet).
+    if (s.startup_estimate == Duration::zero()) s.startup_estimate = (kJacobianRolloutCost + 2) * s.start.longest_rollout();
+    // An iteration: the Jacobians again and, with the exact Hessian, one more linearisation per
+    // state and input coordinate (forward differences), plus a few rollouts of the line search.
+    const int linearisations = options_.hessian == "exact" ? 2 + problem.state_size() + problem.input_size() : 1;
+    const Duration modelled_iteration = (kJacobianRolloutCost * linearisations + 2) * s.start.longest_rollout();
+    if (s.iteration_estimate == Duration::zero()) s.iteration_estimate = modelled_iteration;
+    if (now + s.startup_estimate + s.iteration_estimate >= deadline.at()) {
       // Halved on every skip: one slow start (the very first solve pays Ipopt's one-time setup,
-      // ~25 ms) must not keep Ipopt from ever running again.
+      // ~25 ms) or one stalled iteration must not keep Ipopt from ever running again. The
+      // iteration estimate falls no lower than this solve's model of it, so a vehicle whose
+      // iteration never fits the budget skips Ipopt every cycle instead of missing the deadline
+      // every few.
       s.startup_estimate /= 2;
+      s.iteration_estimate = std::max(modelled_iteration, s.iteration_estimate / 2);
       summary->iterations = 0;
       summary->rollouts = rollouts;
-      summary->reason = "no time for Ipopt's first iterate before the deadline; the best initial guess";
+      summary->reason = "no time for Ipopt's first iterate and one iteration before the deadline; the best initial guess";
       return SolveStatus::kBudgetExhausted;
     }
     // Warm: after a solve on this solver, the primal start (the best guess, normally the shifted
@@ -640,7 +658,7 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     const bool warm = options_.warm_start && s.have_multipliers;
     const bool warm_duals = warm && options_.warm_start_multipliers;
     if (warm_duals) s.nlp->shift_multipliers();
-    s.nlp->prepare(problem, s.best_inputs, s.best_states, deadline, warm_duals);
+    s.nlp->prepare(problem, s.best_inputs, s.best_states, deadline, warm_duals, s.iteration_estimate);
     Ipopt::OptionsList& options = *s.app->Options();
     options.SetStringValue("warm_start_init_point", warm_duals ? "yes" : "no");
     options.SetNumericValue("mu_init", warm ? options_.warm_mu_init : 0.1);
@@ -658,6 +676,10 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
       // Rises at once, falls halfway: a start that took longer is believed, a shorter one averaged.
       const Duration startup = s.nlp->first_callback() - optimize_start;
       s.startup_estimate = startup > s.startup_estimate ? startup : (startup + s.startup_estimate) / 2;
+    }
+    if (s.nlp->longest_step() > Duration::zero()) {
+      const Duration step = s.nlp->longest_step();
+      s.iteration_estimate = step > s.iteration_estimate ? step : (step + s.iteration_estimate) / 2;
     }
     summary->iterations = s.nlp->iterations();
     summary->rollouts = s.nlp->evaluations();

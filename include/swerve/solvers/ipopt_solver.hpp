@@ -50,7 +50,9 @@ struct IpoptOptions {
   double warm_mu_init = 1e-6;
   // Seconds Ipopt needs to reach its first iterate on the target (first Jacobians and
   // factorisation), if known; 0: estimated from the guesses' rollouts, then measured every solve.
-  // A solve whose deadline leaves less returns its best guess, and halves the estimate.
+  // A solve whose deadline leaves less than that and one iteration (measured too; before the
+  // first, modelled from the rollout time and the Hessian's linearisations) returns its best
+  // guess and halves the estimates, the iteration's no lower than its model.
   double startup_estimate = 0.0;
   void validate() const;           // ConfigError naming the field and value
 };
