@@ -51,6 +51,18 @@ void IpoptOptions::validate() const {
   }
 }
 
+// Writes a sparse structure's (row, column) pairs into Ipopt's triplet arrays, in order.
+struct TripletWriter {
+  Ipopt::Index* rows;
+  Ipopt::Index* columns;
+  int next = 0;
+  void operator()(int row, int column) {
+    rows[next] = row;
+    columns[next] = column;
+    ++next;
+  }
+};
+
 // The multiple-shooting NLP. Variables are stored stage by stage, [u_k (nu), x_{k+1} (nx)] for
 // k = 0..N-1, so the constraint Jacobian is block banded, and so is the Hessian of the Lagrangian:
 // stage k's terms (tracking at x_{k+1}; effort, rate, wear and dynamics at x_k, u_k) touch only
@@ -107,7 +119,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     evaluations_ = 0;
     last_iteration_ = deadline.now();
     first_callback_ = TimePoint{};
-    longest_iteration_ = longest_step_ = Duration::zero();
+    longest_iteration_ = longest_step_ = abandoned_iteration_ = hessian_time_ = Duration::zero();
   }
 
   // The final iterate's inputs (nu x N) and its largest dynamics defect.
@@ -134,6 +146,8 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   bool has_final() const { return have_final_; }
   // When iteration 0 (Ipopt's initialisation: first evaluations and factorisation) ended.
   TimePoint first_callback() const { return first_callback_; }
+  // Non-zero when the last solve abandoned a Hessian at the deadline: the iteration it foresaw.
+  Duration abandoned_iteration() const { return abandoned_iteration_; }
   // The longest iteration of the last solve after its first iterate (zero if it made none).
   Duration longest_step() const { return longest_step_; }
   int iterations() const { return iterations_; }
@@ -317,7 +331,15 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     const TimePoint now = deadline_.now();
     if (iter == 0) first_callback_ = now;
     longest_iteration_ = std::max(longest_iteration_, now - last_iteration_);
-    if (iter > 0) longest_step_ = std::max(longest_step_, now - last_iteration_);
+    if (iter > 0) {
+      longest_step_ = std::max(longest_step_, now - last_iteration_);
+      if (hessian_time_ > Duration::zero()) {
+        // The iteration's work besides its Hessian (factorisation, line search, next Jacobians).
+        const Duration rest = std::max(Duration::zero(), now - last_iteration_ - hessian_time_);
+        rest_estimate_ = rest > rest_estimate_ ? rest : (rest + rest_estimate_) / 2;
+      }
+    }
+    hessian_time_ = Duration::zero();
     last_iteration_ = now;
     // Stop when one more iteration and the final rollout would not fit. The next iteration is
     // foreseen as the longest so far, and at least as the past solves' iterations: the time to the
@@ -411,12 +433,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   }
 
   void write_structure(Ipopt::Index* i_row, Ipopt::Index* j_col) const {
-    int e = 0;
-    auto add = [&](int row, int column) {
-      i_row[e] = row;
-      j_col[e] = column;
-      ++e;
-    };
+    TripletWriter add{i_row, j_col};
     for (int k = 0; k < horizon_; ++k) {
       const int row = k * nx_;
       for (int i = 0; i < nx_; ++i) add(row + i, k * block_ + nu_ + i);
@@ -444,12 +461,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   int hessian_entries() const { return horizon_ * block_ * (block_ + 1) / 2 + (horizon_ - 1) * nu_ * block_; }
 
   void write_hessian_structure(Ipopt::Index* i_row, Ipopt::Index* j_col) const {
-    int e = 0;
-    auto add = [&](int row, int column) {
-      i_row[e] = row;
-      j_col[e] = column;
-      ++e;
-    };
+    TripletWriter add{i_row, j_col};
     for (int k = 0; k < horizon_; ++k) {
       if (k > 0) {
         for (int i = 0; i < nu_; ++i) {
@@ -478,6 +490,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   // Fills hessian_blocks_ (lower triangles used) and hessian_couplings_ (u_k against x_k) at x,
   // whose linearisation derivatives_ holds. false when the model fails at a perturbed point.
   bool lagrangian_hessian(const Ipopt::Number* x, double obj_factor, const Ipopt::Number* multipliers) {
+    const TimePoint started = deadline_.now();
     const int nz = nx_ + nu_;
     const int tracked = OcpProblem::kTrackedStates;
     for (int k = 0; k < horizon_; ++k) {
@@ -506,6 +519,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
       }
     }
     for (int k = 0; k < horizon_; ++k) {
+      if (k > 0 && !hessian_fits(started, k)) return false;
       // Wear and dynamics of stage k over z_k = [x_k; u_k]; x_0 is no variable, so only u_0 there.
       const std::size_t stage = static_cast<std::size_t>(k);
       const int first = k == 0 ? nx_ : 0;
@@ -532,7 +546,23 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
             0.5 * (stage_hessian_.bottomLeftCorner(nu_, nx_) + stage_hessian_.topRightCorner(nx_, nu_).transpose());
       }
     }
+    hessian_time_ += deadline_.now() - started;
     return true;
+  }
+
+  // Whether the rest of the Hessian, after `done` of its stages since `started`, and the rest of
+  // the iteration still end before the deadline. The rest (factorisation, line search, the next
+  // Jacobians) is measured in past iterations (x1.25); before the first, a whole Hessian is
+  // assumed, as the solver's first iteration is its slowest (first run: 8.4 ms against 5.5). If
+  // not, the Hessian is abandoned: Ipopt stops with an evaluation error, and do_solve returns the
+  // last iterate on time and learns the whole iteration foreseen (abandoned_iteration()).
+  bool hessian_fits(TimePoint started, int done) {
+    const TimePoint now = deadline_.now();
+    const Duration per_stage = (now - started) / done;
+    const Duration rest = rest_estimate_ > Duration::zero() ? rest_estimate_ + rest_estimate_ / 4 : per_stage * horizon_;
+    if (now + per_stage * (horizon_ - done) + rest < deadline_.at()) return true;
+    abandoned_iteration_ = (started - last_iteration_) + per_stage * horizon_ + rest;
+    return false;
   }
 
   int horizon_, nx_, nu_, block_;
@@ -558,7 +588,9 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   int iterations_ = 0;
   long evaluations_ = 0;
   TimePoint last_iteration_{}, first_callback_{};
-  Duration longest_iteration_{}, longest_step_{}, iteration_estimate_{};
+  Duration longest_iteration_{}, longest_step_{}, iteration_estimate_{}, abandoned_iteration_{};
+  // This iteration's Hessian time, and the rest of an iteration measured over past solves.
+  Duration hessian_time_{}, rest_estimate_{};
 };
 
 struct IpoptSolver::Impl {
@@ -643,11 +675,12 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     if (now + s.startup_estimate + s.iteration_estimate >= deadline.at()) {
       // Halved on every skip: one slow start (the very first solve pays Ipopt's one-time setup,
       // ~25 ms) or one stalled iteration must not keep Ipopt from ever running again. The
-      // iteration estimate falls no lower than this solve's model of it, so a vehicle whose
-      // iteration never fits the budget skips Ipopt every cycle instead of missing the deadline
-      // every few.
+      // iteration estimate falls by a quarter, and no lower than this solve's model of it, so a
+      // vehicle whose iteration never fits the budget skips Ipopt every cycle instead of missing
+      // the deadline every few, and one whose model is too low probes every third cycle or so (an
+      // iteration that then does not fit is abandoned inside its Hessian, on time).
       s.startup_estimate /= 2;
-      s.iteration_estimate = std::max(modelled_iteration, s.iteration_estimate / 2);
+      s.iteration_estimate = std::max(modelled_iteration, s.iteration_estimate * 3 / 4);
       summary->iterations = 0;
       summary->rollouts = rollouts;
       summary->reason = "no time for Ipopt's first iterate and one iteration before the deadline; the best initial guess";
@@ -681,6 +714,8 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
       const Duration step = s.nlp->longest_step();
       s.iteration_estimate = step > s.iteration_estimate ? step : (step + s.iteration_estimate) / 2;
     }
+    const bool abandoned = s.nlp->abandoned_iteration() > Duration::zero();
+    if (abandoned) s.iteration_estimate = std::max(s.iteration_estimate, s.nlp->abandoned_iteration());
     summary->iterations = s.nlp->iterations();
     summary->rollouts = s.nlp->evaluations();
     // The final iterate's inputs, rolled out: states that satisfy the dynamics exactly.
@@ -704,6 +739,10 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     out->states = s.best_states;
     out->cost = best_cost;
     summary->cost = problem.breakdown(out->inputs, out->states, s.best_stage_wear);
+    if (abandoned) {
+      summary->reason = "ipopt stopped inside its Hessian at the deadline; the rollout of its last iterate or the best guess";
+      return SolveStatus::kBudgetExhausted;
+    }
     switch (status) {
       case Ipopt::Solve_Succeeded:
       case Ipopt::Solved_To_Acceptable_Level:

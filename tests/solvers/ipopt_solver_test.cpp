@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 #include <string>
 
 #include "support/linear_models.hpp"
@@ -182,6 +183,38 @@ TEST(IpoptSolver, NeverStartsAnIterationThatWouldEndPastTheDeadline) {
       EXPECT_GT(iterations, 0);
     }
   }
+}
+
+TEST(IpoptSolver, AbandonsAHessianThatWouldEndPastTheDeadline) {
+  // When a linearisation costs more than the estimates assume (here 200 us against a 10 us step,
+  // where kJacobianRolloutCost models 8 steps), an iteration foreseen to fit does not: the Hessian
+  // (~14 linearisations per stage, ~28 ms) is abandoned between stages, the solve returns its last
+  // iterate by the deadline, and the next solves foresee the whole iteration.
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, 10);
+  const Eigen::MatrixXd held = s.problem.previous_input().replicate(1, 10);
+  InitialGuesses guesses;
+  guesses.add(&held);
+  testing::WorkClock clock;
+  const testing::ClockedModel model(s.model, &clock, 10e-6, 200e-6);
+  const std::unique_ptr<OcpProblem> problem = testing::problem_on(model, s.problem);
+  IpoptSolver solver(*problem, IpoptOptions{});
+  Solution solution;
+  solution.resize(10, 3, 10);
+  int abandoned = 0;
+  for (int cycle = 0; cycle < 8; ++cycle) {
+    SolveSummary summary;
+    const TimePoint deadline = clock.now() + 20ms;
+    const SolveStatus status = solver.solve(*problem, guesses, Deadline(deadline, clock), &solution, &summary);
+    ASSERT_TRUE(has_solution(status)) << summary.reason;
+    EXPECT_LE(clock.now(), deadline + 400us) << "cycle " << cycle << " returned "
+                                              << to_seconds(clock.now() - deadline) * 1e3 << " ms late";
+    if (std::strstr(summary.reason, "inside its Hessian") != nullptr) {
+      EXPECT_EQ(status, SolveStatus::kBudgetExhausted);
+      ++abandoned;
+    }
+  }
+  EXPECT_GE(abandoned, 1) << "the estimates kept Ipopt from ever starting an iteration";
+  EXPECT_LE(abandoned, 3) << "the abandoned iteration must teach the estimate";
 }
 
 TEST(IpoptSolver, RejectsBadOptionsNamingTheField) {

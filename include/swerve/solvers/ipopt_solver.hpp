@@ -52,7 +52,9 @@ struct IpoptOptions {
   // factorisation), if known; 0: estimated from the guesses' rollouts, then measured every solve.
   // A solve whose deadline leaves less than that and one iteration (measured too; before the
   // first, modelled from the rollout time and the Hessian's linearisations) returns its best
-  // guess and halves the estimates, the iteration's no lower than its model.
+  // guess and lowers the estimates (the startup's by half, the iteration's by a quarter and no
+  // lower than its model). An exact-Hessian iteration that would still end late is abandoned
+  // between stages of its Hessian and the last iterate returned.
   double startup_estimate = 0.0;
   void validate() const;           // ConfigError naming the field and value
 };
