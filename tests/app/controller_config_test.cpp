@@ -86,6 +86,14 @@ TEST(ControllerConfig, ReadsTheDriveAndSteeringLagSwitchesOfThePrediction) {
   expect_rejected("  prediction: {steering_lag: 2}\n", "controller.prediction.steering_lag");
 }
 
+TEST(ControllerConfig, ReadsIpoptsHessianChoiceAndRejectsAnUnknownOne) {
+  EXPECT_EQ(load("").solver.ipopt.hessian, "exact");
+  EXPECT_EQ(load("  solver: {ipopt: {hessian: limited-memory}}\n").solver.ipopt.hessian, "limited-memory");
+  for (const char* block : {"  solver: {ipopt: {hessian: gauss-newton}}\n", "  solver: {ipopt: {hessian: 1}}\n"}) {
+    expect_rejected(block, "controller.solver.ipopt.hessian");
+  }
+}
+
 TEST(ControllerConfig, ReadsTheWearReferenceMassAndRejectsABadOne) {
   EXPECT_DOUBLE_EQ(load("  weights: {wear: 0.3, wear_reference_mass: 800}\n").mpc.wear_reference_mass, 800.0);
   EXPECT_DOUBLE_EQ(load("").mpc.wear_reference_mass, 0.0);
