@@ -95,16 +95,6 @@ void BM_Solver_Cold(benchmark::State& state) {
   state.SetLabel(backend);
 }
 
-// One cycle on along `plan`: the state it predicted, its first input as the last one sent, the
-// reference one step on; the plan shifted becomes `guess`.
-void next_cycle(testing::SwerveTestProblem& s, int cycle, Solution* plan, Eigen::MatrixXd* guess) {
-  s.problem.set_initial_state(plan->states.col(1));
-  s.problem.set_previous_input(plan->inputs.col(0));
-  s.set_cycle(cycle);
-  plan->shift();
-  *guess = plan->inputs;
-}
-
 // Receding horizon: one untimed solve, then per benchmark iteration one cycle on (the state the
 // plan predicted, the reference one step on) from the shifted plan.
 void run_warm_cycles(benchmark::State& state, Solver& solver, testing::SwerveTestProblem& s) {
@@ -119,7 +109,8 @@ void run_warm_cycles(benchmark::State& state, Solver& solver, testing::SwerveTes
   Samples samples;
   int cycle = 0;
   for (auto _ : state) {
-    next_cycle(s, ++cycle, &solution, &guess);
+    s.next_cycle(++cycle, &solution);
+    guess = solution.inputs;
     timed_solve(state, solver, s.problem, guesses, &solution, &samples);
   }
   samples.report(state);
@@ -204,7 +195,8 @@ void BM_Solver_CostAtBudget(benchmark::State& state) {
   double iterations = 0.0, late_ms = 0.0;
   int cycle = 0;
   for (auto _ : state) {
-    next_cycle(s, ++cycle, &reference, &guess);
+    s.next_cycle(++cycle, &reference);
+    guess = reference.inputs;
     if (!has_solution(reference_solver->solve(s.problem, guesses, SolverClock::now() + 600s, &reference, &summary))) {
       state.SkipWithError("the reference solve failed");
       return;

@@ -51,6 +51,12 @@ void IpoptOptions::validate() const {
   }
 }
 
+// An estimate of a duration after a new measurement: it rises at once and falls halfway, so a
+// slower run is believed and a faster one averaged.
+static Duration updated_estimate(Duration estimate, Duration measured) {
+  return measured > estimate ? measured : (measured + estimate) / 2;
+}
+
 // Writes a sparse structure's (row, column) pairs into Ipopt's triplet arrays, in order.
 struct TripletWriter {
   Ipopt::Index* rows;
@@ -335,8 +341,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
       longest_step_ = std::max(longest_step_, now - last_iteration_);
       if (hessian_time_ > Duration::zero()) {
         // The iteration's work besides its Hessian (factorisation, line search, next Jacobians).
-        const Duration rest = std::max(Duration::zero(), now - last_iteration_ - hessian_time_);
-        rest_estimate_ = rest > rest_estimate_ ? rest : (rest + rest_estimate_) / 2;
+        rest_estimate_ = updated_estimate(rest_estimate_, std::max(Duration::zero(), now - last_iteration_ - hessian_time_));
       }
     }
     hessian_time_ = Duration::zero();
@@ -594,12 +599,13 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
 };
 
 struct IpoptSolver::Impl {
-  Impl(const OcpProblem& shape, bool exact_hessian)
-      : nlp(new MultipleShootingNlp(shape, exact_hessian)), app(IpoptApplicationFactory()), start(shape) {
+  Impl(const OcpProblem& shape, bool exact)
+      : exact_hessian(exact), nlp(new MultipleShootingNlp(shape, exact)), app(IpoptApplicationFactory()), start(shape) {
     inputs = best_inputs = Eigen::MatrixXd::Zero(shape.input_size(), shape.horizon());
     states = best_states = Eigen::MatrixXd::Zero(shape.state_size(), shape.horizon() + 1);
     stage_costs = stage_wear = best_stage_wear = Eigen::VectorXd::Zero(shape.horizon());
   }
+  const bool exact_hessian;  // options.hessian == "exact", read once
   Ipopt::SmartPtr<MultipleShootingNlp> nlp;
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app;
   bool have_multipliers = false;
@@ -628,7 +634,7 @@ IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options)
   app.Options()->SetIntegerValue("max_iter", options_.max_iterations);
   app.Options()->SetStringValue("mu_strategy", options_.mu_strategy);
   app.Options()->SetStringValue("linear_solver", options_.linear_solver);
-  if (options_.hessian == "exact") {
+  if (impl_->exact_hessian) {
     app.Options()->SetStringValue("hessian_approximation", "exact");
   } else {
     app.Options()->SetStringValue("hessian_approximation", "limited-memory");
@@ -669,7 +675,7 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     if (s.startup_estimate == Duration::zero()) s.startup_estimate = (kJacobianRolloutCost + 2) * s.start.longest_rollout();
     // An iteration: the Jacobians again and, with the exact Hessian, one more linearisation per
     // state and input coordinate (forward differences), plus a few rollouts of the line search.
-    const int linearisations = options_.hessian == "exact" ? 2 + problem.state_size() + problem.input_size() : 1;
+    const int linearisations = s.exact_hessian ? 2 + problem.state_size() + problem.input_size() : 1;
     const Duration modelled_iteration = (kJacobianRolloutCost * linearisations + 2) * s.start.longest_rollout();
     if (s.iteration_estimate == Duration::zero()) s.iteration_estimate = modelled_iteration;
     if (now + s.startup_estimate + s.iteration_estimate >= deadline.at()) {
@@ -706,13 +712,10 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     const TimePoint optimize_start = deadline.now();
     const Ipopt::ApplicationReturnStatus status = s.app->OptimizeTNLP(Ipopt::SmartPtr<Ipopt::TNLP>(GetRawPtr(s.nlp)));
     if (s.nlp->first_callback() > optimize_start) {
-      // Rises at once, falls halfway: a start that took longer is believed, a shorter one averaged.
-      const Duration startup = s.nlp->first_callback() - optimize_start;
-      s.startup_estimate = startup > s.startup_estimate ? startup : (startup + s.startup_estimate) / 2;
+      s.startup_estimate = updated_estimate(s.startup_estimate, s.nlp->first_callback() - optimize_start);
     }
     if (s.nlp->longest_step() > Duration::zero()) {
-      const Duration step = s.nlp->longest_step();
-      s.iteration_estimate = step > s.iteration_estimate ? step : (step + s.iteration_estimate) / 2;
+      s.iteration_estimate = updated_estimate(s.iteration_estimate, s.nlp->longest_step());
     }
     const bool abandoned = s.nlp->abandoned_iteration() > Duration::zero();
     if (abandoned) s.iteration_estimate = std::max(s.iteration_estimate, s.nlp->abandoned_iteration());

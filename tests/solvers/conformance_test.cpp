@@ -226,10 +226,7 @@ TEST_P(BackendConformance, WarmStartFromTheShiftedPlanNeedsFewerIterationsThanAC
     first_guess.add(&cruise);
     ASSERT_TRUE(has_solution(solver->solve(s.problem, first_guess, SolverClock::now() + generous, &solution, &summary)));
     // The next cycle: the state the plan predicts, the reference one step on.
-    s.problem.set_initial_state(solution.states.col(1));
-    s.problem.set_previous_input(solution.inputs.col(0));
-    s.set_cycle(1);
-    solution.shift();
+    s.next_cycle(1, &solution);
     const Eigen::MatrixXd shifted = solution.inputs;
     InitialGuesses warm_guess;
     warm_guess.add(&shifted);

@@ -105,10 +105,7 @@ TEST(IpoptSolver, ExactHessianReachesTheLimitedMemoryOptimumOfTheSwerveProblemWa
   solution.resize(10, 3, 20);
   SolveSummary first, warm;
   ASSERT_EQ(solver.solve(s.problem, cruise_guess, SolverClock::now() + 60s, &solution, &first), SolveStatus::kConverged);
-  s.problem.set_initial_state(solution.states.col(1));
-  s.problem.set_previous_input(solution.inputs.col(0));
-  s.set_cycle(1);
-  solution.shift();
+  s.next_cycle(1, &solution);
   const Eigen::MatrixXd shifted = solution.inputs;
   InitialGuesses warm_guess;
   warm_guess.add(&shifted);

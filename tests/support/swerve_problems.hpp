@@ -2,7 +2,8 @@
 // 4-module robot (0.6 x 0.5 m, the model fixtures' 40 kg per module; 2n modules on n axles 0.6 m
 // apart for more) with body-twist inputs, cruising at 0.5 m/s, in two scenes.
 //   kSidestep: the reference runs 0.2 m to the left (wear 1, rate 1, default pose weights); the
-//              conformance suite's problem. set_cycle(c) moves the reference c steps on.
+//              conformance suite's problem. set_cycle(c) moves the reference c steps on;
+//              next_cycle(c, &plan) moves the whole problem one receding-horizon cycle on.
 //   kTurn:     turning at 0.1 rad/s towards a reference ahead, every cost term active.
 #pragma once
 
@@ -12,6 +13,7 @@
 
 #include "models/model_fixtures.hpp"
 #include "swerve/ocp/ocp_problem.hpp"
+#include "swerve/ocp/solver.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
 
 namespace swerve::testing {
@@ -47,6 +49,16 @@ struct SwerveTestProblem {
         problem.set_reference(k, {0.03 * j, 0.004 * j, 0.01 * j}, {0.6, 0.0, 0.2});
       }
     }
+  }
+
+  // One receding-horizon cycle on along `plan`, a solution of this problem: the state it predicted,
+  // its first input as the last one sent, the reference at `cycle`; `plan` is shifted one step, so
+  // its inputs are the next cycle's warm start.
+  void next_cycle(int cycle, Solution* plan) {
+    problem.set_initial_state(plan->states.col(1));
+    problem.set_previous_input(plan->inputs.col(0));
+    set_cycle(cycle);
+    plan->shift();
   }
 
   // Inputs near the turning reference's twist, jittered by up to +-`spread` per entry.
