@@ -22,6 +22,12 @@ std::uint64_t rotate_left(std::uint64_t x, int k) { return (x << k) | (x >> (64 
 constexpr int kProbeMoves = 16;  // greedy probes whose uphill steps calibrate T0
 constexpr int kPolishMemory = 5;  // L-BFGS pairs kept
 constexpr int kLineSearchTrials = 8;
+// The knot polish's forward-difference step, per unit of each input's reference step (its
+// half-range): large enough that the prediction's Newton tolerance (1e-10 on the twist) stays ~1e-5
+// of a slope, small enough that the curvature's bias is as small.
+constexpr double kKnotDifference = 1e-4;
+// polish()'s answer when not even its first gradient fits before its stop.
+constexpr int kGradientDoesNotFit = -1;
 
 }  // namespace
 
@@ -101,12 +107,60 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
     }
   }
   sigma_ = reference_step_ * options_.step_fraction;
-  if (options_.polish_share > 0.0 && options_.polish_iterations > 0 && problem.model().has_jacobians()) {
-    derivatives_ = std::make_unique<OcpDerivatives>(problem);
+  best_stage_costs_ = Eigen::VectorXd::Zero(horizon_);
+  if (options_.polish_share > 0.0 && options_.polish_iterations > 0) {
+    if (problem.model().has_jacobians()) derivatives_ = std::make_unique<OcpDerivatives>(problem);
     gradient_ = candidate_gradient_ = direction_ = Eigen::MatrixXd::Zero(nu_, horizon_);
+    knot_gradient_ = candidate_knot_gradient_ = knot_direction_ = previous_knots_ = Eigen::MatrixXd::Zero(nu_, knot_count_);
     memory_s_ = memory_y_ = Eigen::MatrixXd::Zero(nu_ * horizon_, kPolishMemory);
     memory_rho_ = memory_alpha_ = Eigen::VectorXd::Zero(kPolishMemory);
   }
+}
+
+bool SimulatedAnnealingSolver::lbfgs_direction(const Eigen::MatrixXd& gradient, Eigen::MatrixXd* direction, int* stored,
+                                               int newest) noexcept {
+  const Eigen::Index n = gradient.size();
+  const Eigen::Map<const Eigen::VectorXd> g(gradient.data(), n);
+  Eigen::Map<Eigen::VectorXd> d(direction->data(), n);
+  // Two-loop recursion: d = -H g.
+  d = -g;
+  for (int back = 0; back < *stored; ++back) {
+    const int j = (newest - back + kPolishMemory) % kPolishMemory;
+    memory_alpha_[j] = memory_rho_[j] * memory_s_.col(j).head(n).dot(d);
+    d -= memory_alpha_[j] * memory_y_.col(j).head(n);
+  }
+  if (*stored > 0) {
+    d *= memory_s_.col(newest).head(n).dot(memory_y_.col(newest).head(n)) / memory_y_.col(newest).head(n).squaredNorm();
+  } else {
+    // No curvature yet: a first step of 2 % of the largest input range along the gradient.
+    // In inputs scaled by their ranges the gradient is g_i r_i; a step of 2 % of the largest
+    // scaled input is r_i^2 g_i times 0.02 / max |g_i r_i| in the inputs themselves.
+    const double largest = (gradient.array().abs().colwise() * reference_step_.array()).maxCoeff();
+    if (!(largest > 0.0)) return false;
+    d *= 0.02 / largest;
+    for (int i = 0; i < nu_; ++i) direction->row(i) *= reference_step_[i] * reference_step_[i];
+  }
+  for (int back = *stored - 1; back >= 0; --back) {
+    const int j = (newest - back + kPolishMemory) % kPolishMemory;
+    const double beta = memory_rho_[j] * memory_y_.col(j).head(n).dot(d);
+    d += (memory_alpha_[j] - beta) * memory_s_.col(j).head(n);
+  }
+  if (g.dot(d) < 0.0) return true;
+  *stored = 0;  // not a descent direction: forget the memory
+  return false;
+}
+
+void SimulatedAnnealingSolver::remember_pair(const Eigen::Ref<const Eigen::VectorXd>& s,
+                                             const Eigen::Ref<const Eigen::VectorXd>& y, int* stored,
+                                             int* newest) noexcept {
+  // A pair enters the memory only with positive curvature (else H would not stay positive definite).
+  const double curvature = s.dot(y);
+  if (!(curvature > 1e-12 * s.norm() * y.norm())) return;
+  *newest = (*newest + 1) % kPolishMemory;
+  memory_s_.col(*newest).head(s.size()) = s;
+  memory_y_.col(*newest).head(y.size()) = y;
+  memory_rho_[*newest] = 1.0 / curvature;
+  *stored = std::min(*stored + 1, kPolishMemory);
 }
 
 int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadline, TimePoint stop,
@@ -127,7 +181,7 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
   }
   const auto gradient_time = [&] { return longest_gradient_ + longest_gradient_ / 2; };
   // Worth starting only with room for the gradient and a line search's first two trials.
-  if (deadline.now() + gradient_time() + 2 * full_rollout >= stop) return 0;
+  if (deadline.now() + gradient_time() + 2 * full_rollout >= stop) return kGradientDoesNotFit;
   inputs_ = out->inputs;
   // A gradient given up after some stages is charged at its full horizon's pace.
   const auto record_gradient_time = [&](TimePoint gradient_start) {
@@ -143,32 +197,10 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
   int stored = 0, newest = -1, steps = 0;
   for (int iteration = 0; iteration < options_.polish_iterations; ++iteration) {
     if (deadline.now() + 2 * full_rollout >= stop) break;
-    // Two-loop recursion: direction = -H gradient.
-    flat(direction_) = -flat(gradient_);
-    for (int back = 0; back < stored; ++back) {
-      const int j = (newest - back + kPolishMemory) % kPolishMemory;
-      memory_alpha_[j] = memory_rho_[j] * memory_s_.col(j).dot(flat(direction_));
-      flat(direction_) -= memory_alpha_[j] * memory_y_.col(j);
-    }
-    if (stored > 0) {
-      flat(direction_) *= memory_s_.col(newest).dot(memory_y_.col(newest)) / memory_y_.col(newest).squaredNorm();
-    } else {
-      // No curvature yet: a first step of 2 % of the largest input range along the gradient.
-      // In inputs scaled by their ranges the gradient is g_i r_i; a step of 2 % of the largest
-      // scaled input is r_i^2 g_i times 0.02 / max |g_i r_i| in the inputs themselves.
-      const double largest = (gradient_.array().abs().colwise() * reference_step_.array()).maxCoeff();
-      if (!(largest > 0.0)) break;
-      flat(direction_) *= 0.02 / largest;
-      for (int i = 0; i < nu_; ++i) direction_.row(i) *= reference_step_[i] * reference_step_[i];
-    }
-    for (int back = stored - 1; back >= 0; --back) {
-      const int j = (newest - back + kPolishMemory) % kPolishMemory;
-      const double beta = memory_rho_[j] * memory_y_.col(j).dot(flat(direction_));
-      flat(direction_) += (memory_alpha_[j] - beta) * memory_s_.col(j);
-    }
-    if (!(flat(gradient_).dot(flat(direction_)) < 0.0)) {  // not a descent direction: forget the memory
-      stored = 0;
-      continue;
+    const bool had_memory = stored > 0;
+    if (!lbfgs_direction(gradient_, &direction_, &stored, newest)) {
+      if (had_memory) continue;  // retried along the steepest descent
+      break;                     // a zero gradient
     }
     double step = 1.0, candidate_cost = cost;
     bool accepted = false;
@@ -201,16 +233,7 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     record_gradient_time(gradient_start);
     ++*rollouts;
     if (!std::isfinite(new_cost)) break;
-    // A pair enters the memory only with positive curvature (else H would not stay positive definite).
-    const double curvature = (flat(candidate_inputs_) - flat(inputs_)).dot(flat(candidate_gradient_) - flat(gradient_));
-    const double scale = (flat(candidate_inputs_) - flat(inputs_)).norm() * (flat(candidate_gradient_) - flat(gradient_)).norm();
-    if (curvature > 1e-12 * scale) {
-      newest = (newest + 1) % kPolishMemory;
-      memory_s_.col(newest) = flat(candidate_inputs_) - flat(inputs_);
-      memory_y_.col(newest) = flat(candidate_gradient_) - flat(gradient_);
-      memory_rho_[newest] = 1.0 / curvature;
-      stored = std::min(stored + 1, kPolishMemory);
-    }
+    remember_pair(flat(candidate_inputs_) - flat(inputs_), flat(candidate_gradient_) - flat(gradient_), &stored, &newest);
     std::swap(inputs_, candidate_inputs_);
     std::swap(states_, candidate_states_);
     std::swap(gradient_, candidate_gradient_);
@@ -218,6 +241,127 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     out->inputs = inputs_;
     out->states = states_;
     out->cost = cost;
+  }
+  return steps;
+}
+
+bool SimulatedAnnealingSolver::knot_gradient(const OcpProblem& problem, double cost, Deadline deadline, TimePoint stop,
+                                             Duration* proposal, long* rollouts, Eigen::MatrixXd* gradient) noexcept {
+  for (int knot = 0; knot < knot_count_; ++knot) {
+    const int first = knot_first_step_[static_cast<std::size_t>(knot)];
+    const int last = knot_last_step_[static_cast<std::size_t>(knot)];
+    for (int i = 0; i < nu_; ++i) {
+      const auto start = deadline.now();
+      if (start + *proposal >= stop) return false;
+      const double h = kKnotDifference * reference_step_[i];
+      candidate_knots_ = knots_;
+      candidate_knots_(i, knot) += h;
+      candidate_raw_ = raw_;
+      interpolate(candidate_knots_, first, last, &candidate_raw_);
+      candidate_inputs_ = candidate_raw_;
+      problem.project(candidate_inputs_);
+      int changed = horizon_;
+      for (int k = first; k <= last && changed == horizon_; ++k) {
+        if (candidate_inputs_.col(k) != inputs_.col(k)) changed = k;
+      }
+      if (changed == horizon_) {  // held by a bound: no slope along this offset
+        (*gradient)(i, knot) = 0.0;
+        continue;
+      }
+      candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
+      candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
+      candidate_stage_wear_.head(changed) = stage_wear_.head(changed);
+      const double shifted = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_,
+                                             candidate_stage_costs_, candidate_stage_wear_.data());
+      ++*rollouts;
+      *proposal = std::max(*proposal, deadline.now() - start);
+      if (!std::isfinite(shifted)) return false;
+      (*gradient)(i, knot) = (shifted - cost) / h;
+    }
+  }
+  return true;
+}
+
+int SimulatedAnnealingSolver::knot_polish(const OcpProblem& problem, Deadline deadline, TimePoint stop,
+                                          Duration proposal, Solution* out, long* rollouts) noexcept {
+  // The best plan becomes the base and the offsets restart at zero, as a reheat does; the cost is
+  // a smooth function of the offsets away from the bounds, which the projection holds.
+  base_ = out->inputs;
+  raw_ = base_;
+  inputs_ = out->inputs;
+  states_ = out->states;
+  stage_costs_ = best_stage_costs_;
+  stage_wear_ = best_stage_wear_;
+  knots_.setZero();
+  double cost = out->cost;
+  const Eigen::Index n = knots_.size();
+  const auto flat = [n](Eigen::MatrixXd& m) { return Eigen::Map<Eigen::VectorXd>(m.data(), n); };
+  // A gradient costs at most one full rollout per offset; then as measured, the slowest seen.
+  const auto gradient_time = [&] {
+    return longest_knot_gradient_ > Duration::zero() ? longest_knot_gradient_ : static_cast<int>(n) * proposal;
+  };
+  const auto timed_gradient = [&](double at_cost, Eigen::MatrixXd* gradient) {
+    const auto start = deadline.now();
+    const bool complete = knot_gradient(problem, at_cost, deadline, stop, &proposal, rollouts, gradient);
+    if (complete) longest_knot_gradient_ = std::max(longest_knot_gradient_, deadline.now() - start);
+    return complete;
+  };
+  if (deadline.now() + gradient_time() + 2 * proposal >= stop) return 0;
+  if (!timed_gradient(cost, &knot_gradient_)) return 0;
+  int stored = 0, newest = -1, steps = 0;
+  for (int iteration = 0; iteration < options_.polish_iterations; ++iteration) {
+    if (deadline.now() + 2 * proposal >= stop) break;
+    const bool had_memory = stored > 0;
+    if (!lbfgs_direction(knot_gradient_, &knot_direction_, &stored, newest)) {
+      if (had_memory) continue;  // retried along the steepest descent
+      break;                     // a zero gradient
+    }
+    double step = 1.0, candidate_cost = cost;
+    bool accepted = false;
+    for (int trial = 0; trial < kLineSearchTrials; ++trial, step *= 0.3) {
+      const auto trial_start = deadline.now();
+      candidate_knots_ = knots_ + step * knot_direction_;
+      interpolate(candidate_knots_, 0, horizon_ - 1, &candidate_raw_);
+      candidate_inputs_ = candidate_raw_;
+      problem.project(candidate_inputs_);
+      int changed = 0;
+      while (changed < horizon_ && candidate_inputs_.col(changed) == inputs_.col(changed)) ++changed;
+      if (changed == horizon_) break;  // the bounds hold every step of the move
+      candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
+      candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
+      candidate_stage_wear_.head(changed) = stage_wear_.head(changed);
+      candidate_cost = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_, candidate_stage_costs_,
+                                       candidate_stage_wear_.data());
+      proposal = std::max(proposal, deadline.now() - trial_start);
+      ++*rollouts;
+      const double decrease = flat(knot_gradient_).dot(flat(candidate_knots_) - flat(knots_));
+      if (candidate_cost <= cost + 1e-4 * decrease && candidate_cost < cost) {
+        accepted = true;
+        break;
+      }
+      if (deadline.now() + proposal >= stop) break;
+    }
+    if (!accepted) break;
+    ++steps;
+    // The accepted plan becomes the current one (and the answer) even when no gradient follows.
+    std::swap(raw_, candidate_raw_);
+    std::swap(inputs_, candidate_inputs_);
+    std::swap(states_, candidate_states_);
+    std::swap(stage_costs_, candidate_stage_costs_);
+    std::swap(stage_wear_, candidate_stage_wear_);
+    out->inputs = inputs_;
+    out->states = states_;
+    best_stage_wear_ = stage_wear_;
+    out->cost = cost = candidate_cost;
+    // The offsets move with their plan (knot_gradient perturbs around both); candidate_knots_ is
+    // its scratch, so the step is kept apart for the memory.
+    previous_knots_ = knots_;
+    knots_ = candidate_knots_;
+    if (deadline.now() + gradient_time() >= stop) break;
+    if (!timed_gradient(cost, &candidate_knot_gradient_)) break;
+    remember_pair(flat(knots_) - flat(previous_knots_), flat(candidate_knot_gradient_) - flat(knot_gradient_), &stored,
+                  &newest);
+    std::swap(knot_gradient_, candidate_knot_gradient_);
   }
   return steps;
 }
@@ -287,9 +431,18 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   const bool timed = deadline.at() != TimePoint::max();
   const Duration polish_window =
       timed ? std::chrono::duration_cast<Duration>(options_.polish_share * (deadline.at() - loop_start)) : Duration::max();
-  const bool polishing = derivatives_ != nullptr &&
-                         (!timed || longest_gradient_ == Duration::zero() ||
-                          longest_gradient_ + longest_gradient_ / 2 + 2 * full_rollout <= polish_window);
+  bool exact_polish = derivatives_ != nullptr &&
+                            (!timed || longest_gradient_ == Duration::zero() ||
+                             longest_gradient_ + longest_gradient_ / 2 + 2 * full_rollout <= polish_window);
+  // Else the knot polish, when one forward-difference gradient (as last timed, or one full rollout
+  // per offset before the first) and two line-search trials fit in the share.
+  longest_knot_gradient_ -= longest_knot_gradient_ / 16;
+  const Duration knot_gradient_estimate = longest_knot_gradient_ > Duration::zero()
+                                              ? longest_knot_gradient_
+                                              : static_cast<int>(knots_.size()) * full_rollout;
+  const bool knot_polishing = !exact_polish && options_.knot_polish && knot_gradient_.size() > 0 &&
+                              (!timed || knot_gradient_estimate + 2 * full_rollout <= polish_window);
+  const bool polishing = exact_polish || knot_polishing;
   const TimePoint anneal_end =
       polishing && timed
           ? loop_start + std::chrono::duration_cast<Duration>((1.0 - options_.polish_share) * (deadline.at() - loop_start))
@@ -299,6 +452,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   out->inputs = inputs_;
   out->states = states_;
   best_stage_wear_ = stage_wear_;
+  best_stage_costs_ = stage_costs_;
   double best_cost = current_cost;
 
   // Geometric cooling over the schedule's progress: the larger of the share of iterations done and
@@ -403,6 +557,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
         out->inputs = inputs_;
         out->states = states_;
         best_stage_wear_ = stage_wear_;
+        best_stage_costs_ = stage_costs_;
       }
     }
     if (window_proposed >= options_.adapt_interval) {
@@ -430,17 +585,29 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     // The polish's own stop keeps the annealing's slack; its line search starts from the slowest
     // proposal seen as the price of a full rollout, and raises it by what its trials take.
     const TimePoint polish_end = deadline.at() == TimePoint::max() ? deadline.at() : deadline.at() - full_rollout;
-    polished = polish(problem, deadline, polish_end, std::max(full_rollout, longest_proposal), out, &rollouts) > 0;
+    const Duration proposal = std::max(full_rollout, longest_proposal);
+    int steps = exact_polish ? polish(problem, deadline, polish_end, proposal, out, &rollouts) : kGradientDoesNotFit;
+    // The first solve learns a gradient's time from one stage; when it does not fit, or whenever
+    // none would, the knot polish takes the window.
+    if (steps == kGradientDoesNotFit && options_.knot_polish && knot_gradient_.size() > 0) {
+      exact_polish = false;
+      steps = knot_polish(problem, deadline, polish_end, proposal, out, &rollouts);
+    }
+    polished = steps > 0;
     best_cost = out->cost;
   }
   summary->iterations = iteration;
   summary->rollouts = rollouts;
   summary->cost = problem.breakdown(out->inputs, out->states, best_stage_wear_);
   if (deadline_hit) {
-    summary->reason = polished ? "annealed and polished until the deadline" : "stopped at the deadline with the best plan seen";
+    summary->reason = !polished      ? "stopped at the deadline with the best plan seen"
+                      : exact_polish ? "annealed and polished until the deadline"
+                                     : "annealed and polished over the knots until the deadline";
     return SolveStatus::kBudgetExhausted;
   }
-  summary->reason = polished ? "completed the annealing schedule and the polish" : "completed the annealing schedule";
+  summary->reason = !polished      ? "completed the annealing schedule"
+                    : exact_polish ? "completed the annealing schedule and the polish"
+                                   : "completed the annealing schedule and the knot polish";
   return SolveStatus::kConverged;
 }
 

@@ -132,6 +132,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                    {"probability_one_knot", sa.probability_one_knot},
                    {"polish_share", sa.polish_share},
                    {"polish_iterations", sa.polish_iterations},
+                   {"knot_polish", sa.knot_polish},
                    {"seed", sa.seed}}},
                  {"nlopt",
                   {{"algorithm", c.solver.nlopt.algorithm},

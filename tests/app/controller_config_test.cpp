@@ -94,6 +94,12 @@ TEST(ControllerConfig, ReadsIpoptsHessianChoiceAndRejectsAnUnknownOne) {
   }
 }
 
+TEST(ControllerConfig, ReadsTheKnotPolishSwitchOfSimulatedAnnealing) {
+  EXPECT_TRUE(load("").solver.sa.knot_polish);
+  EXPECT_FALSE(load("  solver: {sa: {knot_polish: false}}\n").solver.sa.knot_polish);
+  expect_rejected("  solver: {sa: {knot_polish: maybe}}\n", "controller.solver.sa.knot_polish");
+}
+
 TEST(ControllerConfig, ReadsTheWearReferenceMassAndRejectsABadOne) {
   EXPECT_DOUBLE_EQ(load("  weights: {wear: 0.3, wear_reference_mass: 800}\n").mpc.wear_reference_mass, 800.0);
   EXPECT_DOUBLE_EQ(load("").mpc.wear_reference_mass, 0.0);

@@ -1,6 +1,7 @@
 // Simulated annealing against closed-form optima, and its contract: bounds, deadline, best plan
 // returned, use of a larger budget, warm-start benefit, determinism by seed, failure statuses; and
-// the gradient polish of its best plan (closer to the optimum, on time).
+// the gradient polish of its best plan (closer to the optimum, on time), and the knot polish on
+// forward differences where no exact gradient fits.
 #include "swerve/solvers/sa_solver.hpp"
 
 #include <gtest/gtest.h>
@@ -77,6 +78,89 @@ TEST(SimulatedAnnealing, ThePolishBringsAShortAnnealClosToTheClosedFormOptimum) 
   EXPECT_GE(gap[1], -1e-9);
 }
 
+// A model's steps without its Jacobians: the exact polish cannot run, the knot polish can.
+class StepsOnly final : public PredictionModel {
+ public:
+  explicit StepsOnly(const PredictionModel& model) : model_(model) {}
+  int state_size() const noexcept override { return model_.state_size(); }
+  int input_size() const noexcept override { return model_.input_size(); }
+  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+            Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override {
+    return model_.step(x, u, dt, x_next, stage_wear);
+  }
+
+ private:
+  const PredictionModel& model_;
+};
+
+// Without Jacobians, the polish runs L-BFGS over the knot offsets on forward differences. With one
+// knot per step the offsets span every plan, so it too closes most of a short anneal's gap to the
+// closed-form optimum; without it (knot_polish off) the gap stays.
+TEST(SimulatedAnnealing, TheKnotPolishBringsAShortAnnealCloseToTheOptimumWithoutJacobians) {
+  const DoubleIntegratorModel model(0.5);
+  const StepsOnly steps_only(model);
+  const OcpProblem problem = make_lq_problem(steps_only, 10);
+  const double optimal_cost = cost_of(problem, testing::double_integrator_optimum(problem, model));
+  SaOptions options;
+  options.knots = 0;
+  options.max_iterations = 600;
+  options.polish_share = 0.3;
+  double gap[2];
+  for (const int knot_polish : {0, 1}) {
+    options.knot_polish = knot_polish == 1;
+    SimulatedAnnealingSolver solver(problem, options);
+    Solution solution;
+    solution.resize(6, 3, 10);
+    SolveSummary summary;
+    ASSERT_EQ(solver.solve(problem, {}, far_deadline(), &solution, &summary), SolveStatus::kConverged);
+    EXPECT_STREQ(summary.reason, knot_polish ? "completed the annealing schedule and the knot polish"
+                                             : "completed the annealing schedule");
+    EXPECT_NEAR(summary.cost.total(), solution.cost, 1e-9 * solution.cost);
+    EXPECT_NEAR(cost_of(problem, solution.inputs), solution.cost, 1e-9 * solution.cost);
+    EXPECT_TRUE(problem.is_feasible(solution.inputs));
+    gap[knot_polish] = solution.cost / optimal_cost - 1.0;
+    std::printf("[          ] %s: %.3e above the optimum\n", knot_polish ? "knot-polished" : "annealed only",
+                gap[knot_polish]);
+  }
+  EXPECT_GT(gap[0], 1e-2);
+  EXPECT_LT(gap[1], 1e-3);
+  EXPECT_GE(gap[1], -1e-9);
+}
+
+// With few knots the offsets span a subspace; the knot polish reaches that subspace's optimum, which
+// a long anneal over the same knots approaches from above, and it never ends above the anneal's best.
+TEST(SimulatedAnnealing, TheKnotPolishReachesTheBestPlanOfItsKnotsAndNeverRaisesTheCost) {
+  const DoubleIntegratorModel model(0.5);
+  const StepsOnly steps_only(model);
+  const OcpProblem problem = make_lq_problem(steps_only, 12);
+  SaOptions options;
+  options.knots = 3;
+  options.polish_share = 0.3;
+  options.max_iterations = 40000;  // a long anneal over 9 offsets: near their optimum
+  options.knot_polish = false;
+  Solution annealed;
+  annealed.resize(6, 3, 12);
+  SolveSummary summary;
+  SimulatedAnnealingSolver long_anneal(problem, options);
+  ASSERT_EQ(long_anneal.solve(problem, {}, far_deadline(), &annealed, &summary), SolveStatus::kConverged);
+  options.max_iterations = 60;
+  for (const bool knot_polish : {false, true}) {
+    options.knot_polish = knot_polish;
+    SimulatedAnnealingSolver solver(problem, options);
+    Solution solution;
+    solution.resize(6, 3, 12);
+    ASSERT_EQ(solver.solve(problem, {}, far_deadline(), &solution, &summary), SolveStatus::kConverged);
+    std::printf("[          ] 60 proposals%s: %.6e (40000 proposals: %.6e)\n", knot_polish ? " + knot polish" : "",
+                solution.cost, annealed.cost);
+    if (knot_polish) {
+      EXPECT_LE(solution.cost, annealed.cost * (1.0 + 1e-6));
+      EXPECT_LE(solution.cost, summary.initial_cost);
+    } else {
+      EXPECT_GT(solution.cost, annealed.cost * (1.0 + 1e-3));  // the short anneal alone is not there
+    }
+  }
+}
+
 // Options of the polish deadline tests: only the clock stops the solve, and the polish has 70 % of it.
 SaOptions clock_bound_polish_options() {
   SaOptions options;
@@ -88,7 +172,8 @@ SaOptions clock_bound_polish_options() {
 // The polish keeps the deadline. On a clock charging 2 us per model step and 40 or 80 us per step
 // with Jacobians (a gradient of 40 steps: 1.6 or 3.2 ms, i.e. 20 or 40 rollouts), 5 ms solves with
 // 3.5 ms for the polish return by their deadline: the first gradient's time is foreseen from one
-// timed stage, and with its 1.5x allowance only the cheaper gradient fits.
+// timed stage, and with its 1.5x allowance only the cheaper gradient fits; with the dearer one the
+// knot polish runs instead (18 offsets at <= 80 us a rollout).
 TEST(SimulatedAnnealing, ThePolishHonoursTheDeadline) {
   const DoubleIntegratorModel model;
   for (const double jacobian_cost : {40e-6, 80e-6}) {
@@ -111,6 +196,8 @@ TEST(SimulatedAnnealing, ThePolishHonoursTheDeadline) {
         EXPECT_STREQ(summary.reason, "annealed and polished until the deadline");
       } else {
         EXPECT_LE(clocked.jacobian_steps(), 1) << "solve " << solve << ": a polish that could not fit";
+        // In its place the knot polish, on forward differences (no Jacobian), in the same window.
+        EXPECT_STREQ(summary.reason, "annealed and polished over the knots until the deadline");
       }
     }
   }

@@ -3,7 +3,8 @@
 // proposals kept inside the bounds by projection, incremental rollouts from the first changed
 // step, step sizes adapted to the acceptance rate, and no allocation inside solve(). The end of the
 // budget may go to a local polish of the best plan (projected L-BFGS on the exact gradient), where
-// the annealer's random steps are slow to settle.
+// the annealer's random steps are slow to settle; when no exact gradient fits that share, the polish
+// runs L-BFGS over the few knot offsets instead, on forward differences of incremental rollouts.
 #pragma once
 
 #include <cstdint>
@@ -33,6 +34,10 @@ struct SaOptions {
   // Jacobians (else no polish). Without a deadline, the polish follows the whole annealing schedule.
   double polish_share = 0.0;
   int polish_iterations = 30;              // at most this many polish steps (accepted or tried) per solve
+  // When the exact gradient does not fit the polish's share (or the model has none): polish in the
+  // knot space instead, L-BFGS over the nu x knots offsets on forward-difference gradients (one
+  // rollout per offset, each from its knot's first step on). false: no polish then.
+  bool knot_polish = true;
 
   // Throws ConfigError naming the field and value.
   void validate() const;
@@ -50,11 +55,26 @@ class SimulatedAnnealingSolver final : public Solver {
                        SolveSummary* summary) noexcept override;
 
   // The polish (see SaOptions::polish_share) of out->inputs until `stop`; returns its steps and
-  // updates *out (inputs, states, cost) and *rollouts.
+  // updates *out (inputs, states, cost) and *rollouts; -1 when not even a first gradient fits.
   // `full_rollout` is what one rollout took this solve (the time guard's unit before a gradient
   // has been timed).
   int polish(const OcpProblem& problem, Deadline deadline, TimePoint stop, Duration full_rollout, Solution* out,
              long* rollouts) noexcept;
+  // The knot-space polish (see SaOptions::knot_polish) of out->inputs until `stop`, from the best
+  // plan as the new base; same contract as polish(). `proposal` is the slowest proposal seen.
+  int knot_polish(const OcpProblem& problem, Deadline deadline, TimePoint stop, Duration proposal, Solution* out,
+                  long* rollouts) noexcept;
+  // Forward differences of the cost over every knot offset at knots_ (whose plan, rollout and cost
+  // are the current ones) into *gradient (nu x K). false when `stop` comes first or the model fails.
+  bool knot_gradient(const OcpProblem& problem, double cost, Deadline deadline, TimePoint stop, Duration* proposal,
+                     long* rollouts, Eigen::MatrixXd* gradient) noexcept;
+  // The L-BFGS direction -H g over the first n entries of the memory (Nocedal & Wright Alg. 7.4),
+  // g and the direction nu x columns; with no pair stored, a first step of 2 % of the largest input
+  // range along -g. false when it is no descent direction (the memory is then forgotten).
+  bool lbfgs_direction(const Eigen::MatrixXd& gradient, Eigen::MatrixXd* direction, int* stored, int newest) noexcept;
+  // Stores the pair (s, y) of flat size n when its curvature is positive.
+  void remember_pair(const Eigen::Ref<const Eigen::VectorXd>& s, const Eigen::Ref<const Eigen::VectorXd>& y,
+                     int* stored, int* newest) noexcept;
   double uniform() noexcept;   // [0, 1)
   double gaussian() noexcept;  // N(0, 1)
   // Rebuilds raw inputs = base + interpolated knot offsets on steps [first, last].
@@ -81,6 +101,7 @@ class SimulatedAnnealingSolver final : public Solver {
   // N: each stage's wear, of the current plan, the candidate and the best plan (out->states), so
   // the answer's cost is reported from its own rollout (OcpProblem::breakdown), not a new one.
   Eigen::VectorXd stage_wear_, candidate_stage_wear_, best_stage_wear_;
+  Eigen::VectorXd best_stage_costs_;                     // N: the best plan's, for the knot polish
   Eigen::VectorXd sigma_, reference_step_;               // nu
 
   // The polish: exact gradients, and the L-BFGS memory over the flattened inputs (nu N).
@@ -90,6 +111,9 @@ class SimulatedAnnealingSolver final : public Solver {
   Eigen::MatrixXd memory_s_, memory_y_;                  // nu N x m
   Eigen::VectorXd memory_rho_, memory_alpha_;            // m
   Duration longest_gradient_{0};                         // the slowest gradient seen (kept across solves)
+  // The knot polish: forward-difference gradients over the offsets (nu x K), and the slowest seen.
+  Eigen::MatrixXd knot_gradient_, candidate_knot_gradient_, knot_direction_, previous_knots_;
+  Duration longest_knot_gradient_{0};
 };
 
 }  // namespace swerve
