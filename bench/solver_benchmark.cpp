@@ -252,6 +252,7 @@ void BM_Solver_GapToIpoptReference(benchmark::State& state) {
   config.solver.sa.polish_share = 0.01 * static_cast<double>(state.range(2));
   config.solver.sa.knot_polish = state.range(3) != 0;
   std::vector<double> gaps;
+  double solves = 0.0, rollouts = 0.0, exact_polished = 0.0, knot_polished = 0.0;
   for (auto _ : state) {
     std::unique_ptr<TrackingController> tracker = make_controller(config, scenario.vehicle, scenario.reference);
     auto* controller = dynamic_cast<Controller*>(tracker.get());
@@ -267,6 +268,16 @@ void BM_Solver_GapToIpoptReference(benchmark::State& state) {
     const int steps = static_cast<int>(std::ceil(scenario.duration / period - 1e-9));
     for (int k = 0; k < steps; ++k) {
       const ControlOutput& output = controller->step(plant.measurement(), k * period);
+      if (output.solve.status != SolveStatus::kNotRun) {
+        ++solves;
+        rollouts += static_cast<double>(output.solve.rollouts);
+        const std::string reason = output.solve.reason;
+        if (reason.find("over the knots") != std::string::npos || reason.find("knot polish") != std::string::npos) {
+          ++knot_polished;
+        } else if (reason.find("polish") != std::string::npos) {
+          ++exact_polished;
+        }
+      }
       if (k % 40 == 5 && output.source == CommandSource::kOptimizer) {
         const Eigen::MatrixXd sa_plan = controller->plan().inputs;
         const double sa_cost = controller->plan().cost;
@@ -286,6 +297,10 @@ void BM_Solver_GapToIpoptReference(benchmark::State& state) {
     }
   }
   state.counters["cycles"] = static_cast<double>(gaps.size());
+  // Of every solve: rollouts, and the share that ended with an exact or a knot polish.
+  state.counters["rollouts"] = solves > 0 ? rollouts / solves : 0.0;
+  state.counters["exact_pct"] = solves > 0 ? 100.0 * exact_polished / solves : 0.0;
+  state.counters["knot_pct"] = solves > 0 ? 100.0 * knot_polished / solves : 0.0;
   double mean = 0.0;
   for (double g : gaps) mean += g;
   state.counters["gap_mean_pct"] = gaps.empty() ? 0.0 : mean / static_cast<double>(gaps.size());

@@ -1,9 +1,13 @@
 #include "swerve/solvers/sa_solver.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <limits>
+#include <mutex>
 #include <sstream>
+#include <thread>
 #include <utility>
 
 #include "swerve/core/config_error.hpp"
@@ -26,10 +30,79 @@ constexpr int kLineSearchTrials = 8;
 // half-range): large enough that the prediction's Newton tolerance (1e-10 on the twist) stays ~1e-5
 // of a slope, small enough that the curvature's bias is as small.
 constexpr double kKnotDifference = 1e-4;
+constexpr int kMaxThreads = 16;
 // polish()'s answer when not even its first gradient fits before its stop.
 constexpr int kGradientDoesNotFit = -1;
 
 }  // namespace
+
+// The batch's workers: threads that each roll out one further proposal per batch. Between batches
+// of a solve a worker spins (yielding) for the next one; after ~kSpinYields idle yields it sleeps
+// on a condition variable, so an idle solver costs no core. start() and wait() allocate nothing.
+class SimulatedAnnealingSolver::Workers {
+ public:
+  Workers(SimulatedAnnealingSolver* solver, int count) : solver_(solver) {
+    threads_.reserve(static_cast<std::size_t>(count));
+    for (int w = 0; w < count; ++w) threads_.emplace_back([this, w] { loop(static_cast<std::size_t>(w)); });
+  }
+  ~Workers() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_.store(true, std::memory_order_release);
+    }
+    wake_.notify_all();
+    for (std::thread& t : threads_) t.join();
+  }
+  Workers(const Workers&) = delete;
+  Workers& operator=(const Workers&) = delete;
+
+  // Every worker rolls out its proposal of the batch (the solver's batch_problem_).
+  void start() noexcept {
+    finished_.store(0, std::memory_order_relaxed);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      generation_.fetch_add(1, std::memory_order_release);
+    }
+    wake_.notify_all();
+  }
+  void wait() const noexcept {
+    while (finished_.load(std::memory_order_acquire) < threads_.size()) std::this_thread::yield();
+  }
+
+ private:
+  static constexpr int kSpinYields = 20000;  // ~ms of yields between batches before sleeping
+
+  void loop(std::size_t index) {
+    unsigned long seen = 0;
+    for (;;) {
+      int spins = 0;
+      unsigned long generation = generation_.load(std::memory_order_acquire);
+      while (generation == seen && !stop_.load(std::memory_order_acquire)) {
+        if (++spins < kSpinYields) {
+          std::this_thread::yield();
+        } else {
+          std::unique_lock<std::mutex> lock(mutex_);
+          wake_.wait(lock, [&] {
+            return generation_.load(std::memory_order_acquire) != seen || stop_.load(std::memory_order_acquire);
+          });
+        }
+        generation = generation_.load(std::memory_order_acquire);
+      }
+      if (stop_.load(std::memory_order_acquire)) return;
+      seen = generation;
+      solver_->roll_out_proposal(index);
+      finished_.fetch_add(1, std::memory_order_acq_rel);
+    }
+  }
+
+  SimulatedAnnealingSolver* solver_;
+  std::vector<std::thread> threads_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::atomic<unsigned long> generation_{0};
+  std::atomic<std::size_t> finished_{0};
+  std::atomic<bool> stop_{false};
+};
 
 void SaOptions::validate() const {
   if (knots < 0) reject("knots", knots, "must be >= 0 (0: one knot per step)");
@@ -53,6 +126,7 @@ void SaOptions::validate() const {
   }
   if (!(polish_share >= 0.0 && polish_share < 1.0)) reject("polish_share", polish_share, "must be in [0, 1)");
   if (polish_iterations < 0) reject("polish_iterations", polish_iterations, "must be >= 0");
+  if (threads < 1 || threads > kMaxThreads) reject("threads", threads, "must be in [1, 16]");
 }
 
 SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, SaOptions options)
@@ -108,6 +182,16 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
   }
   sigma_ = reference_step_ * options_.step_fraction;
   best_stage_costs_ = Eigen::VectorXd::Zero(horizon_);
+  proposal_model_ = &problem.model();
+  proposals_.resize(static_cast<std::size_t>(options_.threads - 1));
+  for (Proposal& p : proposals_) {
+    p.knots = Eigen::MatrixXd::Zero(nu_, knot_count_);
+    p.raw = p.inputs = Eigen::MatrixXd::Zero(nu_, horizon_);
+    p.states = Eigen::MatrixXd::Zero(nx_, horizon_ + 1);
+    p.stage_costs = p.stage_wear = Eigen::VectorXd::Zero(horizon_);
+    p.data = problem.model().create_data();
+  }
+  if (!proposals_.empty()) workers_ = std::make_unique<Workers>(this, options_.threads - 1);
   if (options_.polish_share > 0.0 && options_.polish_iterations > 0) {
     if (problem.model().has_jacobians()) derivatives_ = std::make_unique<OcpDerivatives>(problem);
     gradient_ = candidate_gradient_ = direction_ = Eigen::MatrixXd::Zero(nu_, horizon_);
@@ -115,6 +199,53 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
     memory_s_ = memory_y_ = Eigen::MatrixXd::Zero(nu_ * horizon_, kPolishMemory);
     memory_rho_ = memory_alpha_ = Eigen::VectorXd::Zero(kPolishMemory);
   }
+}
+
+SimulatedAnnealingSolver::~SimulatedAnnealingSolver() = default;
+
+void SimulatedAnnealingSolver::roll_out_proposal(std::size_t index) noexcept {
+  Proposal& p = proposals_[index];
+  if (p.changed >= horizon_) return;
+  p.states.leftCols(p.changed + 1) = states_.leftCols(p.changed + 1);
+  p.stage_costs.head(p.changed) = stage_costs_.head(p.changed);
+  p.stage_wear.head(p.changed) = stage_wear_.head(p.changed);
+  // Scratch of its own when the batch's problem runs on the model it was made for.
+  PredictionData* data = &batch_problem_->model() == proposal_model_ ? p.data.get() : nullptr;
+  p.cost = batch_problem_->rollout(data, p.inputs, p.changed, p.states, p.stage_costs, p.stage_wear.data());
+}
+
+int SimulatedAnnealingSolver::propose(const OcpProblem& problem, Eigen::MatrixXd* knots, Eigen::MatrixXd* raw,
+                                      Eigen::MatrixXd* inputs) noexcept {
+  // Perturb knot offsets: one group at one knot, all inputs at one knot, or everything.
+  const int groups = nu_ / group_size_;
+  *knots = knots_;
+  const double choice = uniform();
+  int first_step = 0, last_step = horizon_ - 1;
+  if (choice < options_.probability_one_group + options_.probability_one_knot) {
+    const int knot = std::min(static_cast<int>(uniform() * knot_count_), knot_count_ - 1);
+    int first_input = 0, count = nu_;
+    if (choice < options_.probability_one_group) {
+      first_input = std::min(static_cast<int>(uniform() * groups), groups - 1) * group_size_;
+      count = group_size_;
+    }
+    for (int i = first_input; i < first_input + count; ++i) (*knots)(i, knot) += sigma_[i] * gaussian();
+    first_step = knot_first_step_[static_cast<std::size_t>(knot)];
+    last_step = knot_last_step_[static_cast<std::size_t>(knot)];
+  } else {
+    const double shrink = 1.0 / std::sqrt(static_cast<double>(knot_count_));
+    for (int j = 0; j < knot_count_; ++j) {
+      for (int i = 0; i < nu_; ++i) (*knots)(i, j) += shrink * sigma_[i] * gaussian();
+    }
+  }
+  *raw = raw_;
+  interpolate(*knots, first_step, last_step, raw);
+  *inputs = *raw;
+  problem.project(*inputs);
+  // Only steps from the first changed input on need a new rollout; the prefix is shared.
+  for (int k = 0; k < horizon_; ++k) {
+    if (inputs->col(k) != inputs_.col(k)) return k;
+  }
+  return horizon_;
 }
 
 bool SimulatedAnnealingSolver::lbfgs_direction(const Eigen::MatrixXd& gradient, Eigen::MatrixXd* direction, int* stored,
@@ -245,6 +376,12 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
   return steps;
 }
 
+double SimulatedAnnealingSolver::knot_gradient_rollouts() const noexcept {
+  double steps = 0.0;
+  for (int first : knot_first_step_) steps += horizon_ - first;
+  return nu_ * steps / horizon_;
+}
+
 bool SimulatedAnnealingSolver::knot_gradient(const OcpProblem& problem, double cost, Deadline deadline, TimePoint stop,
                                              Duration* proposal, long* rollouts, Eigen::MatrixXd* gradient) noexcept {
   for (int knot = 0; knot < knot_count_; ++knot) {
@@ -296,9 +433,12 @@ int SimulatedAnnealingSolver::knot_polish(const OcpProblem& problem, Deadline de
   double cost = out->cost;
   const Eigen::Index n = knots_.size();
   const auto flat = [n](Eigen::MatrixXd& m) { return Eigen::Map<Eigen::VectorXd>(m.data(), n); };
-  // A gradient costs at most one full rollout per offset; then as measured, the slowest seen.
+  // A gradient costs one rollout per offset, from its knot's first step; then as measured, the
+  // slowest seen.
   const auto gradient_time = [&] {
-    return longest_knot_gradient_ > Duration::zero() ? longest_knot_gradient_ : static_cast<int>(n) * proposal;
+    return longest_knot_gradient_ > Duration::zero()
+               ? longest_knot_gradient_
+               : std::chrono::duration_cast<Duration>(knot_gradient_rollouts() * proposal);
   };
   const auto timed_gradient = [&](double at_cost, Eigen::MatrixXd* gradient) {
     const auto start = deadline.now();
@@ -437,9 +577,10 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   // Else the knot polish, when one forward-difference gradient (as last timed, or one full rollout
   // per offset before the first) and two line-search trials fit in the share.
   longest_knot_gradient_ -= longest_knot_gradient_ / 16;
-  const Duration knot_gradient_estimate = longest_knot_gradient_ > Duration::zero()
-                                              ? longest_knot_gradient_
-                                              : static_cast<int>(knots_.size()) * full_rollout;
+  const Duration knot_gradient_estimate =
+      longest_knot_gradient_ > Duration::zero()
+          ? longest_knot_gradient_
+          : std::chrono::duration_cast<Duration>(knot_gradient_rollouts() * full_rollout);
   const bool knot_polishing = !exact_polish && options_.knot_polish && knot_gradient_.size() > 0 &&
                               (!timed || knot_gradient_estimate + 2 * full_rollout <= polish_window);
   const bool polishing = exact_polish || knot_polishing;
@@ -465,7 +606,6 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   int window_proposed = 0, window_accepted = 0;
   int iteration = 0, probes = 0;
   bool deadline_hit = false;
-  const int groups = nu_ / group_size_;
 
   auto longest_proposal = full_rollout;  // grows if a proposal ever takes longer than a full rollout
   auto now = deadline.now();
@@ -483,45 +623,48 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
         loop_budget > 0.0 ? std::chrono::duration<double>(proposal_start - loop_start).count() / loop_budget : 1.0;
     const double progress =
         std::max(static_cast<double>(iteration) / options_.max_iterations, time_progress) - progress_at_reheat;
-    // Propose: perturb knot offsets (one group at one knot, all inputs at one knot, or everything).
-    candidate_knots_ = knots_;
-    const double choice = uniform();
-    int first_step = 0, last_step = horizon_ - 1;
-    if (choice < options_.probability_one_group + options_.probability_one_knot) {
-      const int knot = std::min(static_cast<int>(uniform() * knot_count_), knot_count_ - 1);
-      int first_input = 0, count = nu_;
-      if (choice < options_.probability_one_group) {
-        first_input = std::min(static_cast<int>(uniform() * groups), groups - 1) * group_size_;
-        count = group_size_;
-      }
-      for (int i = first_input; i < first_input + count; ++i) candidate_knots_(i, knot) += sigma_[i] * gaussian();
-      first_step = knot_first_step_[static_cast<std::size_t>(knot)];
-      last_step = knot_last_step_[static_cast<std::size_t>(knot)];
-    } else {
-      const double shrink = 1.0 / std::sqrt(static_cast<double>(knot_count_));
-      for (int j = 0; j < knot_count_; ++j) {
-        for (int i = 0; i < nu_; ++i) candidate_knots_(i, j) += shrink * sigma_[i] * gaussian();
-      }
+    // Propose: one proposal here and, with workers, one more on each (drawn in order, so the seed
+    // alone decides them).
+    const int changed = propose(problem, &candidate_knots_, &candidate_raw_, &candidate_inputs_);
+    int batch = 0;
+    for (Proposal& p : proposals_) {
+      p.changed = propose(problem, &p.knots, &p.raw, &p.inputs);
+      if (p.changed < horizon_) ++batch;
     }
-    candidate_raw_ = raw_;
-    interpolate(candidate_knots_, first_step, last_step, &candidate_raw_);
-    candidate_inputs_ = candidate_raw_;
-    problem.project(candidate_inputs_);
-    // Only steps from the first changed input on need a new rollout; the prefix is shared.
-    int changed = horizon_;
-    for (int k = 0; k < horizon_ && changed == horizon_; ++k) {
-      if (candidate_inputs_.col(k) != inputs_.col(k)) changed = k;
-    }
-    if (changed == horizon_) {  // the projection undid the move
+    if (changed == horizon_ && batch == 0) {  // the projection undid every move
       now = deadline.now();
       continue;
     }
-    candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
-    candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
-    candidate_stage_wear_.head(changed) = stage_wear_.head(changed);
-    const double candidate_cost = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_,
-                                                  candidate_stage_costs_, candidate_stage_wear_.data());
-    ++rollouts;
+    batch_problem_ = &problem;
+    const bool parallel = batch > 0 && &problem.model() == proposal_model_;
+    if (parallel) workers_->start();
+    double candidate_cost = std::numeric_limits<double>::infinity();
+    if (changed < horizon_) {
+      candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
+      candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
+      candidate_stage_wear_.head(changed) = stage_wear_.head(changed);
+      candidate_cost = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_, candidate_stage_costs_,
+                                       candidate_stage_wear_.data());
+      ++rollouts;
+    }
+    if (parallel) {
+      workers_->wait();
+    } else {
+      for (std::size_t b = 0; b < proposals_.size(); ++b) roll_out_proposal(b);
+    }
+    rollouts += batch;
+    // The cheapest of the batch is the candidate (ties: the first drawn).
+    for (Proposal& p : proposals_) {
+      if (p.changed < horizon_ && p.cost < candidate_cost) {
+        candidate_cost = p.cost;
+        std::swap(candidate_knots_, p.knots);
+        std::swap(candidate_raw_, p.raw);
+        std::swap(candidate_inputs_, p.inputs);
+        std::swap(candidate_states_, p.states);
+        std::swap(candidate_stage_costs_, p.stage_costs);
+        std::swap(candidate_stage_wear_, p.stage_wear);
+      }
+    }
     now = deadline.now();
     longest_proposal = std::max(longest_proposal, now - proposal_start);
     const double delta = candidate_cost - current_cost;

@@ -31,6 +31,7 @@ SaOptions load_sa(const ConfigNode& node) {
   sa.polish_share = node.get_double_or("polish_share", sa.polish_share, Bound::right_open(0.0, 1.0));
   sa.polish_iterations = node.get_int_or("polish_iterations", sa.polish_iterations, 0);
   sa.knot_polish = node.get_bool_or("knot_polish", sa.knot_polish);
+  sa.threads = node.get_int_or("threads", sa.threads, 1, 16);
   return sa;
 }
 

@@ -133,6 +133,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                    {"polish_share", sa.polish_share},
                    {"polish_iterations", sa.polish_iterations},
                    {"knot_polish", sa.knot_polish},
+                   {"threads", sa.threads},
                    {"seed", sa.seed}}},
                  {"nlopt",
                   {{"algorithm", c.solver.nlopt.algorithm},

@@ -94,10 +94,16 @@ TEST(ControllerConfig, ReadsIpoptsHessianChoiceAndRejectsAnUnknownOne) {
   }
 }
 
-TEST(ControllerConfig, ReadsTheKnotPolishSwitchOfSimulatedAnnealing) {
-  EXPECT_TRUE(load("").solver.sa.knot_polish);
-  EXPECT_FALSE(load("  solver: {sa: {knot_polish: false}}\n").solver.sa.knot_polish);
+TEST(ControllerConfig, ReadsTheKnotPolishAndThreadsOfSimulatedAnnealingAndRejectsBadOnes) {
+  EXPECT_FALSE(load("").solver.sa.knot_polish);
+  EXPECT_TRUE(load("  solver: {sa: {knot_polish: true}}\n").solver.sa.knot_polish);
   expect_rejected("  solver: {sa: {knot_polish: maybe}}\n", "controller.solver.sa.knot_polish");
+  EXPECT_EQ(load("").solver.sa.threads, 1);
+  EXPECT_EQ(load("  solver: {sa: {threads: 2}}\n").solver.sa.threads, 2);
+  for (const char* block : {"  solver: {sa: {threads: 0}}\n", "  solver: {sa: {threads: 17}}\n",
+                            "  solver: {sa: {threads: two}}\n"}) {
+    expect_rejected(block, "controller.solver.sa.threads");
+  }
 }
 
 TEST(ControllerConfig, ReadsTheWearReferenceMassAndRejectsABadOne) {

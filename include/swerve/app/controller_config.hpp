@@ -45,7 +45,7 @@ struct ControllerConfig {
 //     solver: {backend [sa], sa: {knots, max_iterations, initial_acceptance, final_temperature_ratio,
 //              step_fraction, target_acceptance, adapt_interval, reheat_interval,
 //              probability_one_group, probability_one_knot, seed, polish_share [0], polish_iterations [30],
-//              knot_polish [true]},
+//              knot_polish [false], threads [1]},
 //              nlopt: {algorithm [LN_BOBYQA], xtol_rel [1e-8], ftol_rel [1e-12], max_evaluations [200000],
 //                      initial_step_fraction [0.1]}}
 //   baseline [defaults of BaselineOptions]: {pose_weight, twist_weight, rate_weight, terminal_scale,

@@ -36,8 +36,16 @@ struct SaOptions {
   int polish_iterations = 30;              // at most this many polish steps (accepted or tried) per solve
   // When the exact gradient does not fit the polish's share (or the model has none): polish in the
   // knot space instead, L-BFGS over the nu x knots offsets on forward-difference gradients (one
-  // rollout per offset, each from its knot's first step on). false: no polish then.
-  bool knot_polish = true;
+  // rollout per offset, each from its knot's first step on). false: no polish then. Off by default:
+  // on the shipped 10-module vehicle it left the closed-loop gap to the optimum where it was (see the
+  // README); it gives a model without Jacobians a polish.
+  bool knot_polish = false;
+  // Proposals drawn and rolled out together per annealing step, one per thread: the calling thread
+  // and threads - 1 workers started with the solver, each rolling out on scratch of its own
+  // (PredictionModel::create_data). The cheapest of each batch meets the Metropolis test. 1: one
+  // proposal per step, no worker. For targets with a core to spare; the answer depends on the seed
+  // and the budget, never on the threads' timing.
+  int threads = 1;
 
   // Throws ConfigError naming the field and value.
   void validate() const;
@@ -47,6 +55,7 @@ class SimulatedAnnealingSolver final : public Solver {
  public:
   // Sizes every buffer for the problem's shape; solve() then allocates nothing.
   SimulatedAnnealingSolver(const OcpProblem& problem_shape, SaOptions options);
+  ~SimulatedAnnealingSolver() override;  // stops and joins the workers
   const char* name() const noexcept override { return "sa"; }
   const SaOptions& options() const noexcept { return options_; }
 
@@ -64,6 +73,8 @@ class SimulatedAnnealingSolver final : public Solver {
   // plan as the new base; same contract as polish(). `proposal` is the slowest proposal seen.
   int knot_polish(const OcpProblem& problem, Deadline deadline, TimePoint stop, Duration proposal, Solution* out,
                   long* rollouts) noexcept;
+  // What one knot-space gradient costs in full rollouts: nu per knot, each from the knot's first step.
+  double knot_gradient_rollouts() const noexcept;
   // Forward differences of the cost over every knot offset at knots_ (whose plan, rollout and cost
   // are the current ones) into *gradient (nu x K). false when `stop` comes first or the model fails.
   bool knot_gradient(const OcpProblem& problem, double cost, Deadline deadline, TimePoint stop, Duration* proposal,
@@ -75,10 +86,26 @@ class SimulatedAnnealingSolver final : public Solver {
   // Stores the pair (s, y) of flat size n when its curvature is positive.
   void remember_pair(const Eigen::Ref<const Eigen::VectorXd>& s, const Eigen::Ref<const Eigen::VectorXd>& y,
                      int* stored, int* newest) noexcept;
+  // Draws a proposal around the current plan (knots_, raw_, inputs_) into *knots, *raw and
+  // *inputs (projected); returns the first step whose input changed (N: the projection undid it).
+  int propose(const OcpProblem& problem, Eigen::MatrixXd* knots, Eigen::MatrixXd* raw,
+              Eigen::MatrixXd* inputs) noexcept;
   double uniform() noexcept;   // [0, 1)
   double gaussian() noexcept;  // N(0, 1)
   // Rebuilds raw inputs = base + interpolated knot offsets on steps [first, last].
   void interpolate(const Eigen::MatrixXd& knots, int first, int last, Eigen::MatrixXd* raw) const noexcept;
+
+  // A batch's further proposals (threads - 1), each with its buffers and its rollout's scratch.
+  struct Proposal {
+    Eigen::MatrixXd knots, raw, inputs, states;
+    Eigen::VectorXd stage_costs, stage_wear;
+    int changed = 0;
+    double cost = 0.0;
+    std::unique_ptr<PredictionData> data;
+  };
+  class Workers;
+  // Rolls out proposals_[index] on its own scratch (from its changed step on) into its cost.
+  void roll_out_proposal(std::size_t index) noexcept;
 
   SaOptions options_;
   int nx_, nu_, horizon_, knot_count_, group_size_;
@@ -114,6 +141,14 @@ class SimulatedAnnealingSolver final : public Solver {
   // The knot polish: forward-difference gradients over the offsets (nu x K), and the slowest seen.
   Eigen::MatrixXd knot_gradient_, candidate_knot_gradient_, knot_direction_, previous_knots_;
   Duration longest_knot_gradient_{0};
+
+  // Batched proposals (SaOptions::threads): their buffers, the model their scratch was made for
+  // (another model's problem is rolled out on the calling thread), the workers, and the problem of
+  // the batch in flight.
+  std::vector<Proposal> proposals_;
+  const PredictionModel* proposal_model_ = nullptr;
+  std::unique_ptr<Workers> workers_;
+  const OcpProblem* batch_problem_ = nullptr;
 };
 
 }  // namespace swerve
