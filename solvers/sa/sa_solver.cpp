@@ -43,16 +43,14 @@ class SimulatedAnnealingSolver::Workers {
  public:
   Workers(SimulatedAnnealingSolver* solver, int count) : solver_(solver) {
     threads_.reserve(static_cast<std::size_t>(count));
-    for (int w = 0; w < count; ++w) threads_.emplace_back([this, w] { loop(static_cast<std::size_t>(w)); });
-  }
-  ~Workers() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_.store(true, std::memory_order_release);
+    try {
+      for (int w = 0; w < count; ++w) threads_.emplace_back([this, w] { loop(static_cast<std::size_t>(w)); });
+    } catch (...) {  // a thread the system refused: stop those already started, then report
+      stop_and_join();
+      throw;
     }
-    wake_.notify_all();
-    for (std::thread& t : threads_) t.join();
   }
+  ~Workers() { stop_and_join(); }
   Workers(const Workers&) = delete;
   Workers& operator=(const Workers&) = delete;
 
@@ -71,6 +69,15 @@ class SimulatedAnnealingSolver::Workers {
 
  private:
   static constexpr int kSpinYields = 20000;  // ~ms of yields between batches before sleeping
+
+  void stop_and_join() noexcept {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_.store(true, std::memory_order_release);
+    }
+    wake_.notify_all();
+    for (std::thread& t : threads_) t.join();
+  }
 
   void loop(std::size_t index) {
     unsigned long seen = 0;
