@@ -121,6 +121,8 @@ SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guess
   }
   if (deadline.at() <= start) return finish(SolveStatus::kInvalidInput, "the deadline has already passed");
   const SolveStatus status = do_solve(problem, guesses, deadline, out, &report);
+  const TimePoint end = deadline.now();
+  report.late_s = end > deadline.at() ? to_seconds(end - deadline.at()) : 0.0;
   if (has_solution(status) && (!out->inputs.allFinite() || !std::isfinite(out->cost))) {
     out->valid = false;
     return finish(SolveStatus::kNumericalError, "the backend returned a non-finite plan");

@@ -28,6 +28,10 @@ struct SolveSummary {
   CostBreakdown cost;           // of the returned plan
   double initial_cost = -1.0;   // of the best initial guess
   double solve_time_s = -1.0;   // on the deadline's clock
+  // How far past its deadline the backend returned (0: on time). A backend stops so that it is
+  // on time; an operating-system stall, or a step it could not interrupt (Ipopt's first iterate),
+  // can still make it late, and then it is said here rather than left to the caller's clock.
+  double late_s = 0.0;
   // What only one backend reports lives with that backend (e.g. IpoptSolver::last_details()).
 };
 
