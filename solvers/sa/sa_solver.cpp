@@ -34,6 +34,31 @@ constexpr int kMaxThreads = 16;
 // polish()'s answer when not even its first gradient fits before its stop.
 constexpr int kGradientDoesNotFit = -1;
 
+// Backtracking from the full step (x0.3 a trial, at most kLineSearchTrials) until the true cost
+// falls by the Armijo condition f(step) <= f + 1e-4 g'(x(step) - x) (Nocedal & Wright, eq. 3.6a).
+// `trial(step, &cost, &decrease)` makes and rolls out the candidate at `step`, writing its cost and
+// g'(x(step) - x); false when there is no candidate (the search ends). Each trial's time raises
+// *rollout, and no further trial starts when one more would end past `stop`. True with
+// *accepted_cost when a candidate is accepted (it is the last one the trial made).
+template <typename Trial>
+bool armijo_backtracking(double cost, const Deadline& deadline, TimePoint stop, Duration* rollout, long* rollouts,
+                         Trial&& trial, double* accepted_cost) noexcept {
+  double step = 1.0;
+  for (int t = 0; t < kLineSearchTrials; ++t, step *= 0.3) {
+    const TimePoint start = deadline.now();
+    double candidate_cost = 0.0, decrease = 0.0;
+    if (!trial(step, &candidate_cost, &decrease)) return false;
+    *rollout = std::max(*rollout, deadline.now() - start);
+    ++*rollouts;
+    if (candidate_cost <= cost + 1e-4 * decrease && candidate_cost < cost) {
+      *accepted_cost = candidate_cost;
+      return true;
+    }
+    if (deadline.now() + *rollout >= stop) return false;
+  }
+  return false;
+}
+
 }  // namespace
 
 // The batch's workers: threads that each roll out one further proposal per batch. Between batches
@@ -340,24 +365,16 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
       if (had_memory) continue;  // retried along the steepest descent
       break;                     // a zero gradient
     }
-    double step = 1.0, candidate_cost = cost;
-    bool accepted = false;
-    for (int trial = 0; trial < kLineSearchTrials; ++trial, step *= 0.3) {
+    double candidate_cost = cost;
+    const auto along_direction = [&](double step, double* trial_cost, double* decrease) {
       candidate_inputs_ = inputs_ + step * direction_;
       problem.project(candidate_inputs_);
-      const auto trial_start = deadline.now();
-      candidate_cost = problem.rollout(nullptr, candidate_inputs_, 0, candidate_states_, candidate_stage_costs_,
-                                       candidate_stage_wear_.data());
-      full_rollout = std::max(full_rollout, deadline.now() - trial_start);
-      ++*rollouts;
-      const double decrease = flat(gradient_).dot(flat(candidate_inputs_) - flat(inputs_));
-      if (candidate_cost <= cost + 1e-4 * decrease && candidate_cost < cost) {
-        accepted = true;
-        break;
-      }
-      if (deadline.now() + full_rollout >= stop) break;
-    }
-    if (!accepted) break;
+      *trial_cost = problem.rollout(nullptr, candidate_inputs_, 0, candidate_states_, candidate_stage_costs_,
+                                    candidate_stage_wear_.data());
+      *decrease = flat(gradient_).dot(flat(candidate_inputs_) - flat(inputs_));
+      return true;
+    };
+    if (!armijo_backtracking(cost, deadline, stop, &full_rollout, rollouts, along_direction, &candidate_cost)) break;
     ++steps;
     // The accepted point is kept even when no time is left for its gradient.
     out->inputs = candidate_inputs_;
@@ -463,32 +480,24 @@ int SimulatedAnnealingSolver::knot_polish(const OcpProblem& problem, Deadline de
       if (had_memory) continue;  // retried along the steepest descent
       break;                     // a zero gradient
     }
-    double step = 1.0, candidate_cost = cost;
-    bool accepted = false;
-    for (int trial = 0; trial < kLineSearchTrials; ++trial, step *= 0.3) {
-      const auto trial_start = deadline.now();
+    double candidate_cost = cost;
+    const auto along_direction = [&](double step, double* trial_cost, double* decrease) {
       candidate_knots_ = knots_ + step * knot_direction_;
       interpolate(candidate_knots_, 0, horizon_ - 1, &candidate_raw_);
       candidate_inputs_ = candidate_raw_;
       problem.project(candidate_inputs_);
       int changed = 0;
       while (changed < horizon_ && candidate_inputs_.col(changed) == inputs_.col(changed)) ++changed;
-      if (changed == horizon_) break;  // the bounds hold every step of the move
+      if (changed == horizon_) return false;  // the bounds hold every step of the move
       candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
       candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
       candidate_stage_wear_.head(changed) = stage_wear_.head(changed);
-      candidate_cost = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_, candidate_stage_costs_,
-                                       candidate_stage_wear_.data());
-      proposal = std::max(proposal, deadline.now() - trial_start);
-      ++*rollouts;
-      const double decrease = flat(knot_gradient_).dot(flat(candidate_knots_) - flat(knots_));
-      if (candidate_cost <= cost + 1e-4 * decrease && candidate_cost < cost) {
-        accepted = true;
-        break;
-      }
-      if (deadline.now() + proposal >= stop) break;
-    }
-    if (!accepted) break;
+      *trial_cost = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_, candidate_stage_costs_,
+                                    candidate_stage_wear_.data());
+      *decrease = flat(knot_gradient_).dot(flat(candidate_knots_) - flat(knots_));
+      return true;
+    };
+    if (!armijo_backtracking(cost, deadline, stop, &proposal, rollouts, along_direction, &candidate_cost)) break;
     ++steps;
     // The accepted plan becomes the current one (and the answer) even when no gradient follows.
     std::swap(raw_, candidate_raw_);
