@@ -62,8 +62,9 @@ bool armijo_backtracking(double cost, const Deadline& deadline, TimePoint stop, 
 }  // namespace
 
 // The batch's workers: threads that each roll out one further proposal per batch. Between batches
-// of a solve a worker spins (yielding) for the next one; after ~kSpinYields idle yields it sleeps
-// on a condition variable, so an idle solver costs no core. start() and wait() allocate nothing.
+// of a solve a worker spins (yielding) for the next one; outside a solve, after ~kSpinYields idle
+// yields, it sleeps on a condition variable, so an idle solver costs no core. Nothing here
+// allocates after construction.
 class SimulatedAnnealingSolver::Workers {
  public:
   Workers(SimulatedAnnealingSolver* solver, int count) : solver_(solver) {
@@ -91,6 +92,16 @@ class SimulatedAnnealingSolver::Workers {
   void wait() const noexcept {
     while (finished_.load(std::memory_order_acquire) < threads_.size()) std::this_thread::yield();
   }
+  // Between these the workers never sleep: woken at a solve's start, they are spinning by its first
+  // batch, while the calling thread rolls out the initial guesses.
+  void begin_solve() noexcept {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      solving_.store(true, std::memory_order_release);
+    }
+    wake_.notify_all();
+  }
+  void end_solve() noexcept { solving_.store(false, std::memory_order_release); }
 
  private:
   static constexpr int kSpinYields = 20000;  // ~ms of yields between batches before sleeping
@@ -110,13 +121,15 @@ class SimulatedAnnealingSolver::Workers {
       int spins = 0;
       unsigned long generation = generation_.load(std::memory_order_acquire);
       while (generation == seen && !stop_.load(std::memory_order_acquire)) {
-        if (++spins < kSpinYields) {
+        if (solving_.load(std::memory_order_acquire) || ++spins < kSpinYields) {
           std::this_thread::yield();
         } else {
           std::unique_lock<std::mutex> lock(mutex_);
           wake_.wait(lock, [&] {
-            return generation_.load(std::memory_order_acquire) != seen || stop_.load(std::memory_order_acquire);
+            return generation_.load(std::memory_order_acquire) != seen || stop_.load(std::memory_order_acquire) ||
+                   solving_.load(std::memory_order_acquire);
           });
+          spins = 0;
         }
         generation = generation_.load(std::memory_order_acquire);
       }
@@ -134,6 +147,7 @@ class SimulatedAnnealingSolver::Workers {
   std::atomic<unsigned long> generation_{0};
   std::atomic<std::size_t> finished_{0};
   std::atomic<bool> stop_{false};
+  std::atomic<bool> solving_{false};
 };
 
 void SaOptions::validate() const {
@@ -561,6 +575,18 @@ void SimulatedAnnealingSolver::interpolate(const Eigen::MatrixXd& knots, int fir
 
 SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses,
                                                Deadline deadline, Solution* out, SolveSummary* summary) noexcept {
+  // The workers spin from here to the solve's end, so the first batch does not wait for a wake-up.
+  struct SolvingWorkers {
+    Workers* workers;
+    explicit SolvingWorkers(Workers* w) noexcept : workers(w) {
+      if (workers != nullptr) workers->begin_solve();
+    }
+    ~SolvingWorkers() {
+      if (workers != nullptr) workers->end_solve();
+    }
+    SolvingWorkers(const SolvingWorkers&) = delete;
+    SolvingWorkers& operator=(const SolvingWorkers&) = delete;
+  } solving(workers_.get());
   const double start_cost = start_.choose(problem, guesses, deadline);
   long rollouts = start_.rollouts();
   if (!std::isfinite(start_cost)) {
