@@ -80,7 +80,7 @@ class SimulatedAnnealingSolver::Workers {
   Workers(const Workers&) = delete;
   Workers& operator=(const Workers&) = delete;
 
-  // Every worker rolls out its proposal of the batch (the solver's batch_problem_).
+  // Every worker runs its part of the solver's job (run_worker_job).
   void start() noexcept {
     finished_.store(0, std::memory_order_relaxed);
     {
@@ -135,7 +135,7 @@ class SimulatedAnnealingSolver::Workers {
       }
       if (stop_.load(std::memory_order_acquire)) return;
       seen = generation;
-      solver_->roll_out_proposal(index);
+      solver_->run_worker_job(index);
       finished_.fetch_add(1, std::memory_order_acq_rel);
     }
   }
@@ -236,7 +236,9 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
     p.states = Eigen::MatrixXd::Zero(nx_, horizon_ + 1);
     p.stage_costs = p.stage_wear = Eigen::VectorXd::Zero(horizon_);
     p.data = problem.model().create_data();
+    p.x_next = Eigen::VectorXd::Zero(nx_);
   }
+  x_next_ = Eigen::VectorXd::Zero(nx_);
   if (!proposals_.empty()) workers_ = std::make_unique<Workers>(this, options_.threads - 1);
   if (options_.polish_share > 0.0 && options_.polish_iterations > 0) {
     if (problem.model().has_jacobians()) derivatives_ = std::make_unique<OcpDerivatives>(problem);
@@ -248,6 +250,73 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
 }
 
 SimulatedAnnealingSolver::~SimulatedAnnealingSolver() = default;
+
+int SimulatedAnnealingSolver::stages_per_thread() const noexcept {
+  const int threads = static_cast<int>(proposals_.size()) + 1;
+  return (horizon_ + threads - 1) / threads;
+}
+
+void SimulatedAnnealingSolver::run_worker_job(std::size_t index) noexcept {
+  if (worker_job_ == WorkerJob::kLinearise) {
+    Proposal& p = proposals_[index];
+    p.done_stages = derivatives_->linearize_stages(*batch_problem_, *job_inputs_, *job_states_, p.first_stage,
+                                                   p.last_stage, p.data.get(), p.x_next, job_stop_);
+  } else {
+    roll_out_proposal(index);
+  }
+}
+
+double SimulatedAnnealingSolver::exact_gradient(const OcpProblem& problem, const Eigen::MatrixXd& inputs,
+                                                Eigen::MatrixXd& states, Eigen::MatrixXd* gradient,
+                                                const Deadline& give_up, double* done) noexcept {
+  if (proposals_.empty()) {
+    const double cost = derivatives_->cost_and_gradient(problem, inputs, states, *gradient, &give_up);
+    *done = static_cast<double>(derivatives_->completed_stages()) / horizon_;
+    return cost;
+  }
+  // With workers: the stages of the known rollout split into contiguous shares, the first here and
+  // one on each worker (each on its own scratch), then the adjoint recursion here. Another model
+  // than the workers' scratch was made for: every share here, in turn.
+  const int share = stages_per_thread();
+  for (std::size_t w = 0; w < proposals_.size(); ++w) {
+    Proposal& p = proposals_[w];
+    p.first_stage = std::min(horizon_, static_cast<int>(w + 1) * share);
+    p.last_stage = std::min(horizon_, p.first_stage + share);
+  }
+  gradient->setZero();
+  batch_problem_ = &problem;
+  job_inputs_ = &inputs;
+  job_states_ = &states;
+  job_stop_ = &give_up;
+  const bool parallel = &problem.model() == proposal_model_;
+  if (parallel) {
+    worker_job_ = WorkerJob::kLinearise;
+    workers_->start();
+  }
+  const int first_share = std::min(share, horizon_);
+  const int here = derivatives_->linearize_stages(problem, inputs, states, 0, first_share, nullptr, x_next_, &give_up);
+  if (parallel) {
+    workers_->wait();
+    worker_job_ = WorkerJob::kProposal;
+  } else {
+    for (Proposal& p : proposals_) {
+      p.done_stages = derivatives_->linearize_stages(problem, inputs, states, p.first_stage, p.last_stage, nullptr,
+                                                     x_next_, &give_up);
+    }
+  }
+  bool failed = here < 0;
+  double least = first_share > 0 ? static_cast<double>(std::max(here, 0)) / first_share : 1.0;
+  for (const Proposal& p : proposals_) {
+    const int stages = p.last_stage - p.first_stage;
+    if (stages <= 0) continue;
+    failed = failed || p.done_stages < 0;
+    least = std::min(least, static_cast<double>(std::max(p.done_stages, 0)) / stages);
+  }
+  *done = least;
+  if (failed) return std::numeric_limits<double>::infinity();
+  if (least < 1.0) return std::numeric_limits<double>::quiet_NaN();
+  return derivatives_->gradient_of_stages(problem, inputs, states, *gradient);
+}
 
 void SimulatedAnnealingSolver::roll_out_proposal(std::size_t index) noexcept {
   Proposal& p = proposals_[index];
@@ -350,24 +419,28 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
   // A gradient costs several rollouts (the step's Jets). Before the first one, one stage's Jacobian
   // is timed and scaled by the horizon. The cost varies with the state (the slow-motion substeps,
   // Newton's splits), hence the 1.5x on the slowest gradient seen.
+  // With workers the stages are split between the threads, so a gradient takes a share's stages.
   if (longest_gradient_ == Duration::zero()) {
     if (deadline.now() + 2 * full_rollout >= stop) return 0;
     const auto probe_start = deadline.now();
     derivatives_->linearize_stage(problem, 0, problem.initial_state(), out->inputs.col(0), candidate_states_.col(1));
-    longest_gradient_ = horizon_ * (deadline.now() - probe_start);
+    longest_gradient_ = stages_per_thread() * (deadline.now() - probe_start);
   }
   const auto gradient_time = [&] { return longest_gradient_ + longest_gradient_ / 2; };
   // Worth starting only with room for the gradient and a line search's first two trials.
   if (deadline.now() + gradient_time() + 2 * full_rollout >= stop) return kGradientDoesNotFit;
   inputs_ = out->inputs;
+  states_ = out->states;  // its rollout, which the threads' gradient linearises at
   // A gradient given up after some stages is charged at its full horizon's pace.
+  double done = 1.0;  // share of the last gradient's stages linearised
   const auto record_gradient_time = [&](TimePoint gradient_start) {
-    const int stages = std::max(derivatives_->completed_stages(), 1);
-    longest_gradient_ = std::max(longest_gradient_, (deadline.now() - gradient_start) * horizon_ / stages);
+    longest_gradient_ =
+        std::max(longest_gradient_, std::chrono::duration_cast<Duration>((deadline.now() - gradient_start) /
+                                                                         std::max(done, 1.0 / horizon_)));
   };
   const Deadline give_up = deadline.earlier_by(deadline.at() - stop);
   auto gradient_start = deadline.now();
-  double cost = derivatives_->cost_and_gradient(problem, inputs_, states_, gradient_, &give_up);
+  double cost = exact_gradient(problem, inputs_, states_, &gradient_, give_up, &done);
   record_gradient_time(gradient_start);
   ++*rollouts;
   if (!std::isfinite(cost)) return 0;
@@ -397,8 +470,7 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     out->cost = candidate_cost;
     if (deadline.now() + gradient_time() >= stop) break;
     gradient_start = deadline.now();
-    const double new_cost =
-        derivatives_->cost_and_gradient(problem, candidate_inputs_, candidate_states_, candidate_gradient_, &give_up);
+    const double new_cost = exact_gradient(problem, candidate_inputs_, candidate_states_, &candidate_gradient_, give_up, &done);
     record_gradient_time(gradient_start);
     ++*rollouts;
     if (!std::isfinite(new_cost)) break;

@@ -1,5 +1,6 @@
 #include "swerve/ocp/ocp_derivatives.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -32,11 +33,18 @@ OcpDerivatives::OcpDerivatives(const OcpProblem& shape)
 bool OcpDerivatives::linearize_stage(const OcpProblem& problem, int k, const Eigen::Ref<const Eigen::VectorXd>& x_k,
                                      const Eigen::Ref<const Eigen::VectorXd>& u_k,
                                      Eigen::Ref<Eigen::VectorXd> x_next) noexcept {
+  return linearize_stage_on(nullptr, problem, k, x_k, u_k, x_next);
+}
+
+bool OcpDerivatives::linearize_stage_on(PredictionData* data, const OcpProblem& problem, int k,
+                                        const Eigen::Ref<const Eigen::VectorXd>& x_k,
+                                        const Eigen::Ref<const Eigen::VectorXd>& u_k,
+                                        Eigen::Ref<Eigen::VectorXd> x_next) noexcept {
   if (k < 0 || k >= horizon_) return false;
   const auto s = static_cast<std::size_t>(k);
   double wear = 0.0;
   // Its own scratch when the problem's model is the one it was made for, else the model's own.
-  PredictionData* data = &problem.model() == data_model_ ? data_.get() : nullptr;
+  if (data == nullptr) data = &problem.model() == data_model_ ? data_.get() : nullptr;
   const bool ok =
       problem.model().step_jacobians(data, x_k, u_k, problem.dt(), x_next, a_[s], b_[s], &wear, wear_gradient_[s]);
   wear_[k] = wear;
@@ -47,9 +55,7 @@ double OcpDerivatives::cost_and_gradient(const OcpProblem& problem, const Eigen:
                                          Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::MatrixXd> gradient,
                                          const Deadline* stop) noexcept {
   gradient.setZero();
-  const double lambda = problem.weights().wear;
   states.col(0) = problem.initial_state();
-  double cost = 0.0;
   completed_stages_ = 0;
   for (int k = 0; k < horizon_; ++k) {
     const TimePoint stage_start = stop != nullptr ? stop->now() : TimePoint{};
@@ -63,6 +69,32 @@ double OcpDerivatives::cost_and_gradient(const OcpProblem& problem, const Eigen:
       if (now + (now - stage_start) >= stop->at()) return std::numeric_limits<double>::quiet_NaN();
     }
   }
+  return gradient_of_stages(problem, inputs, states, gradient);
+}
+
+int OcpDerivatives::linearize_stages(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                                     const Eigen::Ref<const Eigen::MatrixXd>& states, int first, int last,
+                                     PredictionData* data, Eigen::Ref<Eigen::VectorXd> x_next,
+                                     const Deadline* stop) noexcept {
+  first = std::max(first, 0);
+  last = std::min(last, horizon_);
+  for (int k = first; k < last; ++k) {
+    const TimePoint stage_start = stop != nullptr ? stop->now() : TimePoint{};
+    if (!linearize_stage_on(data, problem, k, states.col(k), inputs.col(k), x_next)) return -1;
+    if (stop != nullptr && k + 1 < last) {
+      const TimePoint now = stop->now();
+      if (now + (now - stage_start) >= stop->at()) return k + 1 - first;
+    }
+  }
+  return last - first;
+}
+
+double OcpDerivatives::gradient_of_stages(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                                          const Eigen::Ref<const Eigen::MatrixXd>& states,
+                                          Eigen::Ref<Eigen::MatrixXd> gradient) noexcept {
+  gradient.setZero();
+  const double lambda = problem.weights().wear;
+  double cost = 0.0;
   // Backward: costate_ = dJ/dx_{k+1} of the stages after k, then of stage k's own tracking term.
   costate_.setZero();
   for (int k = horizon_ - 1; k >= 0; --k) {

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <memory>
+#include <thread>
 #include <vector>
 
 #include "support/linear_models.hpp"
@@ -95,6 +97,69 @@ TEST(OcpDerivatives, GradientsOnTwoThreadsMatchOneThreadBitForBit) {
       });
   EXPECT_EQ(mismatches[0], 0);
   EXPECT_EQ(mismatches[1], 0);
+}
+
+// The gradient of a plan whose rollout is known, in two parts: its stages linearised in shares,
+// here one share on each of two threads (each on scratch of its own, writing disjoint stages), then
+// the adjoint recursion. It is the gradient cost_and_gradient gives, to rounding (the shares
+// linearise at the double rollout's states, cost_and_gradient at its Jets' own), and the same bit
+// for bit as the shares linearised on one thread.
+TEST(OcpDerivatives, AKnownRolloutsStagesLinearisedInSharesOnTwoThreadsGiveTheGradient) {
+  testing::SwerveTestProblem scene(testing::SwerveScene::kTurn);
+  const OcpProblem& problem = scene.problem;
+  const int nx = problem.state_size(), horizon = problem.horizon();
+  Eigen::MatrixXd plan = scene.jittered_inputs(0.1, 21u);
+  problem.project(plan);
+  OcpDerivatives reference(problem);
+  Eigen::MatrixXd reference_states(nx, horizon + 1), reference_gradient(3, horizon);
+  const double reference_cost = reference.cost_and_gradient(problem, plan, reference_states, reference_gradient);
+  ASSERT_TRUE(std::isfinite(reference_cost));
+
+  Eigen::MatrixXd states(nx, horizon + 1);
+  Eigen::VectorXd stage_costs(horizon), stage_wear(horizon);
+  ASSERT_TRUE(std::isfinite(problem.rollout(nullptr, plan, 0, states, stage_costs, stage_wear.data())));
+  const int half = horizon / 2;
+  Eigen::MatrixXd one_thread_gradient(3, horizon), two_thread_gradient(3, horizon);
+  double one_thread_cost = 0.0, two_thread_cost = 0.0;
+  {
+    OcpDerivatives derivatives(problem);
+    Eigen::VectorXd x_next(nx);
+    ASSERT_EQ(derivatives.linearize_stages(problem, plan, states, 0, half, nullptr, x_next), half);
+    ASSERT_EQ(derivatives.linearize_stages(problem, plan, states, half, horizon, nullptr, x_next), horizon - half);
+    one_thread_cost = derivatives.gradient_of_stages(problem, plan, states, one_thread_gradient);
+  }
+  {
+    OcpDerivatives derivatives(problem);
+    const std::unique_ptr<PredictionData> worker_data = problem.model().create_data();
+    Eigen::VectorXd x_next(nx), worker_x_next(nx);
+    int worker_done = 0;
+    std::thread worker([&] {
+      worker_done = derivatives.linearize_stages(problem, plan, states, half, horizon, worker_data.get(), worker_x_next);
+    });
+    const int done = derivatives.linearize_stages(problem, plan, states, 0, half, nullptr, x_next);
+    worker.join();
+    ASSERT_EQ(done, half);
+    ASSERT_EQ(worker_done, horizon - half);
+    two_thread_cost = derivatives.gradient_of_stages(problem, plan, states, two_thread_gradient);
+  }
+  EXPECT_EQ(two_thread_cost, one_thread_cost);
+  EXPECT_EQ(two_thread_gradient, one_thread_gradient);
+  EXPECT_NEAR(one_thread_cost, reference_cost, 1e-9 * std::abs(reference_cost));
+  const double scale = reference_gradient.cwiseAbs().maxCoeff();
+  EXPECT_LT((one_thread_gradient - reference_gradient).cwiseAbs().maxCoeff(), 1e-7 * scale);
+}
+
+// A share reports the stages it linearised, and -1 when the model fails on one of them.
+TEST(OcpDerivatives, ASharesLinearisationReportsItsStagesAndTheModelsFailure) {
+  const testing::DoubleIntegratorModel model(0.5);
+  const OcpProblem problem = testing::make_lq_problem(model, 10);
+  OcpDerivatives derivatives(problem);
+  Eigen::MatrixXd plan = Eigen::MatrixXd::Zero(3, 10), states(6, 11);
+  Eigen::VectorXd stage_costs(10), stage_wear(10), x_next(6);
+  ASSERT_TRUE(std::isfinite(problem.rollout(nullptr, plan, 0, states, stage_costs, stage_wear.data())));
+  EXPECT_EQ(derivatives.linearize_stages(problem, plan, states, 2, 7, nullptr, x_next), 5);
+  states(3, 4) = std::numeric_limits<double>::quiet_NaN();  // stage 4 starts from a NaN state
+  EXPECT_EQ(derivatives.linearize_stages(problem, plan, states, 2, 7, nullptr, x_next), -1);
 }
 
 }  // namespace

@@ -43,6 +43,20 @@ class OcpDerivatives {
   // Stages the last cost_and_gradient linearised (N unless it gave up or the model failed).
   int completed_stages() const noexcept { return completed_stages_; }
 
+  // The same gradient in two parts, for a plan whose rollout is known, so that its stages may be
+  // linearised on several threads. linearize_stages linearises stages [first, last) at `states`
+  // (the rollout of `inputs`, nx x N+1) on `data` (the model's create_data(); nullptr: this
+  // object's own scratch), writing each next state to `x_next` (nx) only; it returns the stages
+  // done, fewer than asked when the model fails (then -1) or when, with `stop`, a stage costing
+  // what the last did would end past it. Calls on disjoint stage ranges, each on its own data and
+  // x_next, may run on separate threads. gradient_of_stages then runs the adjoint recursion over
+  // all N linearised stages and returns the total cost.
+  int linearize_stages(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                       const Eigen::Ref<const Eigen::MatrixXd>& states, int first, int last, PredictionData* data,
+                       Eigen::Ref<Eigen::VectorXd> x_next, const Deadline* stop = nullptr) noexcept;
+  double gradient_of_stages(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                            const Eigen::Ref<const Eigen::MatrixXd>& states, Eigen::Ref<Eigen::MatrixXd> gradient) noexcept;
+
   // Forward sensitivities of single shooting, after cost_and_gradient or linearize_stage on every
   // stage of one rollout: dx_{k}/du_j (nx x nu) for j < k, by S_{k+1,j} = A_k S_{k,j}, S_{j+1,j} = B_j.
   // `sensitivity` is nx x (nu * N) and receives [dx_k/du_0 ... dx_k/du_{N-1}] (zero for j >= k).
@@ -60,6 +74,11 @@ class OcpDerivatives {
   int completed_stages_ = 0;
   const PredictionModel* data_model_;         // the model data_ was made by
   std::unique_ptr<PredictionData> data_;      // its step scratch (null: a model without any)
+  // Stage k on `data` (nullptr: data_ when the problem's model made it, else the model's own).
+  bool linearize_stage_on(PredictionData* data, const OcpProblem& problem, int k,
+                          const Eigen::Ref<const Eigen::VectorXd>& x_k, const Eigen::Ref<const Eigen::VectorXd>& u_k,
+                          Eigen::Ref<Eigen::VectorXd> x_next) noexcept;
+
   std::vector<Eigen::MatrixXd> a_, b_;
   std::vector<Eigen::VectorXd> wear_gradient_;
   Eigen::VectorXd wear_;

@@ -96,16 +96,29 @@ class SimulatedAnnealingSolver final : public Solver {
   void interpolate(const Eigen::MatrixXd& knots, int first, int last, Eigen::MatrixXd* raw) const noexcept;
 
   // A batch's further proposals (threads - 1), each with its buffers and its rollout's scratch.
+  // Its buffers also serve the polish's gradient: the share of stages [first_stage, last_stage)
+  // that worker linearises, and how many it did (-1: the model failed).
   struct Proposal {
     Eigen::MatrixXd knots, raw, inputs, states;
-    Eigen::VectorXd stage_costs, stage_wear;
+    Eigen::VectorXd stage_costs, stage_wear, x_next;
     int changed = 0;
     double cost = 0.0;
     std::unique_ptr<PredictionData> data;
+    int first_stage = 0, last_stage = 0, done_stages = 0;
   };
   class Workers;
+  enum class WorkerJob { kProposal, kLinearise };
+  // A worker's part of the job in flight: roll out its proposal, or linearise its share of stages.
+  void run_worker_job(std::size_t index) noexcept;
   // Rolls out proposals_[index] on its own scratch (from its changed step on) into its cost.
   void roll_out_proposal(std::size_t index) noexcept;
+  // The polish's exact gradient at `inputs`. One thread: OcpDerivatives::cost_and_gradient (which
+  // rewrites `states`). With workers: `states` must be the rollout of `inputs`, and the stages are
+  // split between the threads (stages_per_thread() each). Returns the cost (+inf: the model failed;
+  // NaN: given up at `give_up`) and in *done the share of the stages linearised (of the slowest share).
+  double exact_gradient(const OcpProblem& problem, const Eigen::MatrixXd& inputs, Eigen::MatrixXd& states,
+                        Eigen::MatrixXd* gradient, const Deadline& give_up, double* done) noexcept;
+  int stages_per_thread() const noexcept;
 
   SaOptions options_;
   int nx_, nu_, horizon_, knot_count_, group_size_;
@@ -149,6 +162,12 @@ class SimulatedAnnealingSolver final : public Solver {
   const PredictionModel* proposal_model_ = nullptr;
   std::unique_ptr<Workers> workers_;
   const OcpProblem* batch_problem_ = nullptr;
+  // The job in flight, and what a gradient's shares read: the plan, its rollout, the give-up time.
+  WorkerJob worker_job_ = WorkerJob::kProposal;
+  const Eigen::MatrixXd* job_inputs_ = nullptr;
+  const Eigen::MatrixXd* job_states_ = nullptr;
+  const Deadline* job_stop_ = nullptr;
+  Eigen::VectorXd x_next_;  // the calling thread's next state while it linearises its share
 };
 
 }  // namespace swerve
