@@ -434,9 +434,8 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
   // A gradient given up after some stages is charged at its full horizon's pace.
   double done = 1.0;  // share of the last gradient's stages linearised
   const auto record_gradient_time = [&](TimePoint gradient_start) {
-    longest_gradient_ =
-        std::max(longest_gradient_, std::chrono::duration_cast<Duration>((deadline.now() - gradient_start) /
-                                                                         std::max(done, 1.0 / horizon_)));
+    const long stages = std::max(1L, std::lround(done * horizon_));
+    longest_gradient_ = std::max(longest_gradient_, (deadline.now() - gradient_start) * horizon_ / stages);
   };
   const Deadline give_up = deadline.earlier_by(deadline.at() - stop);
   auto gradient_start = deadline.now();

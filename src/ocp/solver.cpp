@@ -101,10 +101,13 @@ SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guess
   SolveSummary local_summary;
   SolveSummary& report = summary != nullptr ? *summary : local_summary;
   report = SolveSummary{};
+  bool backend_ran = false;  // lateness is a backend's: a problem refused up front is not late
   auto finish = [&](SolveStatus status, const char* reason) {
+    const TimePoint end = deadline.now();
     report.status = status;
     if (reason != nullptr) report.reason = reason;
-    report.solve_time_s = to_seconds(deadline.now() - start);
+    report.solve_time_s = to_seconds(end - start);
+    report.late_s = backend_ran && end > deadline.at() ? to_seconds(end - deadline.at()) : 0.0;
     return status;
   };
   if (out == nullptr || out->inputs.rows() != problem.input_size() || out->inputs.cols() != problem.horizon() ||
@@ -121,8 +124,7 @@ SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guess
   }
   if (deadline.at() <= start) return finish(SolveStatus::kInvalidInput, "the deadline has already passed");
   const SolveStatus status = do_solve(problem, guesses, deadline, out, &report);
-  const TimePoint end = deadline.now();
-  report.late_s = end > deadline.at() ? to_seconds(end - deadline.at()) : 0.0;
+  backend_ran = true;
   if (has_solution(status) && (!out->inputs.allFinite() || !std::isfinite(out->cost))) {
     out->valid = false;
     return finish(SolveStatus::kNumericalError, "the backend returned a non-finite plan");
