@@ -40,6 +40,7 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
       solve_ms.push_back(1e3 * record.solve_time_s);
       iterations_sum += std::max(0, record.solve_iterations);
       if (record.step_time_s < 0.0 && record.solve_time_s > solve_budget) ++m.deadline_misses;
+      if (record.solve_late_s > 0.0) ++m.late_solves;
     }
     if (record.step_time_s >= 0.0) {
       step_ms.push_back(1e3 * record.step_time_s);

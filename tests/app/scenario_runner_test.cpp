@@ -190,6 +190,7 @@ TEST(ScenarioRunner, SummaryJsonHasEveryDocumentedKeyWithItsType) {
     EXPECT_EQ(c.at("wear_per_module").size(), 10u);
     EXPECT_TRUE(c.at("wear_units").is_string());
     EXPECT_TRUE(c.at("deadline_misses").is_number_integer());
+    EXPECT_TRUE(c.at("late_solves").is_number_integer());
     EXPECT_TRUE(c.at("fallbacks").is_number_integer());
     EXPECT_TRUE(std::filesystem::exists(dir + "/" + c.at("log_csv").get<std::string>()));
   }

@@ -52,12 +52,13 @@ TEST(Metrics, WearSumImbalanceEffortAndEnergy) {
   EXPECT_NEAR(m.steering_effort, 2 * 0.1 * (1.0 + 4.0), 1e-12);  // two periods of (1^2 + 2^2) dt
 }
 
-TEST(Metrics, SolveTimesPercentilesDeadlineMissesAndFallbacks) {
+TEST(Metrics, SolveTimesPercentilesDeadlineMissesLateSolvesAndFallbacks) {
   std::vector<StepRecord> log;
   for (int k = 1; k <= 100; ++k) {
     // 1..100 ms; the last five over a 95 ms budget; every tenth from a fallback; one without a solve.
     const CommandSource source = k % 10 == 0 ? CommandSource::kBaseline : CommandSource::kOptimizer;
     log.push_back(record(0.01 * k, 0.0, 0.0, 1e-3 * k, source));
+    if (k > 97) log.back().solve_late_s = 1e-3 * (k - 95);  // three of the five misses ran late in the solver
   }
   log.push_back(record(2.0, 0.0, 0.0, -1.0, CommandSource::kSafeStop));
   const RunMetrics m = compute_metrics(log, {0.0, 0.0}, 0.0, 0.01, 0.095);
@@ -66,6 +67,7 @@ TEST(Metrics, SolveTimesPercentilesDeadlineMissesAndFallbacks) {
   EXPECT_NEAR(m.solve_time_max_ms, 100.0, 1e-9);
   EXPECT_NEAR(m.solve_time_mean_ms, 50.5, 1e-9);
   EXPECT_EQ(m.deadline_misses, 5);
+  EXPECT_EQ(m.late_solves, 3);
   EXPECT_EQ(m.fallbacks, 11);
   EXPECT_DOUBLE_EQ(m.wear_imbalance, 0.0);  // no wear: no imbalance rather than 0/0
 }

@@ -24,6 +24,7 @@ struct StepRecord {
   SolveStatus solve_status = SolveStatus::kNotRun;
   double solve_time_s = 0.0;                                  // < 0 when no solve ran
   double step_time_s = -1.0;                                  // the whole controller step; < 0 unknown
+  double solve_late_s = 0.0;                                  // how far past its deadline the solver returned
   int solve_iterations = -1;
   // The optimiser's own view of the step: the predicted cost of the plan it returned, by part, and
   // of the best initial guess it started from (< 0 when no solve ran or the solver reports none).
@@ -49,6 +50,9 @@ struct RunMetrics {
   double solve_time_mean_ms = 0.0, solve_time_p50_ms = 0.0, solve_time_p99_ms = 0.0, solve_time_max_ms = 0.0;
   double step_time_p99_ms = 0.0, step_time_max_ms = 0.0;  // the whole step (plan, update, solve)
   int deadline_misses = 0;         // steps (or, where unknown, solves) that took longer than the budget
+  // Solves that returned past their own deadline (SolveSummary::late_s > 0): a miss with none came
+  // from outside the solver (the rest of the step, or a stall between the solve and the command).
+  int late_solves = 0;
   int fallbacks = 0;               // periods whose command did not come from a successful solve
   int tracking_first_steps = 0;    // periods that sent the baseline's commands because the plan left the tube
   double solve_iterations_mean = 0.0;
