@@ -104,7 +104,7 @@ class SimulatedAnnealingSolver::Workers {
   void end_solve() noexcept { solving_.store(false, std::memory_order_release); }
 
  private:
-  static constexpr int kSpinYields = 20000;  // ~ms of yields between batches before sleeping
+  static constexpr int kSpinYields = 20000;  // ~ms of idle yields outside a solve before sleeping
 
   void stop_and_join() noexcept {
     {
@@ -321,12 +321,26 @@ double SimulatedAnnealingSolver::exact_gradient(const OcpProblem& problem, const
 void SimulatedAnnealingSolver::roll_out_proposal(std::size_t index) noexcept {
   Proposal& p = proposals_[index];
   if (p.changed >= horizon_) return;
-  p.states.leftCols(p.changed + 1) = states_.leftCols(p.changed + 1);
-  p.stage_costs.head(p.changed) = stage_costs_.head(p.changed);
-  p.stage_wear.head(p.changed) = stage_wear_.head(p.changed);
   // Scratch of its own when the batch's problem runs on the model it was made for.
   PredictionData* data = &batch_problem_->model() == proposal_model_ ? p.data.get() : nullptr;
-  p.cost = batch_problem_->rollout(data, p.inputs, p.changed, p.states, p.stage_costs, p.stage_wear.data());
+  p.cost = roll_out_from(*batch_problem_, data, p.changed, p.inputs, p.states, p.stage_costs, p.stage_wear);
+}
+
+int SimulatedAnnealingSolver::first_changed_step(const Eigen::MatrixXd& inputs, int first, int last) const noexcept {
+  for (int k = first; k <= last; ++k) {
+    if (inputs.col(k) != inputs_.col(k)) return k;
+  }
+  return horizon_;
+}
+
+double SimulatedAnnealingSolver::roll_out_from(const OcpProblem& problem, PredictionData* data, int changed,
+                                               const Eigen::MatrixXd& inputs, Eigen::MatrixXd& states,
+                                               Eigen::VectorXd& stage_costs,
+                                               Eigen::VectorXd& stage_wear) const noexcept {
+  states.leftCols(changed + 1) = states_.leftCols(changed + 1);
+  stage_costs.head(changed) = stage_costs_.head(changed);
+  stage_wear.head(changed) = stage_wear_.head(changed);
+  return problem.rollout(data, inputs, changed, states, stage_costs, stage_wear.data());
 }
 
 int SimulatedAnnealingSolver::propose(const OcpProblem& problem, Eigen::MatrixXd* knots, Eigen::MatrixXd* raw,
@@ -357,10 +371,7 @@ int SimulatedAnnealingSolver::propose(const OcpProblem& problem, Eigen::MatrixXd
   *inputs = *raw;
   problem.project(*inputs);
   // Only steps from the first changed input on need a new rollout; the prefix is shared.
-  for (int k = 0; k < horizon_; ++k) {
-    if (inputs->col(k) != inputs_.col(k)) return k;
-  }
-  return horizon_;
+  return first_changed_step(*inputs, 0, horizon_ - 1);
 }
 
 bool SimulatedAnnealingSolver::lbfgs_direction(const Eigen::MatrixXd& gradient, Eigen::MatrixXd* direction, int* stored,
@@ -506,19 +517,13 @@ bool SimulatedAnnealingSolver::knot_gradient(const OcpProblem& problem, double c
       interpolate(candidate_knots_, first, last, &candidate_raw_);
       candidate_inputs_ = candidate_raw_;
       problem.project(candidate_inputs_);
-      int changed = horizon_;
-      for (int k = first; k <= last && changed == horizon_; ++k) {
-        if (candidate_inputs_.col(k) != inputs_.col(k)) changed = k;
-      }
+      const int changed = first_changed_step(candidate_inputs_, first, last);
       if (changed == horizon_) {  // held by a bound: no slope along this offset
         (*gradient)(i, knot) = 0.0;
         continue;
       }
-      candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
-      candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
-      candidate_stage_wear_.head(changed) = stage_wear_.head(changed);
-      const double shifted = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_,
-                                             candidate_stage_costs_, candidate_stage_wear_.data());
+      const double shifted = roll_out_from(problem, nullptr, changed, candidate_inputs_, candidate_states_,
+                                           candidate_stage_costs_, candidate_stage_wear_);
       ++*rollouts;
       *proposal = std::max(*proposal, deadline.now() - start);
       if (!std::isfinite(shifted)) return false;
@@ -571,14 +576,10 @@ int SimulatedAnnealingSolver::knot_polish(const OcpProblem& problem, Deadline de
       interpolate(candidate_knots_, 0, horizon_ - 1, &candidate_raw_);
       candidate_inputs_ = candidate_raw_;
       problem.project(candidate_inputs_);
-      int changed = 0;
-      while (changed < horizon_ && candidate_inputs_.col(changed) == inputs_.col(changed)) ++changed;
+      const int changed = first_changed_step(candidate_inputs_, 0, horizon_ - 1);
       if (changed == horizon_) return false;  // the bounds hold every step of the move
-      candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
-      candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
-      candidate_stage_wear_.head(changed) = stage_wear_.head(changed);
-      *trial_cost = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_, candidate_stage_costs_,
-                                    candidate_stage_wear_.data());
+      *trial_cost = roll_out_from(problem, nullptr, changed, candidate_inputs_, candidate_states_,
+                                  candidate_stage_costs_, candidate_stage_wear_);
       *decrease = flat(knot_gradient_).dot(flat(candidate_knots_) - flat(knots_));
       return true;
     };
@@ -685,8 +686,8 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   const Duration polish_window =
       timed ? std::chrono::duration_cast<Duration>(options_.polish_share * (deadline.at() - loop_start)) : Duration::max();
   bool exact_polish = derivatives_ != nullptr &&
-                            (!timed || longest_gradient_ == Duration::zero() ||
-                             longest_gradient_ + longest_gradient_ / 2 + 2 * full_rollout <= polish_window);
+                      (!timed || longest_gradient_ == Duration::zero() ||
+                       longest_gradient_ + longest_gradient_ / 2 + 2 * full_rollout <= polish_window);
   // Else the knot polish, when one forward-difference gradient (as last timed, or one full rollout
   // per offset before the first) and two line-search trials fit in the share.
   longest_knot_gradient_ -= longest_knot_gradient_ / 16;
@@ -694,8 +695,10 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
       longest_knot_gradient_ > Duration::zero()
           ? longest_knot_gradient_
           : std::chrono::duration_cast<Duration>(knot_gradient_rollouts() * full_rollout);
-  const bool knot_polishing = !exact_polish && options_.knot_polish && knot_gradient_.size() > 0 &&
-                              (!timed || knot_gradient_estimate + 2 * full_rollout <= polish_window);
+  // knot_gradient_ is sized only when the options ask for a polish at all.
+  const bool knot_polish_allowed = options_.knot_polish && knot_gradient_.size() > 0;
+  const bool knot_polishing =
+      !exact_polish && knot_polish_allowed && (!timed || knot_gradient_estimate + 2 * full_rollout <= polish_window);
   const bool polishing = exact_polish || knot_polishing;
   const TimePoint anneal_end =
       polishing && timed
@@ -753,11 +756,8 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     if (parallel) workers_->start();
     double candidate_cost = std::numeric_limits<double>::infinity();
     if (changed < horizon_) {
-      candidate_states_.leftCols(changed + 1) = states_.leftCols(changed + 1);
-      candidate_stage_costs_.head(changed) = stage_costs_.head(changed);
-      candidate_stage_wear_.head(changed) = stage_wear_.head(changed);
-      candidate_cost = problem.rollout(nullptr, candidate_inputs_, changed, candidate_states_, candidate_stage_costs_,
-                                       candidate_stage_wear_.data());
+      candidate_cost = roll_out_from(problem, nullptr, changed, candidate_inputs_, candidate_states_,
+                                     candidate_stage_costs_, candidate_stage_wear_);
       ++rollouts;
     }
     if (parallel) {
@@ -845,7 +845,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     int steps = exact_polish ? polish(problem, deadline, polish_end, proposal, out, &rollouts) : kGradientDoesNotFit;
     // The first solve learns a gradient's time from one stage; when it does not fit, or whenever
     // none would, the knot polish takes the window.
-    if (steps == kGradientDoesNotFit && options_.knot_polish && knot_gradient_.size() > 0) {
+    if (steps == kGradientDoesNotFit && knot_polish_allowed) {
       exact_polish = false;
       steps = knot_polish(problem, deadline, polish_end, proposal, out, &rollouts);
     }

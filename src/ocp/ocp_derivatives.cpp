@@ -7,6 +7,17 @@
 #include "swerve/core/config_error.hpp"
 
 namespace swerve {
+namespace {
+
+// Whether a stage begun at `stage_start` and costing what this one did would, after it, end past
+// `stop` (null: never): a gradient gives up between stages rather than return late.
+bool next_stage_would_end_late(const Deadline* stop, TimePoint stage_start) noexcept {
+  if (stop == nullptr) return false;
+  const TimePoint now = stop->now();
+  return now + (now - stage_start) >= stop->at();
+}
+
+}  // namespace
 
 OcpDerivatives::OcpDerivatives(const OcpProblem& shape)
     : horizon_(shape.horizon()),
@@ -63,11 +74,7 @@ double OcpDerivatives::cost_and_gradient(const OcpProblem& problem, const Eigen:
       return std::numeric_limits<double>::infinity();
     }
     completed_stages_ = k + 1;
-    // Give up before a stage that, costing what this one did, would end past `stop`.
-    if (stop != nullptr && k + 1 < horizon_) {
-      const TimePoint now = stop->now();
-      if (now + (now - stage_start) >= stop->at()) return std::numeric_limits<double>::quiet_NaN();
-    }
+    if (k + 1 < horizon_ && next_stage_would_end_late(stop, stage_start)) return std::numeric_limits<double>::quiet_NaN();
   }
   return gradient_of_stages(problem, inputs, states, gradient);
 }
@@ -81,10 +88,7 @@ int OcpDerivatives::linearize_stages(const OcpProblem& problem, const Eigen::Ref
   for (int k = first; k < last; ++k) {
     const TimePoint stage_start = stop != nullptr ? stop->now() : TimePoint{};
     if (!linearize_stage_on(data, problem, k, states.col(k), inputs.col(k), x_next)) return -1;
-    if (stop != nullptr && k + 1 < last) {
-      const TimePoint now = stop->now();
-      if (now + (now - stage_start) >= stop->at()) return k + 1 - first;
-    }
+    if (k + 1 < last && next_stage_would_end_late(stop, stage_start)) return k + 1 - first;
   }
   return last - first;
 }

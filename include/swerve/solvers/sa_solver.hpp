@@ -43,8 +43,9 @@ struct SaOptions {
   // Proposals drawn and rolled out together per annealing step, one per thread: the calling thread
   // and threads - 1 workers started with the solver, each rolling out on scratch of its own
   // (PredictionModel::create_data). The cheapest of each batch meets the Metropolis test. 1: one
-  // proposal per step, no worker. For targets with a core to spare; the answer depends on the seed
-  // and the budget, never on the threads' timing.
+  // proposal per step, no worker. The workers also linearise the polish's gradient, a share of the
+  // stages each. For targets with a core to spare; the answer depends on the seed and the budget,
+  // never on the threads' timing.
   int threads = 1;
 
   // Throws ConfigError naming the field and value.
@@ -112,6 +113,15 @@ class SimulatedAnnealingSolver final : public Solver {
   void run_worker_job(std::size_t index) noexcept;
   // Rolls out proposals_[index] on its own scratch (from its changed step on) into its cost.
   void roll_out_proposal(std::size_t index) noexcept;
+  // The first step in [first, last] whose input in `inputs` differs from the current plan's
+  // (inputs_); N when none does.
+  int first_changed_step(const Eigen::MatrixXd& inputs, int first, int last) const noexcept;
+  // Rolls `inputs` out from step `changed` on, sharing the current plan's prefix (its states,
+  // stage costs and wear before `changed`); returns the cost. Reads only the current plan, so
+  // proposals may roll out this way on several threads, each on its own `data` and buffers.
+  double roll_out_from(const OcpProblem& problem, PredictionData* data, int changed, const Eigen::MatrixXd& inputs,
+                       Eigen::MatrixXd& states, Eigen::VectorXd& stage_costs,
+                       Eigen::VectorXd& stage_wear) const noexcept;
   // The polish's exact gradient at `inputs`. One thread: OcpDerivatives::cost_and_gradient (which
   // rewrites `states`). With workers: `states` must be the rollout of `inputs`, and the stages are
   // split between the threads (stages_per_thread() each). Returns the cost (+inf: the model failed;
