@@ -1,10 +1,13 @@
 // Physical models: one derivative evaluation, one RK4 step (1 substep, with the wear quadrature)
 // and the Jet Jacobian of that step (dF/dx, dF/du, wear gradient), for 4, 8 and 16 modules, in
-// double. Goals (issue 6): <= 200 ns per module per derivative; Jacobian <= 15x one step.
+// double. Goals (issue 6): <= 200 ns per module per derivative; Jacobian <= 15x one step. And the
+// optimisers' prediction step (semi-implicit, both actuator lags as states, body twist input) with
+// its Jacobian, the pair every gradient backend evaluates per stage.
 #include <benchmark/benchmark.h>
 
 #include "swerve/models/dynamics_jacobian.hpp"
 #include "swerve/models/integrators.hpp"
+#include "swerve/models/semi_implicit_step_jacobian.hpp"
 #include "swerve/models/vehicle_model.hpp"
 
 namespace swerve {
@@ -107,6 +110,47 @@ void BM_Models_Rk4StepJacobian(benchmark::State& state) {
   state.counters["directions"] = nx + nu;
 }
 BENCHMARK(BM_Models_Rk4StepJacobian)->Arg(4)->Arg(8)->Arg(16);
+
+// The prediction step at dt = 0.05 s from bench_point's motion (lagged wheels at their commands),
+// commanded a slightly different twist: range(1) = 0 the double step, 1 with its Jacobian.
+void BM_Models_PredictionStep(benchmark::State& state) {
+  const int modules = static_cast<int>(state.range(0));
+  const bool with_jacobian = state.range(1) != 0;
+  const VehicleParams params = bench_params(modules);
+  PredictionOptions options;
+  options.drive_lag = true;
+  options.steering_lag = true;
+  const SemiImplicitStep<double> step(params, options);
+  SemiImplicitStep<double>::Data data(step);
+  const SemiImplicitStepJacobian jacobian(params, options);
+  SemiImplicitStepJacobian::Data jacobian_data(jacobian);
+  const VehicleModel<double> model(params, Fidelity::kIdeal);
+  Eigen::VectorXd x_model;
+  Eigen::VectorXd u;
+  bench_point(model, &x_model, &u);
+  const int nx = step.state_size();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(nx);
+  x.head(x_model.size()) = x_model;
+  for (int i = 0; i < step.wheel_speed_states(); ++i) x[x_model.size() + i] = u[InputIndex::wheel_speed(i)];
+  const Eigen::Vector3d twist(1.05, 0.1, 0.22);
+  Eigen::VectorXd next(nx);
+  Eigen::MatrixXd a(nx, nx);
+  Eigen::MatrixXd b(nx, 3);
+  Eigen::VectorXd gradient(nx + 3);
+  Eigen::VectorXd inputs(model.input_size());
+  double wear = 0.0;
+  for (auto _ : state) {
+    if (with_jacobian) {
+      benchmark::DoNotOptimize(jacobian.twist_step(jacobian_data, x, twist, 0.05, next, a, b, &wear, gradient));
+    } else {
+      step.module_inputs(x, twist, 0.05, inputs);
+      benchmark::DoNotOptimize(step.step(data, x, inputs, 0.05, next, &wear));
+    }
+    benchmark::DoNotOptimize(next.data());
+  }
+  state.counters["directions"] = with_jacobian ? nx + 3 : 0;
+}
+BENCHMARK(BM_Models_PredictionStep)->ArgsProduct({{4, 8, 16}, {0, 1}})->ArgNames({"modules", "jacobian"});
 
 }  // namespace
 }  // namespace swerve

@@ -1,22 +1,21 @@
-// VehiclePredictionModel's caller-owned scratch (its Data's Impl), shared by the two units that
-// step the model: vehicle_prediction_model.cpp in double, prediction_jacobians.cpp in Jets.
+// VehiclePredictionModel's caller-owned scratch (its Data's Impl).
 #pragma once
 
-#include <memory>
+#include <Eigen/Core>
 
 #include "swerve/models/semi_implicit_step.hpp"
+#include "swerve/models/semi_implicit_step_jacobian.hpp"
 #include "swerve/ocp/vehicle_prediction_model.hpp"
 
 namespace swerve {
 
-// The double step's scratch, the module inputs a twist_step maps to, and the Jet twin's scratch
-// for the Jacobians.
+// The double step's scratch, the module inputs a twist_step maps to, and the Jacobian's scratch.
 struct VehiclePredictionModel::Data::Impl {
-  Impl(const SemiImplicitStep<double>& step, std::unique_ptr<detail::JetScratch, detail::JetScratchDeleter> jet_scratch)
-      : values(step), inputs(Eigen::VectorXd::Zero(step.model().input_size())), jets(std::move(jet_scratch)) {}
+  Impl(const SemiImplicitStep<double>& step, const SemiImplicitStepJacobian& step_jacobian)
+      : values(step), inputs(Eigen::VectorXd::Zero(step.model().input_size())), jacobian(step_jacobian) {}
   SemiImplicitStep<double>::Data values;
   Eigen::VectorXd inputs;
-  std::unique_ptr<detail::JetScratch, detail::JetScratchDeleter> jets;
+  SemiImplicitStepJacobian::Data jacobian;
 };
 
 }  // namespace swerve

@@ -9,6 +9,19 @@
 
 namespace swerve {
 
+VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, PredictionOptions options)
+    : options_(options) {
+  options_.validate();
+  values_ = std::make_unique<SemiImplicitStep<double>>(params, options_);
+  jacobian_ = std::make_unique<SemiImplicitStepJacobian>(params, options_);
+  modules_ = values_->model().modules();
+  state_size_ = values_->state_size();
+  input_size_ = values_->model().input_size();
+  data_.reset(static_cast<Data*>(create_data().release()));
+}
+
+VehiclePredictionModel::~VehiclePredictionModel() = default;
+
 const VehicleModel<double>& VehiclePredictionModel::vehicle() const noexcept { return values_->model(); }
 
 VehiclePredictionModel::Data::Data(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -17,7 +30,7 @@ VehiclePredictionModel::Data& VehiclePredictionModel::Data::operator=(Data&&) no
 VehiclePredictionModel::Data::~Data() = default;
 
 std::unique_ptr<PredictionData> VehiclePredictionModel::create_data() const {
-  return std::unique_ptr<Data>(new Data(std::make_unique<Data::Impl>(*values_, make_jet_scratch())));
+  return std::unique_ptr<Data>(new Data(std::make_unique<Data::Impl>(*values_, *jacobian_)));
 }
 
 VehiclePredictionModel::Data::Impl& VehiclePredictionModel::scratch(PredictionData* data) const noexcept {
@@ -71,6 +84,38 @@ bool VehiclePredictionModel::twist_step(PredictionData* data, const Eigen::Ref<c
   Data::Impl& own = scratch(data);
   values_->module_inputs(x, twist_body, dt, own.inputs);
   return values_->step(own.values, x, own.inputs, dt, x_next, stage_wear);
+}
+
+bool VehiclePredictionModel::step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                            const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                            Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                                            Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                                            Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  return step_jacobians(nullptr, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
+}
+
+bool VehiclePredictionModel::step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                            const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                            Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                                            Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                                            Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  return jacobian_->module_step(scratch(data).jacobian, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
+}
+
+bool VehiclePredictionModel::twist_step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x,
+                                                  const Eigen::Vector3d& twist_body, double dt,
+                                                  Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                                                  Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                                                  Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  return twist_step_jacobians(nullptr, x, twist_body, dt, x_next, a, b, stage_wear, wear_gradient);
+}
+
+bool VehiclePredictionModel::twist_step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                                  const Eigen::Vector3d& twist_body, double dt,
+                                                  Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                                                  Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                                                  Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  return jacobian_->twist_step(scratch(data).jacobian, x, twist_body, dt, x_next, a, b, stage_wear, wear_gradient);
 }
 
 }  // namespace swerve

@@ -1,6 +1,8 @@
 // Exact Jacobians of the continuous dynamics f(x, u) and of the discrete map F(x, u, dt) (and of
 // its stage wear) by forward-mode automatic differentiation: ceres::Jet<double, 8> evaluated in
 // chunks of 8 directions over the nx + nu inputs. The Jets stay inside models/; this API is double.
+// These are the plant model's maps (RK4, any fidelity), for linearising the vehicle itself; the
+// optimisers' prediction step has its own, semi_implicit_step_jacobian.hpp, on the same chunks.
 #pragma once
 
 #include <Eigen/Core>

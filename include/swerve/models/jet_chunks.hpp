@@ -1,6 +1,7 @@
 // Forward-mode Jacobians in chunks: a function of stacked inputs (x, u) evaluated with
 // swerve::ModelJet (8 directions) once per 8 columns of its Jacobian. Shared by DynamicsJacobian
-// and the MPC's prediction models. Needs Ceres' headers on the include path, as jet.hpp does.
+// (the plant's maps) and SemiImplicitStepJacobian (the prediction's). Needs Ceres' headers on the
+// include path, as jet.hpp does.
 #pragma once
 
 #include <Eigen/Core>

@@ -33,20 +33,11 @@
 
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/semi_implicit_step.hpp"
+#include "swerve/models/semi_implicit_step_jacobian.hpp"
 #include "swerve/models/vehicle_model.hpp"
 #include "swerve/ocp/prediction_model.hpp"
 
 namespace swerve {
-
-template <typename T>
-class SemiImplicitStep;
-namespace detail {
-struct PredictionJets;
-struct JetScratch;
-struct JetScratchDeleter {
-  void operator()(JetScratch* scratch) const noexcept;  // prediction_jacobians.cpp, where it is complete
-};
-}  // namespace detail
 
 class VehiclePredictionModel final : public PredictionModel {
  public:
@@ -128,9 +119,7 @@ class VehiclePredictionModel final : public PredictionModel {
   PredictionOptions options_;
   int modules_, state_size_, input_size_;
   std::unique_ptr<SemiImplicitStep<double>> values_;
-  std::unique_ptr<detail::PredictionJets> jets_;  // the Jet twin of values_ (prediction_jacobians.cpp)
-  // A Data's Jet scratch for the twin (prediction_jacobians.cpp, the one unit that knows Jets).
-  std::unique_ptr<detail::JetScratch, detail::JetScratchDeleter> make_jet_scratch() const;
+  std::unique_ptr<SemiImplicitStepJacobian> jacobian_;  // the step's derivatives (models/)
   std::unique_ptr<Data> data_;                     // the scratch of the overloads without a Data
   Data::Impl& scratch(PredictionData* data) const noexcept;  // *data's, or the model's own for nullptr
 };

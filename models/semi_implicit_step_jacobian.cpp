@@ -1,0 +1,90 @@
+// The one translation unit that instantiates the prediction step for ceres::Jet: its compile time is
+// the cost of the prediction's derivatives.
+#include "swerve/models/semi_implicit_step_jacobian.hpp"
+
+#include <cmath>
+#include <utility>
+
+#include "swerve/models/jet_chunks.hpp"
+
+namespace swerve {
+
+struct SemiImplicitStepJacobian::Twin {
+  Twin(const VehicleParams& params, const PredictionOptions& options) : step(params, (options.validate(), options)) {}
+  SemiImplicitStep<ModelJet> step;
+};
+
+struct SemiImplicitStepJacobian::Data::Impl {
+  explicit Impl(const SemiImplicitStep<ModelJet>& step)
+      : data(step),
+        x(ModelJetVector::Zero(step.state_size())),
+        u(ModelJetVector::Zero(step.model().input_size())),
+        twist(ModelJetVector::Zero(3)),
+        out(ModelJetVector::Zero(step.state_size())) {}
+  SemiImplicitStep<ModelJet>::Data data;
+  ModelJetVector x, u, twist, out;  // u: module inputs (given, or mapped from the twist)
+};
+
+SemiImplicitStepJacobian::SemiImplicitStepJacobian(const VehicleParams& params, const PredictionOptions& options)
+    : twin_(std::make_unique<const Twin>(params, options)) {
+  state_size_ = twin_->step.state_size();
+  input_size_ = twin_->step.model().input_size();
+}
+
+SemiImplicitStepJacobian::~SemiImplicitStepJacobian() = default;
+
+SemiImplicitStepJacobian::Data::Data(const SemiImplicitStepJacobian& jacobian)
+    : impl_(std::make_unique<Impl>(jacobian.twin_->step)) {}
+SemiImplicitStepJacobian::Data::~Data() = default;
+SemiImplicitStepJacobian::Data::Data(Data&&) noexcept = default;
+SemiImplicitStepJacobian::Data& SemiImplicitStepJacobian::Data::operator=(Data&&) noexcept = default;
+
+namespace {
+
+bool arguments_ok(int nx, int nu, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                  double dt, const Eigen::Ref<Eigen::VectorXd>& x_next, const Eigen::Ref<Eigen::MatrixXd>& a,
+                  const Eigen::Ref<Eigen::MatrixXd>& b, const Eigen::Ref<Eigen::VectorXd>& wear_gradient) {
+  return x.size() == nx && u.size() == nu && x_next.size() == nx && a.rows() == nx && a.cols() == nx &&
+         b.rows() == nx && b.cols() == nu && wear_gradient.size() == nx + nu && dt > 0.0 && std::isfinite(dt) &&
+         x.allFinite() && u.allFinite();
+}
+
+}  // namespace
+
+bool SemiImplicitStepJacobian::module_step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                           const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                           Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                                           Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                                           Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  if (!arguments_ok(state_size_, input_size_, x, u, dt, x_next, a, b, wear_gradient)) return false;
+  const SemiImplicitStep<ModelJet>& step = twin_->step;
+  Data::Impl& j = *data.impl_;
+  bool first = true;
+  const bool ok = jet_jacobian(x, u, j.x, j.u, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
+                               [&](ModelJet* wear) {
+                                 SemiImplicitStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
+                                 return step.step(j.data, j.x, j.u, dt, j.out, wear);
+                               });
+  return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
+}
+
+bool SemiImplicitStepJacobian::twist_step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                          const Eigen::Vector3d& twist_body, double dt,
+                                          Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
+                                          Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                                          Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  if (!arguments_ok(state_size_, 3, x, twist_body, dt, x_next, a, b, wear_gradient)) return false;
+  const SemiImplicitStep<ModelJet>& step = twin_->step;
+  Data::Impl& j = *data.impl_;
+  bool first = true;
+  const bool ok = jet_jacobian(x, twist_body, j.x, j.twist, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
+                               [&](ModelJet* wear) {
+                                 SemiImplicitStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
+                                 const Eigen::Matrix<ModelJet, 3, 1> twist = j.twist;
+                                 step.module_inputs(j.x, twist, dt, j.u);
+                                 return step.step(j.data, j.x, j.u, dt, j.out, wear);
+                               });
+  return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
+}
+
+}  // namespace swerve

@@ -1,0 +1,188 @@
+// The prediction step's exact Jacobians (SemiImplicitStepJacobian) against central differences of
+// the double step itself, with module inputs and with the body twist as the input; their values
+// against the double step's; bad arguments; and two callers on two threads.
+#include "swerve/models/semi_implicit_step_jacobian.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "models/model_fixtures.hpp"
+#include "support/two_threads.hpp"
+#include "swerve/core/config_error.hpp"
+#include "swerve/kinematics/module_state.hpp"
+#include "swerve/kinematics/se2.hpp"
+
+namespace swerve {
+namespace {
+
+constexpr double kDt = 0.05;
+
+// The shipped default's prediction: both actuator lags as states.
+PredictionOptions lagged() {
+  PredictionOptions options;
+  options.drive_lag = true;
+  options.steering_lag = true;
+  return options;
+}
+
+// A turning body whose modules sit a little off their rolling angles, wheels and steering drives
+// moving: every state and input matters.
+Eigen::VectorXd turning_state(const SemiImplicitStep<double>& step, const VehicleParams& params) {
+  const int n = params.layout.size();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(step.state_size());
+  x[StateIndex::kPsi] = 0.4;
+  x.segment<3>(StateIndex::kVx) << 0.8, 0.1, 0.3;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector2d& p = params.layout.position_body(i);
+    x[StateIndex::steering(i)] = std::atan2(0.1 + 0.3 * p.x(), 0.8 - 0.3 * p.y()) + 0.02 * (i + 1);
+  }
+  const int prefix = StateIndex::prefix_size(n);
+  for (int k = prefix; k < step.state_size(); ++k) x[k] = k < prefix + step.wheel_speed_states() ? 7.0 + 0.1 * k : 0.05;
+  return x;
+}
+
+// Central differences of (x_next, wear) of `evaluate(x, input)` over the stacked (x, input).
+template <typename Evaluate>
+void central_differences(const Eigen::VectorXd& x, const Eigen::VectorXd& input, const Evaluate& evaluate,
+                         Eigen::MatrixXd* a, Eigen::MatrixXd* b, Eigen::VectorXd* wear_gradient) {
+  const Eigen::Index nx = x.size(), nu = input.size();
+  Eigen::VectorXd plus(nx), minus(nx);
+  for (Eigen::Index j = 0; j < nx + nu; ++j) {
+    Eigen::VectorXd xp = x, xm = x, up = input, um = input;
+    const double h = 1e-6 * (1.0 + std::abs(j < nx ? x[j] : input[j - nx]));
+    (j < nx ? xp[j] : up[j - nx]) += h;
+    (j < nx ? xm[j] : um[j - nx]) -= h;
+    double wear_plus = 0.0, wear_minus = 0.0;
+    ASSERT_TRUE(evaluate(xp, up, plus, &wear_plus));
+    ASSERT_TRUE(evaluate(xm, um, minus, &wear_minus));
+    Eigen::VectorXd column = (plus - minus) / (2.0 * h);
+    column[StateIndex::kPsi] = wrap_angle(plus[StateIndex::kPsi] - minus[StateIndex::kPsi]) / (2.0 * h);
+    (j < nx ? a->col(j) : b->col(j - nx)) = column;
+    (*wear_gradient)[j] = (wear_plus - wear_minus) / (2.0 * h);
+  }
+}
+
+double relative_error(const Eigen::MatrixXd& exact, const Eigen::MatrixXd& fd) {
+  return ((exact - fd).array().abs() / fd.array().abs().max(1.0)).maxCoeff();
+}
+
+class SemiImplicitStepJacobianTest : public ::testing::Test {
+ protected:
+  SemiImplicitStepJacobianTest()
+      : params_(testing::make_params(4)), step_(params_, lagged()), step_data_(step_), jacobian_(params_, lagged()),
+        data_(jacobian_), x_(turning_state(step_, params_)) {}
+
+  VehicleParams params_;
+  SemiImplicitStep<double> step_;
+  SemiImplicitStep<double>::Data step_data_;
+  SemiImplicitStepJacobian jacobian_;
+  SemiImplicitStepJacobian::Data data_;
+  Eigen::VectorXd x_;
+};
+
+TEST_F(SemiImplicitStepJacobianTest, ModuleInputsGiveTheDoubleStepsValueAndItsCentralDifferences) {
+  const int nx = jacobian_.state_size(), nu = jacobian_.input_size();
+  ASSERT_EQ(nx, step_.state_size());
+  Eigen::VectorXd u(nu);
+  step_.module_inputs(x_, Eigen::Vector3d(0.85, 0.05, 0.25), kDt, u);
+  Eigen::VectorXd x_next(nx), wear_gradient(nx + nu), value(nx);
+  Eigen::MatrixXd a(nx, nx), b(nx, nu);
+  double wear = 0.0, value_wear = 0.0;
+  ASSERT_TRUE(jacobian_.module_step(data_, x_, u, kDt, x_next, a, b, &wear, wear_gradient));
+  ASSERT_TRUE(step_.step(step_data_, x_, u, kDt, value, &value_wear));
+  EXPECT_LT((x_next - value).cwiseAbs().maxCoeff(), 1e-10);
+  EXPECT_NEAR(wear, value_wear, 1e-10 * (1.0 + value_wear));
+
+  Eigen::MatrixXd fd_a(nx, nx), fd_b(nx, nu);
+  Eigen::VectorXd fd_wear(nx + nu);
+  central_differences(x_, u, [&](const Eigen::VectorXd& x, const Eigen::VectorXd& input, Eigen::VectorXd& next,
+                                 double* w) { return step_.step(step_data_, x, input, kDt, next, w); },
+                      &fd_a, &fd_b, &fd_wear);
+  EXPECT_LT(relative_error(a, fd_a), 1e-5);
+  EXPECT_LT(relative_error(b, fd_b), 1e-5);
+  EXPECT_LT(relative_error(wear_gradient, fd_wear), 1e-4);
+}
+
+TEST_F(SemiImplicitStepJacobianTest, TheTwistInputDifferentiatesThroughTheModuleMapToo) {
+  const int nx = jacobian_.state_size();
+  const Eigen::Vector3d twist(0.85, 0.05, 0.25);
+  Eigen::VectorXd x_next(nx), wear_gradient(nx + 3);
+  Eigen::MatrixXd a(nx, nx), b(nx, 3);
+  double wear = 0.0;
+  ASSERT_TRUE(jacobian_.twist_step(data_, x_, twist, kDt, x_next, a, b, &wear, wear_gradient));
+  Eigen::VectorXd inputs(jacobian_.input_size());
+  const auto twist_step = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& t, Eigen::VectorXd& next, double* w) {
+    step_.module_inputs(x, Eigen::Vector3d(t), kDt, inputs);
+    return step_.step(step_data_, x, inputs, kDt, next, w);
+  };
+  Eigen::VectorXd value(nx);
+  double value_wear = 0.0;
+  ASSERT_TRUE(twist_step(x_, twist, value, &value_wear));
+  EXPECT_LT((x_next - value).cwiseAbs().maxCoeff(), 1e-10);
+
+  Eigen::MatrixXd fd_a(nx, nx), fd_b(nx, 3);
+  Eigen::VectorXd fd_wear(nx + 3);
+  central_differences(x_, twist, twist_step, &fd_a, &fd_b, &fd_wear);
+  EXPECT_LT(relative_error(a, fd_a), 1e-5);
+  EXPECT_LT(relative_error(b, fd_b), 1e-5);
+  EXPECT_LT(relative_error(wear_gradient, fd_wear), 1e-4);
+  // The twist's columns are the module inputs' chained through the map: not zero.
+  EXPECT_GT(b.cwiseAbs().maxCoeff(), 1e-3);
+}
+
+TEST_F(SemiImplicitStepJacobianTest, RefusesWrongSizesNonFiniteValuesAndABadStep) {
+  const int nx = jacobian_.state_size(), nu = jacobian_.input_size();
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(nu), x_next(nx), wear_gradient(nx + nu);
+  Eigen::MatrixXd a(nx, nx), b(nx, nu);
+  double wear = 0.0;
+  ASSERT_TRUE(jacobian_.module_step(data_, x_, u, kDt, x_next, a, b, &wear, wear_gradient));
+  Eigen::VectorXd short_u = Eigen::VectorXd::Zero(nu - 1);
+  EXPECT_FALSE(jacobian_.module_step(data_, x_, short_u, kDt, x_next, a, b, &wear, wear_gradient));
+  Eigen::VectorXd nan_x = x_;
+  nan_x[StateIndex::kVx] = std::nan("");
+  EXPECT_FALSE(jacobian_.module_step(data_, nan_x, u, kDt, x_next, a, b, &wear, wear_gradient));
+  EXPECT_FALSE(jacobian_.module_step(data_, x_, u, 0.0, x_next, a, b, &wear, wear_gradient));
+  EXPECT_FALSE(jacobian_.module_step(data_, x_, u, INFINITY, x_next, a, b, &wear, wear_gradient));
+  Eigen::MatrixXd twist_b(nx, 3);
+  Eigen::VectorXd twist_gradient(nx + 3);
+  EXPECT_FALSE(jacobian_.twist_step(data_, x_, Eigen::Vector3d(NAN, 0, 0), kDt, x_next, a, twist_b, &wear, twist_gradient));
+  EXPECT_FALSE(jacobian_.twist_step(data_, x_, Eigen::Vector3d(0.5, 0, 0), kDt, x_next, a, b, &wear, wear_gradient));
+  PredictionOptions bad;
+  bad.substeps = 0;
+  EXPECT_THROW(SemiImplicitStepJacobian(params_, bad), ConfigError);
+}
+
+TEST_F(SemiImplicitStepJacobianTest, CallersWithDataOfTheirOwnOnTwoThreadsGetTheOneThreadAnswerBitForBit) {
+  const int nx = jacobian_.state_size();
+  struct Result {
+    Eigen::MatrixXd a, b;
+    Eigen::VectorXd gradient;
+  };
+  std::vector<Eigen::Vector3d> twists;
+  std::vector<Result> alone;
+  for (int k = 0; k < 6; ++k) {
+    twists.emplace_back(0.1 + 0.15 * k, 0.02 * k, 0.3 - 0.1 * k);
+    Result r{Eigen::MatrixXd(nx, nx), Eigen::MatrixXd(nx, 3), Eigen::VectorXd(nx + 3)};
+    Eigen::VectorXd next(nx);
+    double wear = 0.0;
+    ASSERT_TRUE(jacobian_.twist_step(data_, x_, twists.back(), kDt, next, r.a, r.b, &wear, r.gradient));
+    alone.push_back(r);
+  }
+  const auto mismatches = testing::mismatches_on_two_threads(
+      static_cast<int>(twists.size()), 4, [&] { return SemiImplicitStepJacobian::Data(jacobian_); },
+      [&](SemiImplicitStepJacobian::Data& data, int job) {
+        Result r{Eigen::MatrixXd(nx, nx), Eigen::MatrixXd(nx, 3), Eigen::VectorXd(nx + 3)};
+        Eigen::VectorXd next(nx);
+        double wear = 0.0;
+        const auto k = static_cast<std::size_t>(job);
+        return jacobian_.twist_step(data, x_, twists[k], kDt, next, r.a, r.b, &wear, r.gradient) &&
+               r.a == alone[k].a && r.b == alone[k].b && r.gradient == alone[k].gradient;
+      });
+  EXPECT_EQ(mismatches[0], 0);
+  EXPECT_EQ(mismatches[1], 0);
+}
+
+}  // namespace
+}  // namespace swerve
