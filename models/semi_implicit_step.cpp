@@ -1,7 +1,5 @@
 #include "swerve/models/semi_implicit_step.hpp"
 
-#include <sstream>
-
 #include "swerve/core/config_error.hpp"
 
 namespace swerve {
@@ -10,15 +8,17 @@ const char* to_string(PredictionMethod method) noexcept {
   return method == PredictionMethod::kSemiImplicit ? "semi_implicit" : "rk4";
 }
 
-void PredictionOptions::validate() const {
-  auto reject = [](const char* field, int value, const char* rule) {
-    std::ostringstream message;
-    message << "PredictionOptions." << field << " = " << value << ": " << rule;
-    throw ConfigError(message.str());
+const OptionFields<PredictionOptions>& PredictionOptions::fields() {
+  static const OptionFields<PredictionOptions> table{
+      {"substeps", &PredictionOptions::substeps, Bound::at_least(1)},
+      {"slow_substeps", &PredictionOptions::slow_substeps, Bound::at_least(1)},
+      {"max_newton_iterations", &PredictionOptions::max_newton_iterations, Bound::at_least(1)},
+      {"drive_lag", &PredictionOptions::drive_lag},
+      {"steering_lag", &PredictionOptions::steering_lag},
   };
-  if (substeps < 1) reject("substeps", substeps, "must be >= 1");
-  if (slow_substeps < 1) reject("slow_substeps", slow_substeps, "must be >= 1");
-  if (max_newton_iterations < 1) reject("max_newton_iterations", max_newton_iterations, "must be >= 1");
+  return table;
 }
+
+void PredictionOptions::validate() const { check_fields("PredictionOptions", *this, fields()); }
 
 }  // namespace swerve

@@ -15,14 +15,14 @@ const char* to_string(WearModelKind kind) {
   return "unknown";
 }
 
-void WearParams::validate() const {
-  auto reject = [](const char* field, double value, const char* rule) {
-    std::ostringstream message;
-    message << "WearParams." << field << " = " << value << ": " << rule;
-    throw ConfigError(message.str());
+const OptionFields<WearParams>& WearParams::fields() {
+  static const OptionFields<WearParams> table{
+      {"coefficient", &WearParams::coefficient, Bound::positive()},
+      {"smoothing", &WearParams::smoothing, Bound::non_negative()},
   };
-  if (!std::isfinite(coefficient) || coefficient <= 0.0) reject("coefficient", coefficient, "must be finite and > 0");
-  if (!std::isfinite(smoothing) || smoothing < 0.0) reject("smoothing", smoothing, "must be finite and >= 0");
+  return table;
 }
+
+void WearParams::validate() const { check_fields("WearParams", *this, fields()); }
 
 }  // namespace swerve

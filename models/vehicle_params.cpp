@@ -24,10 +24,6 @@ std::string format(const Eigen::Vector2d& v) {
   return out.str();
 }
 
-void require_positive(const std::string& field, double value) {
-  if (!std::isfinite(value) || value <= 0.0) reject(field, value, "must be finite and > 0");
-}
-
 }  // namespace
 
 namespace detail {
@@ -61,21 +57,50 @@ Eigen::MatrixXd least_norm_load_matrix(const VehicleParams& params) {
 
 }  // namespace detail
 
+const OptionFields<CasterParams>& CasterParams::fields() {
+  static const OptionFields<CasterParams> table{
+      {"rolling_resistance", &CasterParams::rolling_resistance, Bound::non_negative()},
+  };
+  return table;
+}
+
+const OptionFields<ActuatorParams>& ActuatorParams::fields() {
+  static const OptionFields<ActuatorParams> table{
+      {"steering_time_constant", &ActuatorParams::steering_time_constant, Bound::positive()},
+      {"drive_time_constant", &ActuatorParams::drive_time_constant, Bound::positive()},
+  };
+  return table;
+}
+
+const OptionFields<PlantOptions>& PlantOptions::fields() {
+  static const OptionFields<PlantOptions> table{
+      {"actuator_lag", &PlantOptions::actuator_lag},
+      {"actuator_saturation", &PlantOptions::actuator_saturation},
+      {"relaxation_length", &PlantOptions::relaxation_length, Bound::non_negative(), {}, nullptr, "(0 = off)"},
+      {"load_transfer", &PlantOptions::load_transfer},
+  };
+  return table;
+}
+
+const OptionFields<VehicleParams>& VehicleParams::fields() {
+  static const OptionFields<VehicleParams> table{
+      {"mass", &VehicleParams::mass, Bound::positive()},
+      {"yaw_inertia", &VehicleParams::yaw_inertia, Bound::positive()},
+      {"gravity", &VehicleParams::gravity, Bound::positive()},
+  };
+  return table;
+}
+
 void VehicleParams::validate() const {
-  require_positive("mass", mass);
-  require_positive("yaw_inertia", yaw_inertia);
-  require_positive("gravity", gravity);
+  check_fields("VehicleParams", *this, fields());
   if (!center_of_mass_body.allFinite()) {
     reject("center_of_mass", format(center_of_mass_body), "must be finite");
   }
   if (cog_height && (!std::isfinite(*cog_height) || *cog_height <= 0.0)) {
     reject("cog_height", *cog_height, "must be finite and > 0");
   }
-  require_positive("actuators.steering_time_constant", actuators.steering_time_constant);
-  require_positive("actuators.drive_time_constant", actuators.drive_time_constant);
-  if (!std::isfinite(plant.relaxation_length) || plant.relaxation_length < 0.0) {
-    reject("plant.relaxation_length", plant.relaxation_length, "must be finite and >= 0 (0 = off)");
-  }
+  check_fields("VehicleParams.actuators", actuators, ActuatorParams::fields());
+  check_fields("VehicleParams.plant", plant, PlantOptions::fields());
   if (plant.load_transfer && !cog_height) {
     reject("plant.load_transfer", "true", "needs cog_height");
   }
@@ -84,9 +109,7 @@ void VehicleParams::validate() const {
     if (!casters[j].position_body.allFinite()) {
       reject(field + ".position", format(casters[j].position_body), "must be finite");
     }
-    if (!std::isfinite(casters[j].rolling_resistance) || casters[j].rolling_resistance < 0.0) {
-      reject(field + ".rolling_resistance", casters[j].rolling_resistance, "must be finite and >= 0");
-    }
+    check_fields(("VehicleParams." + field).c_str(), casters[j], CasterParams::fields());
     for (int i = 0; i < layout.size(); ++i) {
       if ((casters[j].position_body - layout.position_body(i)).norm() < 1e-3) {
         reject(field + ".position", format(casters[j].position_body),

@@ -188,20 +188,21 @@ class DeadlineCallback final : public ceres::IterationCallback {
 
 }  // namespace
 
+const OptionFields<CeresOptions>& CeresOptions::fields() {
+  // Ceres itself takes tolerances >= 0 (0: that test off).
+  static const OptionFields<CeresOptions> table{
+      {"max_iterations", &CeresOptions::max_iterations, Bound::at_least(1)},
+      {"function_tolerance", &CeresOptions::function_tolerance, Bound::non_negative()},
+      {"gradient_tolerance", &CeresOptions::gradient_tolerance, Bound::non_negative()},
+      {"parameter_tolerance", &CeresOptions::parameter_tolerance, Bound::non_negative()},
+      {"linear_solver", &CeresOptions::linear_solver, Bound::any(), {"dense_qr", "dense_normal_cholesky"}},
+      {"step_penalty_weight", &CeresOptions::step_penalty_weight, Bound::non_negative()},
+  };
+  return table;
+}
+
 void CeresOptions::validate() const {
-  if (max_iterations < 1) throw_invalid_field("CeresOptions", "max_iterations", max_iterations, "must be >= 1");
-  const std::pair<const char*, double> tolerances[] = {{"function_tolerance", function_tolerance},
-                                                       {"gradient_tolerance", gradient_tolerance},
-                                                       {"parameter_tolerance", parameter_tolerance}};
-  for (const auto& [field, value] : tolerances) {
-    if (!std::isfinite(value) || value < 0.0) throw_invalid_field("CeresOptions", field, value, "must be finite and >= 0");
-  }
-  if (find_linear_solver(linear_solver) == nullptr) {
-    throw_invalid_field("CeresOptions", "linear_solver", linear_solver, "must be dense_qr or dense_normal_cholesky");
-  }
-  if (!std::isfinite(step_penalty_weight) || step_penalty_weight < 0.0) {
-    throw_invalid_field("CeresOptions", "step_penalty_weight", step_penalty_weight, "must be finite and >= 0");
-  }
+  check_fields("CeresOptions", *this, fields());
 }
 
 struct CeresSolver::Impl {

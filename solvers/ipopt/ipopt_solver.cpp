@@ -23,33 +23,27 @@ double clamp_to_ipopt(double bound) { return std::clamp(bound, -kIpoptInfinity, 
 
 }  // namespace
 
-void IpoptOptions::validate() const {
-  auto positive = [](const char* field, double value) {
-    if (!(value > 0.0) || !std::isfinite(value)) throw_invalid_field("IpoptOptions", field, value, "must be > 0");
+const OptionFields<IpoptOptions>& IpoptOptions::fields() {
+  static const OptionFields<IpoptOptions> table{
+      {"tol", &IpoptOptions::tol, Bound::positive()},
+      {"constr_viol_tol", &IpoptOptions::constr_viol_tol, Bound::positive()},
+      {"acceptable_tol", &IpoptOptions::acceptable_tol, Bound::positive()},
+      {"max_iterations", &IpoptOptions::max_iterations, Bound::at_least(1)},
+      {"mu_strategy", &IpoptOptions::mu_strategy, Bound::any(), {"adaptive", "monotone"}},
+      {"linear_solver", &IpoptOptions::linear_solver, Bound::any(), {"mumps"}, nullptr,
+       "(the only linear solver Debian's Ipopt 3.11 is built with)"},
+      {"print_level", &IpoptOptions::print_level, Bound::closed(0, 12)},
+      {"hessian", &IpoptOptions::hessian, Bound::any(), {"exact", "limited-memory"}},
+      {"lbfgs_history", &IpoptOptions::lbfgs_history, Bound::closed(1, 100)},
+      {"warm_start", &IpoptOptions::warm_start},
+      {"warm_start_multipliers", &IpoptOptions::warm_start_multipliers},
+      {"warm_mu_init", &IpoptOptions::warm_mu_init, Bound::positive()},
+      {"startup_estimate", &IpoptOptions::startup_estimate, Bound::non_negative()},
   };
-  positive("tol", tol);
-  positive("constr_viol_tol", constr_viol_tol);
-  positive("acceptable_tol", acceptable_tol);
-  positive("warm_mu_init", warm_mu_init);
-  if (!(startup_estimate >= 0.0) || !std::isfinite(startup_estimate)) {
-    throw_invalid_field("IpoptOptions", "startup_estimate", startup_estimate, "must be finite and >= 0");
-  }
-  if (max_iterations < 1) throw_invalid_field("IpoptOptions", "max_iterations", max_iterations, "must be >= 1");
-  if (mu_strategy != "adaptive" && mu_strategy != "monotone") {
-    throw_invalid_field("IpoptOptions", "mu_strategy", mu_strategy, "must be adaptive or monotone");
-  }
-  if (linear_solver != "mumps") {
-    throw_invalid_field("IpoptOptions", "linear_solver", linear_solver,
-                        "must be mumps (the only linear solver Debian's Ipopt 3.11 is built with)");
-  }
-  if (lbfgs_history < 1 || lbfgs_history > 100) {
-    throw_invalid_field("IpoptOptions", "lbfgs_history", lbfgs_history, "must be in 1..100");
-  }
-  if (print_level < 0 || print_level > 12) throw_invalid_field("IpoptOptions", "print_level", print_level, "must be in 0..12");
-  if (hessian != "exact" && hessian != "limited-memory") {
-    throw_invalid_field("IpoptOptions", "hessian", hessian, "must be exact or limited-memory");
-  }
+  return table;
 }
+
+void IpoptOptions::validate() const { check_fields("IpoptOptions", *this, fields()); }
 
 // An estimate of a duration after a new measurement: it rises at once and falls halfway, so a
 // slower run is believed and a faster one averaged.

@@ -41,16 +41,22 @@ constexpr double kLargeBound = 1e6;
 
 }  // namespace
 
+const OptionFields<NloptOptions>& NloptOptions::fields() {
+  static const OptionFields<NloptOptions> table{
+      {"algorithm", &NloptOptions::algorithm},  // its names are checked by validate()
+      {"xtol_rel", &NloptOptions::xtol_rel, Bound::non_negative()},
+      {"ftol_rel", &NloptOptions::ftol_rel, Bound::non_negative()},
+      {"max_evaluations", &NloptOptions::max_evaluations, Bound::at_least(1)},
+      {"initial_step_fraction", &NloptOptions::initial_step_fraction, Bound::half_open(0.0, 1.0)},
+  };
+  return table;
+}
+
 void NloptOptions::validate() const {
   if (find_algorithm(algorithm) == nullptr) {
     throw_invalid_field("NloptOptions", "algorithm", algorithm, kAlgorithmList);
   }
-  if (!(xtol_rel >= 0.0) || !std::isfinite(xtol_rel)) throw_invalid_field("NloptOptions", "xtol_rel", xtol_rel, "must be >= 0");
-  if (!(ftol_rel >= 0.0) || !std::isfinite(ftol_rel)) throw_invalid_field("NloptOptions", "ftol_rel", ftol_rel, "must be >= 0");
-  if (max_evaluations < 1) throw_invalid_field("NloptOptions", "max_evaluations", max_evaluations, "must be >= 1");
-  if (!(initial_step_fraction > 0.0 && initial_step_fraction <= 1.0)) {
-    throw_invalid_field("NloptOptions", "initial_step_fraction", initial_step_fraction, "must be in (0, 1]");
-  }
+  check_fields("NloptOptions", *this, fields());
 }
 
 // What the objective needs: the problem, the deadline, buffers, and the best point seen.

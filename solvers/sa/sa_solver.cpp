@@ -150,29 +150,32 @@ class SimulatedAnnealingSolver::Workers {
   std::atomic<bool> solving_{false};
 };
 
+const OptionFields<SaOptions>& SaOptions::fields() {
+  static const OptionFields<SaOptions> table{
+      {"knots", &SaOptions::knots, Bound::at_least(0), {}, nullptr, "(0: one knot per step)"},
+      {"max_iterations", &SaOptions::max_iterations, Bound::at_least(1)},
+      {"initial_acceptance", &SaOptions::initial_acceptance, Bound::open(0.0, 1.0)},
+      {"final_temperature_ratio", &SaOptions::final_temperature_ratio, Bound::half_open(0.0, 1.0)},
+      {"step_fraction", &SaOptions::step_fraction, Bound::half_open(0.0, 1.0)},
+      {"target_acceptance", &SaOptions::target_acceptance, Bound::open(0.0, 1.0)},
+      {"adapt_interval", &SaOptions::adapt_interval, Bound::at_least(1)},
+      {"reheat_interval", &SaOptions::reheat_interval, Bound::at_least(0)},
+      {"probability_one_group", &SaOptions::probability_one_group, Bound::closed(0.0, 1.0)},
+      {"probability_one_knot", &SaOptions::probability_one_knot, Bound::closed(0.0, 1.0)},
+      {"polish_share", &SaOptions::polish_share, Bound::right_open(0.0, 1.0)},
+      {"polish_iterations", &SaOptions::polish_iterations, Bound::at_least(0)},
+      {"knot_polish", &SaOptions::knot_polish},
+      {"threads", &SaOptions::threads, Bound::closed(1, kMaxThreads)},
+  };
+  return table;
+}
+
 void SaOptions::validate() const {
-  if (knots < 0) reject("knots", knots, "must be >= 0 (0: one knot per step)");
-  if (max_iterations < 1) reject("max_iterations", max_iterations, "must be >= 1");
-  if (!(initial_acceptance > 0.0 && initial_acceptance < 1.0)) {
-    reject("initial_acceptance", initial_acceptance, "must be in (0, 1)");
-  }
-  if (!(final_temperature_ratio > 0.0 && final_temperature_ratio <= 1.0)) {
-    reject("final_temperature_ratio", final_temperature_ratio, "must be in (0, 1]");
-  }
-  if (!(step_fraction > 0.0 && step_fraction <= 1.0)) reject("step_fraction", step_fraction, "must be in (0, 1]");
-  if (!(target_acceptance > 0.0 && target_acceptance < 1.0)) {
-    reject("target_acceptance", target_acceptance, "must be in (0, 1)");
-  }
-  if (adapt_interval < 1) reject("adapt_interval", adapt_interval, "must be >= 1");
-  if (reheat_interval < 0) reject("reheat_interval", reheat_interval, "must be >= 0");
-  if (!(probability_one_group >= 0.0 && probability_one_knot >= 0.0 &&
-        probability_one_group + probability_one_knot <= 1.0)) {
+  check_fields("SaOptions", *this, fields());
+  if (probability_one_group + probability_one_knot > 1.0) {
     reject("probability_one_group", probability_one_group,
            "must be >= 0, and with probability_one_knot (also >= 0) sum to at most 1");
   }
-  if (!(polish_share >= 0.0 && polish_share < 1.0)) reject("polish_share", polish_share, "must be in [0, 1)");
-  if (polish_iterations < 0) reject("polish_iterations", polish_iterations, "must be >= 0");
-  if (threads < 1 || threads > kMaxThreads) reject("threads", threads, "must be in [1, 16]");
 }
 
 SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, SaOptions options)

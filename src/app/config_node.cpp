@@ -25,13 +25,6 @@ struct ConfigNode::Document {
 
 namespace {
 
-std::string format_number(double value) {
-  std::ostringstream out;
-  out.precision(10);
-  out << value;
-  return out.str();
-}
-
 std::string describe_node(const YAML::Node& node) {
   switch (node.Type()) {
     case YAML::NodeType::Null:
@@ -182,24 +175,6 @@ class TextChecker {
 
 std::string join_path(const std::string& parent, const std::string& key) {
   return parent.empty() ? key : parent + "." + key;
-}
-
-bool Bound::contains(double value) const {
-  const bool above = lower_open ? value > lower : value >= lower;
-  const bool below = upper_open ? value < upper : value <= upper;
-  return above && below;
-}
-
-std::string Bound::describe() const {
-  const bool has_lower = lower > -1e307;
-  const bool has_upper = upper < 1e307;
-  if (has_lower && has_upper) {
-    return std::string("must be in ") + (lower_open ? "(" : "[") + format_number(lower) + ", " +
-           format_number(upper) + (upper_open ? ")" : "]");
-  }
-  if (has_lower) return std::string("must be ") + (lower_open ? "> " : ">= ") + format_number(lower);
-  if (has_upper) return std::string("must be ") + (upper_open ? "< " : "<= ") + format_number(upper);
-  return "must be a finite number";
 }
 
 ConfigNode::ConfigNode(std::shared_ptr<Document> document, const YAML::Node& node, std::string path)
@@ -390,9 +365,13 @@ std::vector<double> ConfigNode::as_doubles(std::size_t expected_size, const Boun
 }
 
 std::string ConfigNode::as_choice(std::initializer_list<const char*> allowed) const {
+  return as_choice(std::vector<std::string>(allowed.begin(), allowed.end()));
+}
+
+std::string ConfigNode::as_choice(const std::vector<std::string>& allowed) const {
   const std::string value = as_string();
   std::string listing;
-  for (const char* option : allowed) {
+  for (const std::string& option : allowed) {
     if (value == option) return value;
     listing += listing.empty() ? "" : ", ";
     listing += option;

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "swerve/app/option_reader.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/kinematics/module_state.hpp"
 
@@ -33,10 +34,7 @@ ModuleLayout load_module_layout(const config::ConfigNode& vehicle) {
   }
   ModuleLimits limits;
   if (const auto node = vehicle.optional_child("limits")) {
-    limits.max_drive_speed = node->get_double_or("drive_speed", limits.max_drive_speed, Bound::positive());
-    limits.max_drive_acceleration =
-        node->get_double_or("drive_acceleration", limits.max_drive_acceleration, Bound::positive());
-    limits.max_steering_rate = node->get_double_or("steering_rate", limits.max_steering_rate, Bound::positive());
+    config::read_fields(*node, ModuleLimits::fields(), &limits);
     if (const auto angle = node->optional_child("steering_angle")) {
       const std::vector<double> range = angle->as_doubles(2, Bound::closed(-kPi, kPi));
       if (range[0] >= range[1]) angle->fail("= " + angle->to_yaml() + ": min must be < max");
@@ -52,14 +50,8 @@ ModuleLayout load_module_layout(const config::ConfigNode& vehicle) {
 }
 
 KinematicsOptions load_kinematics_options(const config::ConfigNode& node) {
-  using config::Bound;
   KinematicsOptions options;
-  options.hold_speed_threshold =
-      node.get_double_or("hold_speed_threshold", options.hold_speed_threshold, Bound::positive());
-  options.flip_hysteresis = node.get_double_or("flip_hysteresis", options.flip_hysteresis,
-                                               Bound{0.0, kPi / 2.0, false, true});
-  options.whole_robot_flip = node.get_bool_or("whole_robot_flip", options.whole_robot_flip);
-  options.cosine_scaling = node.get_bool_or("cosine_scaling", options.cosine_scaling);
+  config::read_fields(node, KinematicsOptions::fields(), &options);
   options.validate();
   return options;
 }

@@ -1,6 +1,7 @@
 #include "swerve/app/vehicle_config.hpp"
 
 #include "swerve/app/kinematics_config.hpp"
+#include "swerve/app/option_reader.hpp"
 
 namespace swerve {
 namespace {
@@ -41,8 +42,7 @@ WearParams load_wear(const ConfigNode& node) {
   WearParams wear;
   const std::string model = node.get_choice_or("model", {"frictional_power", "archard"}, "frictional_power");
   wear.model = model == "archard" ? WearModelKind::kArchard : WearModelKind::kFrictionalPower;
-  wear.coefficient = node.get_double_or("coefficient", wear.coefficient, Bound::positive());
-  wear.smoothing = node.get_double_or("smoothing", wear.smoothing, Bound::non_negative());
+  config::read_fields(node, WearParams::fields(), &wear);
   return wear;
 }
 
@@ -57,34 +57,27 @@ VehicleParams load_vehicle_config(const ConfigNode& node) {
   VehicleParams params(load_module_layout(node));
   params.name = node.get_string("name");
   (void)node.get_string_or("description", "");
-  params.mass = node.get_double("mass", Bound::positive());
-  params.yaw_inertia = node.get_double("yaw_inertia", Bound::positive());
+  (void)node.child("mass");  // required, as is yaw_inertia
+  (void)node.child("yaw_inertia");
+  config::read_fields(node, VehicleParams::fields(), &params);
   if (node.has("center_of_mass")) params.center_of_mass_body = get_point(node, "center_of_mass");
   if (node.has("cog_height")) params.cog_height = node.get_double("cog_height", Bound::positive());
-  params.gravity = node.get_double_or("gravity", params.gravity, Bound::positive());
   if (const auto casters = node.optional_child("casters")) {
     for (std::size_t j = 0; j < casters->size(); ++j) {
       const ConfigNode caster = casters->at(j);
       CasterParams c;
       c.position_body = get_point(caster, "position");
-      c.rolling_resistance = caster.get_double_or("rolling_resistance", c.rolling_resistance, Bound::non_negative());
+      config::read_fields(caster, CasterParams::fields(), &c);
       params.casters.push_back(c);
     }
   }
   if (const auto actuators = node.optional_child("actuators")) {
-    params.actuators.steering_time_constant = actuators->get_double_or(
-        "steering_time_constant", params.actuators.steering_time_constant, Bound::positive());
-    params.actuators.drive_time_constant =
-        actuators->get_double_or("drive_time_constant", params.actuators.drive_time_constant, Bound::positive());
+    config::read_fields(*actuators, ActuatorParams::fields(), &params.actuators);
   }
   params.tire = load_tire(node.child("tire"));
   if (const auto wear = node.optional_child("wear")) params.wear = load_wear(*wear);
   if (const auto plant = node.optional_child("plant")) {
-    params.plant.actuator_lag = plant->get_bool_or("actuator_lag", params.plant.actuator_lag);
-    params.plant.actuator_saturation = plant->get_bool_or("actuator_saturation", params.plant.actuator_saturation);
-    params.plant.relaxation_length =
-        plant->get_double_or("relaxation_length", params.plant.relaxation_length, Bound::non_negative());
-    params.plant.load_transfer = plant->get_bool_or("load_transfer", params.plant.load_transfer);
+    config::read_fields(*plant, PlantOptions::fields(), &params.plant);
     if (params.plant.load_transfer && !params.cog_height) {
       plant->fail_at("load_transfer", "= true: needs vehicle.cog_height");
     }

@@ -11,15 +11,6 @@
 namespace swerve {
 namespace {
 
-template <typename Value>
-[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
-  throw_invalid_field("ControllerOptions", field, value, rule);
-}
-
-void require_non_negative(const char* field, double value) {
-  if (!std::isfinite(value) || value < 0.0) reject(field, value, "must be finite and >= 0");
-}
-
 // The outermost module's distance from the body origin (m).
 double outermost_module_radius(const ModuleLayout& layout) {
   double radius = 0.0;
@@ -101,48 +92,65 @@ const char* to_string(InputParameterization parameterization) noexcept {
   return parameterization == InputParameterization::kBodyTwist ? "body_twist" : "module_rates";
 }
 
+const OptionFields<TrackingTolerance>& TrackingTolerance::fields() {
+  static const OptionFields<TrackingTolerance> table{
+      {"position", &TrackingTolerance::position, Bound::positive(), {}, nullptr, "(m)"},
+      {"heading", &TrackingTolerance::heading, Bound::positive(), {}, nullptr, "(rad)"},
+      {"penalty", &TrackingTolerance::penalty, Bound::positive()},
+  };
+  return table;
+}
+
 void TrackingTolerance::validate() const {
-  if (!enabled()) return;
-  if (!std::isfinite(position) || position <= 0.0) {
-    throw_invalid_field("TrackingTolerance", "position", position, "must be finite and > 0 (m)");
-  }
-  if (!std::isfinite(heading) || heading <= 0.0) {
-    throw_invalid_field("TrackingTolerance", "heading", heading, "must be finite and > 0 (rad)");
-  }
-  if (!std::isfinite(penalty) || penalty <= 0.0) {
-    throw_invalid_field("TrackingTolerance", "penalty", penalty, "must be finite and > 0");
-  }
+  if (enabled()) check_fields("TrackingTolerance", *this, fields());
+}
+
+const OptionFields<ControllerOptions>& ControllerOptions::sampling_fields() {
+  static const OptionFields<ControllerOptions> table{
+      {"horizon", &ControllerOptions::horizon, Bound::closed(1, kMaxHorizon)},
+      {"dt", &ControllerOptions::dt, Bound::positive()},
+  };
+  return table;
+}
+
+const OptionFields<ControllerOptions>& ControllerOptions::timing_fields() {
+  static const OptionFields<ControllerOptions> table{
+      {"solve_budget", &ControllerOptions::solve_budget, Bound::positive()},
+      {"overrun_grace", &ControllerOptions::overrun_grace, Bound::non_negative()},
+      {"deadline_margin", &ControllerOptions::deadline_margin, Bound::closed(0.0, 0.5), {}, nullptr,
+       "(a share of solve_budget)"},
+      {"baseline_guess", &ControllerOptions::baseline_guess},
+      {"max_plan_age", &ControllerOptions::max_plan_age, Bound::at_least(0)},
+  };
+  return table;
+}
+
+const OptionFields<ControllerOptions>& ControllerOptions::weight_fields() {
+  static const OptionFields<ControllerOptions> table{
+      {"pose_weight", &ControllerOptions::pose_weight, Bound::non_negative(), {}, "pose"},
+      {"twist_weight", &ControllerOptions::twist_weight, Bound::non_negative(), {}, "twist"},
+      {"terminal_scale", &ControllerOptions::terminal_scale, Bound::non_negative()},
+      {"pose_huber_width", &ControllerOptions::pose_huber_width, Bound::non_negative()},
+      {"wear_weight", &ControllerOptions::wear_weight, Bound::non_negative(), {}, "wear"},
+      {"wear_reference_mass", &ControllerOptions::wear_reference_mass, Bound::non_negative()},
+      {"wear_mass_exponent", &ControllerOptions::wear_mass_exponent, Bound::positive()},
+      {"steering_rate_effort", &ControllerOptions::steering_rate_effort, Bound::non_negative()},
+      {"wheel_speed_effort", &ControllerOptions::wheel_speed_effort, Bound::non_negative()},
+      {"steering_rate_smoothness", &ControllerOptions::steering_rate_smoothness, Bound::non_negative()},
+      {"wheel_speed_smoothness", &ControllerOptions::wheel_speed_smoothness, Bound::non_negative()},
+      {"twist_smoothness", &ControllerOptions::twist_smoothness, Bound::non_negative()},
+      {"heading_weight_from_geometry", &ControllerOptions::heading_weight_from_geometry, Bound::any(), {},
+       "heading_from_geometry"},
+      {"heading_lever", &ControllerOptions::heading_lever, Bound::positive()},
+  };
+  return table;
 }
 
 void ControllerOptions::validate() const {
-  if (horizon < 1 || horizon > kMaxHorizon) {
-    reject("horizon", horizon, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
-  }
-  if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
-  if (!std::isfinite(solve_budget) || solve_budget <= 0.0) reject("solve_budget", solve_budget, "must be finite and > 0");
-  require_non_negative("overrun_grace", overrun_grace);
+  check_fields("ControllerOptions", *this, sampling_fields());
+  check_fields("ControllerOptions", *this, timing_fields());
+  check_fields("ControllerOptions", *this, weight_fields());
   measurement_filter.validate();
-  if (!(deadline_margin >= 0.0 && deadline_margin <= 0.5)) {
-    reject("deadline_margin", deadline_margin, "must be in [0, 0.5] (a share of solve_budget)");
-  }
-  for (int i = 0; i < 3; ++i) {
-    require_non_negative("pose_weight", pose_weight[i]);
-    require_non_negative("twist_weight", twist_weight[i]);
-  }
-  require_non_negative("terminal_scale", terminal_scale);
-  require_non_negative("pose_huber_width", pose_huber_width);
-  require_non_negative("wear_weight", wear_weight);
-  require_non_negative("wear_reference_mass", wear_reference_mass);
-  if (!std::isfinite(wear_mass_exponent) || wear_mass_exponent <= 0.0) {
-    reject("wear_mass_exponent", wear_mass_exponent, "must be finite and > 0");
-  }
-  if (!std::isfinite(heading_lever) || heading_lever <= 0.0) reject("heading_lever", heading_lever, "must be finite and > 0");
-  require_non_negative("steering_rate_effort", steering_rate_effort);
-  require_non_negative("wheel_speed_effort", wheel_speed_effort);
-  require_non_negative("steering_rate_smoothness", steering_rate_smoothness);
-  require_non_negative("wheel_speed_smoothness", wheel_speed_smoothness);
-  require_non_negative("twist_smoothness", twist_smoothness);
-  if (max_plan_age < 0) reject("max_plan_age", max_plan_age, "must be >= 0");
   stale_measurement.validate();
   tracking_tolerance.validate();
   prediction.validate();

@@ -31,29 +31,32 @@ BaselineOptions validated(BaselineOptions options) {
 
 }  // namespace
 
+const OptionFields<BaselineOptions>& BaselineOptions::fields() {
+  static const OptionFields<BaselineOptions> table{
+      {"pose_weight", &BaselineOptions::pose_weight, Bound::non_negative()},
+      {"twist_weight", &BaselineOptions::twist_weight, Bound::non_negative()},
+      {"rate_weight", &BaselineOptions::rate_weight, Bound::non_negative()},
+      {"terminal_scale", &BaselineOptions::terminal_scale, Bound::non_negative()},
+      {"gauss_newton_iterations", &BaselineOptions::gauss_newton_iterations, Bound::closed(1, 100)},
+      {"cosine_scaling", &BaselineOptions::cosine_scaling},
+      // The same rule as KinematicsOptions.flip_hysteresis: at pi/2 a module would never flip.
+      {"flip_hysteresis", &BaselineOptions::flip_hysteresis, Bound::right_open(0.0, kPi / 2), {}, nullptr,
+       "(pi/2: never flip)"},
+      {"steer_speed_threshold", &BaselineOptions::steer_speed_threshold, Bound::non_negative()},
+  };
+  return table;
+}
+
 void BaselineOptions::validate() const {
   if (horizon < 1 || horizon > kMaxHorizon) {
     reject("horizon", horizon, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
   }
   if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
-  for (int i = 0; i < 3; ++i) {
-    if (!std::isfinite(pose_weight[i]) || pose_weight[i] < 0) reject("pose_weight", pose_weight.transpose(), "must be >= 0");
-    if (!std::isfinite(twist_weight[i]) || twist_weight[i] < 0) reject("twist_weight", twist_weight.transpose(), "must be >= 0");
-    if (!std::isfinite(rate_weight[i]) || rate_weight[i] < 0) reject("rate_weight", rate_weight.transpose(), "must be >= 0");
-  }
+  check_fields("BaselineOptions", *this, fields());
   if (!(twist_weight.minCoeff() > 0.0 || rate_weight.minCoeff() > 0.0)) {
     reject("twist_weight", twist_weight.transpose(), "or rate_weight must be > 0 on every axis (the plan must be unique)");
   }
-  if (!std::isfinite(terminal_scale) || terminal_scale < 0) reject("terminal_scale", terminal_scale, "must be >= 0");
-  if (gauss_newton_iterations < 1) reject("gauss_newton_iterations", gauss_newton_iterations, "must be >= 1");
-  // The same rule as KinematicsOptions.flip_hysteresis: at pi/2 a module would never flip.
-  if (!std::isfinite(flip_hysteresis) || flip_hysteresis < 0 || flip_hysteresis >= kPi / 2) {
-    reject("flip_hysteresis", flip_hysteresis, "must be in [0, pi/2)");
-  }
   measurement_filter.validate();
-  if (!std::isfinite(steer_speed_threshold) || steer_speed_threshold < 0) {
-    reject("steer_speed_threshold", steer_speed_threshold, "must be finite and >= 0");
-  }
 }
 
 KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference,

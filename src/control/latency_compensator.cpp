@@ -7,14 +7,15 @@
 
 namespace swerve {
 
-void MeasurementFilterOptions::validate() const {
-  if (!(pose_gain > 0.0 && pose_gain <= 1.0)) {
-    throw_invalid_field("MeasurementFilterOptions", "pose_gain", pose_gain, "must be in (0, 1]");
-  }
-  if (!(steering_gain > 0.0 && steering_gain <= 1.0)) {
-    throw_invalid_field("MeasurementFilterOptions", "steering_gain", steering_gain, "must be in (0, 1]");
-  }
+const OptionFields<MeasurementFilterOptions>& MeasurementFilterOptions::fields() {
+  static const OptionFields<MeasurementFilterOptions> table{
+      {"pose_gain", &MeasurementFilterOptions::pose_gain, Bound::half_open(0.0, 1.0)},
+      {"steering_gain", &MeasurementFilterOptions::steering_gain, Bound::half_open(0.0, 1.0)},
+  };
+  return table;
 }
+
+void MeasurementFilterOptions::validate() const { check_fields("MeasurementFilterOptions", *this, fields()); }
 
 LatencyCompensator::LatencyCompensator(const ModuleLayout& layout, double dt, MeasurementFilterOptions filter)
     : kinematics_(layout), dt_(dt), modules_(layout.size()), states_(layout.size()), filter_(filter) {

@@ -6,15 +6,16 @@
 
 namespace swerve {
 
-void StalenessOptions::validate() const {
-  if (!std::isfinite(max_age) || max_age <= 0.0) {
-    throw_invalid_field("StalenessOptions", "max_age", max_age, "must be finite and > 0");
-  }
-  if (frozen_cycles < 2) throw_invalid_field("StalenessOptions", "frozen_cycles", frozen_cycles, "must be >= 2");
-  if (!std::isfinite(moving_speed) || moving_speed <= 0.0) {
-    throw_invalid_field("StalenessOptions", "moving_speed", moving_speed, "must be finite and > 0");
-  }
+const OptionFields<StalenessOptions>& StalenessOptions::fields() {
+  static const OptionFields<StalenessOptions> table{
+      {"max_age", &StalenessOptions::max_age, Bound::positive()},
+      {"frozen_cycles", &StalenessOptions::frozen_cycles, Bound::at_least(2)},
+      {"moving_speed", &StalenessOptions::moving_speed, Bound::positive()},
+  };
+  return table;
 }
+
+void StalenessOptions::validate() const { check_fields("StalenessOptions", *this, fields()); }
 
 MeasurementMonitor::MeasurementMonitor(int state_size, StalenessOptions options) : options_(options) {
   options_.validate();

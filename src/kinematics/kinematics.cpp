@@ -53,15 +53,18 @@ double largest_feasible_scale(const Eigen::Vector2d& f, const Eigen::Vector2d& g
 
 }  // namespace
 
-void KinematicsOptions::validate() const {
-  if (!std::isfinite(hold_speed_threshold) || hold_speed_threshold <= 0.0) {
-    reject("KinematicsOptions.hold_speed_threshold", hold_speed_threshold, "must be finite and > 0");
-  }
-  if (!std::isfinite(flip_hysteresis) || flip_hysteresis < 0.0 || flip_hysteresis >= kPi / 2.0) {
-    reject("KinematicsOptions.flip_hysteresis", flip_hysteresis, "must be in [0, pi/2)");
-  }
+const OptionFields<KinematicsOptions>& KinematicsOptions::fields() {
+  static const OptionFields<KinematicsOptions> table{
+      {"hold_speed_threshold", &KinematicsOptions::hold_speed_threshold, Bound::positive()},
+      {"flip_hysteresis", &KinematicsOptions::flip_hysteresis, Bound::right_open(0.0, kPi / 2.0), {}, nullptr,
+       "(pi/2: a module would never flip)"},
+      {"whole_robot_flip", &KinematicsOptions::whole_robot_flip},
+      {"cosine_scaling", &KinematicsOptions::cosine_scaling},
+  };
+  return table;
 }
 
+void KinematicsOptions::validate() const { check_fields("KinematicsOptions", *this, fields()); }
 
 Kinematics::Kinematics(ModuleLayout layout, KinematicsOptions options)
     : layout_(std::move(layout)), options_(options), size_(layout_.size()) {

@@ -21,10 +21,17 @@ void require_positive(const std::string& field, double value) {
 
 }  // namespace
 
+const OptionFields<ModuleLimits>& ModuleLimits::fields() {
+  static const OptionFields<ModuleLimits> table{
+      {"max_drive_speed", &ModuleLimits::max_drive_speed, Bound::positive(), {}, "drive_speed"},
+      {"max_drive_acceleration", &ModuleLimits::max_drive_acceleration, Bound::positive(), {}, "drive_acceleration"},
+      {"max_steering_rate", &ModuleLimits::max_steering_rate, Bound::positive(), {}, "steering_rate"},
+  };
+  return table;
+}
+
 void ModuleLimits::validate() const {
-  require_positive("ModuleLimits.max_drive_speed", max_drive_speed);
-  require_positive("ModuleLimits.max_drive_acceleration", max_drive_acceleration);
-  require_positive("ModuleLimits.max_steering_rate", max_steering_rate);
+  check_fields("ModuleLimits", *this, fields());
   if (!std::isfinite(min_steering_angle) || min_steering_angle < -kPi - 1e-12) {
     reject("ModuleLimits.min_steering_angle", min_steering_angle, "must be in [-pi, pi]");
   }

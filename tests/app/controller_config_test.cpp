@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <variant>
+#include <vector>
 
 #include "swerve/core/config_error.hpp"
 #include "swerve/app/config_node.hpp"
@@ -191,6 +193,81 @@ TEST(TrackingTolerance, ValidateNamesTheFieldAndAllowsOffOnly) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("heading"), std::string::npos) << e.what();
   }
+}
+
+// Every numeric rule of a table, just outside its bound: the loader (the table's key under `path`)
+// and validate() both reject it. One table serves both, so they cannot disagree.
+template <typename Options, typename Validate>
+void expect_loader_and_validate_reject_the_same(const OptionFields<Options>& fields, const std::string& path,
+                                                const Validate& validate) {
+  // `path`: the YAML lines opening the block, e.g. "  solver:\n    sa:\n" (empty: the controller's
+  // own keys); the keys go one level below its last line.
+  std::size_t indent = 2;
+  if (!path.empty()) {
+    const std::size_t line = path.find_last_of('\n', path.size() - 2) + 1;  // npos + 1 = 0
+    indent = path.find_first_not_of(' ', line) - line + 2;
+  }
+  for (const OptionField<Options>& field : fields) {
+    const bool real = std::holds_alternative<double Options::*>(field.member);
+    const bool whole = std::holds_alternative<int Options::*>(field.member);
+    if (!real && !whole) continue;
+    std::vector<double> outside;
+    if (field.bound.has_lower()) outside.push_back(field.bound.lower_open ? field.bound.lower : field.bound.lower - 1);
+    if (field.bound.has_upper()) outside.push_back(field.bound.upper_open ? field.bound.upper : field.bound.upper + 1);
+    for (const double value : outside) {
+      SCOPED_TRACE(std::string(field.name) + " = " + Bound::number(value));
+      Options options;
+      if (real) options.*std::get<double Options::*>(field.member) = value;
+      if (whole) options.*std::get<int Options::*>(field.member) = static_cast<int>(value);
+      EXPECT_THROW(validate(options), ConfigError);
+      const std::string block = path + std::string(indent, ' ') + field.yaml_key() + ": " + Bound::number(value) + "\n";
+      try {
+        load(block);
+        ADD_FAILURE() << "the loader accepted it";
+      } catch (const ConfigError& e) {
+        EXPECT_NE(std::string(e.what()).find(field.yaml_key()), std::string::npos) << e.what();
+      }
+    }
+  }
+}
+
+TEST(ControllerConfig, TheLoaderAndValidateRejectTheSameValuesOfEveryOptionsTable) {
+  expect_loader_and_validate_reject_the_same(SaOptions::fields(), "  solver:\n    sa:\n",
+                                             [](const SaOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(IpoptOptions::fields(), "  solver:\n    ipopt:\n",
+                                             [](const IpoptOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(NloptOptions::fields(), "  solver:\n    nlopt:\n",
+                                             [](const NloptOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(CeresOptions::fields(), "  solver:\n    ceres:\n",
+                                             [](const CeresOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(BaselineOptions::fields(), "  baseline:\n",
+                                             [](const BaselineOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(PredictionOptions::fields(), "  prediction:\n",
+                                             [](const PredictionOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(StalenessOptions::fields(), "  stale_measurement:\n",
+                                             [](const StalenessOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(MeasurementFilterOptions::fields(), "  measurement_filter:\n",
+                                             [](const MeasurementFilterOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(ControllerOptions::sampling_fields(), "",
+                                             [](const ControllerOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(ControllerOptions::timing_fields(), "",
+                                             [](const ControllerOptions& o) { o.validate(); });
+  expect_loader_and_validate_reject_the_same(ControllerOptions::weight_fields(), "  weights:\n",
+                                             [](const ControllerOptions& o) { o.validate(); });
+}
+
+// Two rules the loader and validate() each wrote their own way, before the tables.
+TEST(ControllerConfig, AcceptsAZeroCeresToleranceAsCeresAndValidateDo) {
+  const ControllerConfig c = load("  solver:\n    ceres: {function_tolerance: 0, gradient_tolerance: 0}\n");
+  EXPECT_EQ(c.solver.ceres.function_tolerance, 0.0);
+  EXPECT_EQ(c.solver.ceres.gradient_tolerance, 0.0);
+}
+
+TEST(BaselineOptions, ValidateRejectsMoreGaussNewtonIterationsThanTheLoaderAllows) {
+  BaselineOptions o;
+  o.gauss_newton_iterations = 101;
+  EXPECT_THROW(o.validate(), ConfigError);
+  expect_rejected("  baseline: {gauss_newton_iterations: 101}\n", "controller.baseline.gauss_newton_iterations");
 }
 
 }  // namespace

@@ -5,7 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <string>
+#include <variant>
+#include <vector>
 
+#include "swerve/core/config_error.hpp"
 #include "swerve/models/vehicle_model.hpp"
 
 namespace swerve {
@@ -140,6 +144,45 @@ TEST(VehicleConfig, ChannelMuErrorsNameTheKey) {
 
 TEST(VehicleConfig, MissingFileIsAClearError) {
   EXPECT_THROW(load_vehicle_config_file(kVehicles + "no_such_vehicle.yaml"), ConfigError);
+}
+
+// Each numeric rule of the vehicle's tables, just outside its bound: the loader (the key in its
+// block of a minimal file) and validate() (of a vehicle built in code) both reject it.
+template <typename Options, typename Set>
+void expect_loader_and_validate_reject_the_same(const OptionFields<Options>& fields, const std::string& block,
+                                                const Set& set_on_vehicle) {
+  const VehicleParams minimal = load_text(kMinimal);
+  for (const OptionField<Options>& field : fields) {
+    const auto* real = std::get_if<double Options::*>(&field.member);
+    if (real == nullptr) continue;
+    std::vector<double> outside;
+    if (field.bound.has_lower()) outside.push_back(field.bound.lower_open ? field.bound.lower : field.bound.lower - 1);
+    if (field.bound.has_upper()) outside.push_back(field.bound.upper_open ? field.bound.upper : field.bound.upper + 1);
+    for (const double value : outside) {
+      SCOPED_TRACE(std::string(field.name) + " = " + Bound::number(value));
+      VehicleParams params = minimal;
+      set_on_vehicle(params, *real, value);
+      EXPECT_THROW(params.validate(), ConfigError);
+      const std::string text =
+          std::string(kMinimal) + "  " + block + ":\n    " + field.yaml_key() + ": " + Bound::number(value) + "\n";
+      try {
+        load_text(text);
+        ADD_FAILURE() << "the loader accepted it";
+      } catch (const ConfigError& e) {
+        EXPECT_NE(std::string(e.what()).find(std::string(block) + "." + field.yaml_key()), std::string::npos)
+            << e.what();
+      }
+    }
+  }
+}
+
+TEST(VehicleConfig, TheLoaderAndValidateRejectTheSameValuesOfEveryVehicleTable) {
+  expect_loader_and_validate_reject_the_same(ActuatorParams::fields(), "actuators",
+                                             [](VehicleParams& p, double ActuatorParams::*m, double v) { p.actuators.*m = v; });
+  expect_loader_and_validate_reject_the_same(PlantOptions::fields(), "plant",
+                                             [](VehicleParams& p, double PlantOptions::*m, double v) { p.plant.*m = v; });
+  expect_loader_and_validate_reject_the_same(WearParams::fields(), "wear",
+                                             [](VehicleParams& p, double WearParams::*m, double v) { p.wear.*m = v; });
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "swerve/core/config_error.hpp"
+#include "swerve/core/option_fields.hpp"
 #include "swerve/core/text_file.hpp"
 
 namespace YAML {
@@ -29,24 +30,8 @@ inline constexpr std::size_t kMaxConfigValues = 1000000;
 inline constexpr std::size_t kMaxConfigDepth = 64;
 
 
-// An allowed interval for a number, described in words for error messages ("must be > 0").
-struct Bound {
-  double lower = -1e308;
-  double upper = 1e308;
-  bool lower_open = false;
-  bool upper_open = false;
-
-  static Bound any() { return {}; }
-  static Bound positive() { return {0.0, 1e308, true, false}; }
-  static Bound non_negative() { return {0.0, 1e308, false, false}; }
-  static Bound at_least(double lo) { return {lo, 1e308, false, false}; }
-  static Bound closed(double lo, double hi) { return {lo, hi, false, false}; }
-  static Bound half_open(double lo, double hi) { return {lo, hi, true, false}; }  // (lo, hi]
-  static Bound right_open(double lo, double hi) { return {lo, hi, false, true}; }  // [lo, hi)
-
-  bool contains(double value) const;
-  std::string describe() const;  // e.g. "must be > 0", "must be in [0, 1]"
-};
+// The allowed interval of a number (core/option_fields.hpp), as the loaders name it.
+using swerve::Bound;
 
 class ConfigNode {
  public:
@@ -86,6 +71,7 @@ class ConfigNode {
   std::vector<double> as_doubles(std::size_t expected_size = 0, const Bound& bound = Bound::any()) const;
   // A string that must be one of `allowed`; the message lists them.
   std::string as_choice(std::initializer_list<const char*> allowed) const;
+  std::string as_choice(const std::vector<std::string>& allowed) const;
 
   // Typed members of this map; the `_or` forms document their default by taking it.
   double get_double(const std::string& key, const Bound& bound = Bound::any()) const;

@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/app/config_node.hpp"
 
 namespace swerve {
@@ -17,6 +18,7 @@ struct TargetConfig {
   int cores = 1;                    // cores the controller may use
   double cpu_slowdown = 1.0;        // target time / build-machine time for the same solve (>= 1 slower)
 
+  static const OptionFields<TargetConfig>& fields();  // the rules, read by the loader too
   // Throws ConfigError naming the field and value when a rule is broken.
   void validate() const;
 };

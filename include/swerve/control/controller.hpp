@@ -14,6 +14,7 @@
 #include <memory>
 #include <string>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/models/vehicle_params.hpp"
 #include "swerve/control/kinematic_baseline.hpp"
 #include "swerve/control/latency_compensator.hpp"
@@ -45,6 +46,7 @@ struct TrackingTolerance {
   double heading = 0.0;   // rad
   double penalty = 1e5;   // per m^2 and rad^2 of excess
   bool enabled() const noexcept { return position > 0.0 || heading > 0.0; }
+  static const OptionFields<TrackingTolerance>& fields();  // the rules, read by the YAML loader too
   void validate() const;  // throws ConfigError naming the field and value
 };
 
@@ -96,6 +98,12 @@ struct ControllerOptions {
   StalenessOptions stale_measurement;  // when a measurement is too old or frozen to act on
   TrackingTolerance tracking_tolerance;  // off by default
   MeasurementFilterOptions measurement_filter;  // off by default (gains 1)
+  // The rules of the fields, read by the YAML loader too: the sampling (horizon, dt; shared with the
+  // baseline), the timing and replanning fields, and the cost weights (their YAML keys under
+  // `weights:`). The nested options have tables of their own.
+  static const OptionFields<ControllerOptions>& sampling_fields();
+  static const OptionFields<ControllerOptions>& timing_fields();
+  static const OptionFields<ControllerOptions>& weight_fields();
   void validate() const;             // throws ConfigError naming the field and value
   // The wear weight the cost uses on a vehicle of `vehicle_mass` kg: wear_weight, scaled by
   // (wear_reference_mass / vehicle_mass)^wear_mass_exponent when wear_reference_mass > 0.

@@ -14,6 +14,7 @@
 
 #include <memory>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/kinematics/kinematics.hpp"
 #include "swerve/kinematics/module_commands.hpp"
 #include "swerve/kinematics/module_heading_memory.hpp"
@@ -38,6 +39,8 @@ struct BaselineOptions {
   // holds, and its wheel drives the planned velocity's component along its heading.
   double steer_speed_threshold = 0.03;
   MeasurementFilterOptions measurement_filter;  // off by default (gains 1), as the wear-aware controller's
+  // The rules of the fields the YAML file sets (horizon and dt come from the controller's).
+  static const OptionFields<BaselineOptions>& fields();
   void validate() const;             // throws ConfigError naming the field and value
 };
 

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/kinematics/kinematics.hpp"
 #include "swerve/control/tracking_controller.hpp"
 
@@ -25,6 +26,7 @@ struct MeasurementFilterOptions {
   static constexpr double kResetDistance = 0.5;  // m
   static constexpr double kResetAngle = 0.5;     // rad
   bool filters() const noexcept { return pose_gain < 1.0 || steering_gain < 1.0; }
+  static const OptionFields<MeasurementFilterOptions>& fields();  // the rules, read by the YAML loader too
   void validate() const;  // gains in (0, 1]; throws ConfigError naming the field and value
 };
 

@@ -6,12 +6,15 @@
 
 #include <Eigen/Core>
 
+#include "swerve/core/option_fields.hpp"
+
 namespace swerve {
 
 struct StalenessOptions {
   double max_age = 0.1;      // s: t - measured_at beyond this is stale (two 20 Hz periods)
   int frozen_cycles = 3;     // identical measurements in a row, while moving, that make it stale
   double moving_speed = 0.01;  // m/s (and rad/s of yaw): motion above which a repeat is suspect
+  static const OptionFields<StalenessOptions>& fields();  // the rules, read by the YAML loader too
   void validate() const;     // throws ConfigError naming the field and value
 };
 

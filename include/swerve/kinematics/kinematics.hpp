@@ -12,6 +12,7 @@
 
 #include <optional>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/kinematics/module_commands.hpp"
 #include "swerve/kinematics/module_heading_memory.hpp"
 #include "swerve/kinematics/module_layout.hpp"
@@ -33,6 +34,7 @@ struct KinematicsOptions {
   // so a module still steering does not push sideways (clamped at 0 beyond 90 deg).
   bool cosine_scaling = true;
 
+  static const OptionFields<KinematicsOptions>& fields();  // the rules, read by the YAML loader too
   // Throws ConfigError naming the field and value.
   void validate() const;
 };

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/core/config_error.hpp"  // thrown by every validation in this layer
 
 namespace swerve {
@@ -23,6 +24,8 @@ struct ModuleLimits {
   double max_steering_angle = kPi;        // rad
 
   bool has_steering_end_stops() const { return min_steering_angle > -kPi || max_steering_angle < kPi; }
+  // The rules of the drive and steering-rate limits (the steering range is one rule, in validate()).
+  static const OptionFields<ModuleLimits>& fields();
   // Throws ConfigError naming the field and value ("ModuleLimits.max_drive_speed = -1: must be > 0").
   void validate() const;
 };

@@ -22,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/core/smoothing.hpp"
 #include "swerve/kinematics/kinematics.hpp"
 #include "swerve/kinematics/module_commands.hpp"
@@ -50,6 +51,7 @@ struct PredictionOptions {
   // the plant has one), appended after the wheel speeds. Off: each module steers at its commanded
   // rate at once.
   bool steering_lag = false;
+  static const OptionFields<PredictionOptions>& fields();  // the rules, read by the YAML loader too
   void validate() const;         // throws ConfigError
 };
 

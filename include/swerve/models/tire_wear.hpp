@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/models/magic_formula_tire.hpp"
 
 namespace swerve {
@@ -31,6 +32,7 @@ struct WearParams {
   double smoothing = 0.0;
 
   // Throws ConfigError naming the field and value.
+  static const OptionFields<WearParams>& fields();  // the rules, read by the YAML loader too
   void validate() const;
 };
 

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/models/magic_formula_tire.hpp"
 #include "swerve/models/tire_wear.hpp"
@@ -21,12 +22,14 @@ namespace swerve {
 struct CasterParams {
   Eigen::Vector2d position_body = Eigen::Vector2d::Zero();  // m, contact point
   double rolling_resistance = 0.02;                           // c_rr, dimensionless
+  static const OptionFields<CasterParams>& fields();  // the rules, read by the YAML loader too
 };
 
 // First-order lag of the low-level drive loops (plant fidelity only).
 struct ActuatorParams {
   double steering_time_constant = 0.05;  // s, steering-rate loop (paper-notes assumption 7)
   double drive_time_constant = 0.05;     // s, wheel-speed loop
+  static const OptionFields<ActuatorParams>& fields();  // the rules, read by the YAML loader too
 };
 
 // Physics the simulated plant adds on top of the MPC's model (used with Fidelity::kPlant only).
@@ -35,6 +38,7 @@ struct PlantOptions {
   bool actuator_saturation = true;  // clamp commands to ModuleLimits (speed, acceleration, rate, end stops)
   double relaxation_length = 0.0;   // m; > 0 adds transient slip states (Pacejka 2012, sec. 7.2.2)
   bool load_transfer = false;       // quasi-static load transfer from cog_height (needs cog_height)
+  static const OptionFields<PlantOptions>& fields();  // the rules, read by the YAML loader too
 };
 
 struct VehicleParams {
@@ -55,6 +59,8 @@ struct VehicleParams {
   WearParams wear;
   PlantOptions plant;
 
+  // The rules of mass, yaw_inertia and gravity (the nested structs have tables of their own).
+  static const OptionFields<VehicleParams>& fields();
   // Throws ConfigError naming the field and value ("VehicleParams.mass = -1: must be finite and
   // > 0"), also when the static loads cannot be found (centre of mass off the support line, or a
   // contact would have to pull: a negative load).

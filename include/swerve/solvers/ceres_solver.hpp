@@ -30,6 +30,7 @@
 #include <memory>
 #include <string>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/ocp/solver.hpp"
 
 namespace swerve {
@@ -41,6 +42,7 @@ struct CeresOptions {
   double parameter_tolerance = 1e-10;      // relative step size
   std::string linear_solver = "dense_qr";  // dense_qr | dense_normal_cholesky
   double step_penalty_weight = 1e4;        // on violations of the per-step change bounds
+  static const OptionFields<CeresOptions>& fields();  // the rules, read by the YAML loader too
   void validate() const;                   // ConfigError naming the field and value
 };
 

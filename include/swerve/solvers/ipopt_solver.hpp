@@ -20,6 +20,7 @@
 #include <memory>
 #include <string>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/ocp/solver.hpp"
 
 namespace swerve {
@@ -56,6 +57,7 @@ struct IpoptOptions {
   // lower than its model). An exact-Hessian iteration that would still end late is abandoned
   // between stages of its Hessian and the last iterate returned.
   double startup_estimate = 0.0;
+  static const OptionFields<IpoptOptions>& fields();  // the rules, read by the YAML loader too
   void validate() const;           // ConfigError naming the field and value
 };
 

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/ocp/solver.hpp"
 
 namespace swerve {
@@ -25,6 +26,7 @@ struct NloptOptions {
   double ftol_rel = 1e-12;
   int max_evaluations = 200000;         // the deadline usually stops it first
   double initial_step_fraction = 0.1;   // first trust-region / simplex step / each input's half-range
+  static const OptionFields<NloptOptions>& fields();  // the rules, read by the YAML loader too
   void validate() const;                // ConfigError naming the field and value
 };
 

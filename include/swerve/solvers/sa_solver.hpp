@@ -11,6 +11,7 @@
 #include <memory>
 #include <vector>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/ocp/ocp_derivatives.hpp"
 #include "swerve/ocp/solver.hpp"
 
@@ -49,7 +50,9 @@ struct SaOptions {
   int threads = 1;
 
   // Throws ConfigError naming the field and value.
-  void validate() const;
+  // The rules of the fields above (every one but seed), read by the YAML loader too.
+  static const OptionFields<SaOptions>& fields();
+  void validate() const;  // the table, and the two move probabilities' sum
 };
 
 class SimulatedAnnealingSolver final : public Solver {
