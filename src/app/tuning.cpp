@@ -120,7 +120,8 @@ double ScenarioScore::tracking_excess() const {
 
 const char* QualityTuningResult::rule() {
   return "the least geometric-mean wear ratio among candidates that ran every scenario with position and heading "
-         "RMSE within max(1.1x, +0.02 m / +0.5 deg) of the baseline's and no deadline miss";
+         "RMSE within max(1.1x, +0.02 m / +0.5 deg) of the baseline's and no deadline miss (a run with a miss is "
+         "repeated; a miss counts when the repeat misses too)";
 }
 
 const char* QualityTuningResult::closest_rule() {
@@ -241,6 +242,13 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     std::vector<double> wear, rmse, baseline_rmse, heading, baseline_heading, step_p99;
     for (std::size_t k = 0; k < runs[index].size(); ++k) {
       const ControllerRun run = run_controller(runs[index][k], entry, {}, 0, options.clock);
+      int misses = run.metrics.deadline_misses;
+      if (misses > 0) {
+        const ControllerRun again = run_controller(runs[index][k], entry, {}, 0, options.clock);
+        const int recurring = std::min(misses, again.metrics.deadline_misses);
+        s.unconfirmed_misses += misses - recurring;
+        misses = recurring;
+      }
       const RunMetrics& b = baselines[index][k];
       s.completed = s.completed && run.completed;
       wear.push_back(b.wear_total > 0.0 ? run.metrics.wear_total / b.wear_total : 1.0);
@@ -249,7 +257,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
       heading.push_back(run.metrics.heading_rmse_rad);
       baseline_heading.push_back(b.heading_rmse_rad);
       step_p99.push_back(run.metrics.step_time_p99_ms);
-      s.deadline_misses += run.metrics.deadline_misses;
+      s.deadline_misses += misses;
       s.fallbacks += run.metrics.fallbacks;
     }
     s.wear_ratio = median(wear);

@@ -68,7 +68,8 @@ nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& ta
                            {"baseline_rmse_m", s.baseline_rmse_m}, {"heading_rmse_rad", s.heading_rmse_rad},
                            {"baseline_heading_rmse_rad", s.baseline_heading_rmse_rad},
                            {"step_p99_target_ms", s.step_p99_ms * target.cpu_slowdown},
-                           {"deadline_misses", s.deadline_misses}, {"fallbacks", s.fallbacks},
+                           {"deadline_misses", s.deadline_misses},
+                           {"unconfirmed_misses", s.unconfirmed_misses}, {"fallbacks", s.fallbacks},
                            {"acceptable", s.acceptable()}});
     }
     rows.push_back({{"horizon", c.candidate.horizon}, {"knots", c.candidate.knots},
@@ -134,26 +135,29 @@ int tune_by_quality_command(const TuneArguments& a) {
   // One row per candidate: per scenario wear ratio and RMSE ratio, then the summary.
   std::printf("%7s %5s %6s", "horizon", "knots", "margin");
   for (const ScenarioConfig& s : scenarios) std::printf("  %-22.22s", s.name.c_str());
-  std::printf(" %10s %8s %14s\n", "geo. wear", "misses", "unacceptable");
+  std::printf(" %10s %8s %6s %14s\n", "geo. wear", "misses", "once", "unacceptable");
   for (std::size_t i = 0; i < result.candidates.size(); ++i) {
     const CandidateScore& c = result.candidates[i];
     std::printf("%7d %5d %6.2f", c.candidate.horizon, c.candidate.knots, c.candidate.deadline_margin);
     int misses = 0;
+    int once = 0;  // misses that did not recur when their run was repeated (not counted)
     for (std::size_t k = 0; k < scenarios.size(); ++k) {
       if (k < c.scenarios.size()) {
         const ScenarioScore& s = c.scenarios[k];
         misses += s.deadline_misses;
+        once += s.unconfirmed_misses;
         std::printf("  %6.3f / %5.2f%-9s", s.wear_ratio, s.baseline_rmse_m > 0.0 ? s.rmse_m / s.baseline_rmse_m : 0.0,
                     s.acceptable() ? "" : " (no)");
       } else {
         std::printf("  %-22s", "-");
       }
     }
-    std::printf(" %10.3f %8d %14d%s%s\n", c.geomean_wear_ratio, misses, c.unacceptable,
+    std::printf(" %10.3f %8d %6d %14d%s%s\n", c.geomean_wear_ratio, misses, once, c.unacceptable,
                 static_cast<int>(i) == result.best ? "   <- best" : "",
                 static_cast<int>(i) == result.incumbent ? "   (the controller file's own)" : "");
   }
-  std::printf("per scenario: wear / RMSE, each as a ratio to the kinematic baseline's; (no): outside the bounds\n");
+  std::printf("per scenario: wear / RMSE, each as a ratio to the kinematic baseline's; (no): outside the bounds; "
+              "once: misses that did not recur when their run was repeated (the machine's stalls; not counted)\n");
   std::printf("rule: %s\n", QualityTuningResult::rule());
   if (!a.out_dir.empty()) {
     std::ofstream(a.out_dir + "/tune.json") << to_json(result, target).dump(2) << "\n";

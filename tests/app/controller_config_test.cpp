@@ -8,6 +8,7 @@
 #include <variant>
 #include <vector>
 
+#include "support/bound_edges.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/app/config_node.hpp"
 
@@ -211,10 +212,7 @@ void expect_loader_and_validate_reject_the_same(const OptionFields<Options>& fie
     const bool real = std::holds_alternative<double Options::*>(field.member);
     const bool whole = std::holds_alternative<int Options::*>(field.member);
     if (!real && !whole) continue;
-    std::vector<double> outside;
-    if (field.bound.has_lower()) outside.push_back(field.bound.lower_open ? field.bound.lower : field.bound.lower - 1);
-    if (field.bound.has_upper()) outside.push_back(field.bound.upper_open ? field.bound.upper : field.bound.upper + 1);
-    for (const double value : outside) {
+    for (const double value : testing::values_just_outside(field.bound)) {
       SCOPED_TRACE(std::string(field.name) + " = " + Bound::number(value));
       Options options;
       if (real) options.*std::get<double Options::*>(field.member) = value;

@@ -200,6 +200,57 @@ TEST(TuneByQuality, ScoresEachScenarioByTheMedianOverTheSeeds) {
   EXPECT_DOUBLE_EQ(both.step_p99_ms, std::max(seven.step_p99_ms, eight.step_p99_ms));
 }
 
+// A work clock (10 us a read) that, once armed, jumps by `stall_s` at its `after`-th read from then,
+// once: one scheduling stall of the operating system.
+class StallOnceClock final : public Clock {
+ public:
+  StallOnceClock(double stall_s, long after) : stall_(to_duration(stall_s)), after_(after) {}
+  TimePoint now() const noexcept override {
+    now_ += to_duration(10e-6);
+    if (armed_ && --countdown_ == 0) {
+      now_ += stall_;
+      armed_ = false;
+      ++stalls_;
+    }
+    return now_;
+  }
+  void arm() noexcept {
+    armed_ = true;
+    countdown_ = after_;
+  }
+  int stalls() const noexcept { return stalls_; }
+
+ private:
+  Duration stall_;
+  long after_;
+  mutable TimePoint now_{};
+  mutable bool armed_ = false;
+  mutable long countdown_ = 0;
+  mutable int stalls_ = 0;
+};
+
+// A run that missed is run again, and only misses that recur count: one 30 ms stall inside the
+// second candidate's run (a miss at a 2 ms budget) does not make it unacceptable.
+TEST(TuneByQuality, AMissThatDoesNotRecurWhenItsRunIsRepeatedIsTheMachinesAndDoesNotCount) {
+  QualityFixture f;
+  StallOnceClock clock(0.03, 50);
+  f.options.clock = &clock;
+  f.options.horizons = {5};  // with the controller file's own: two candidates
+  f.scenarios.pop_back();
+  const QualityTuningResult result =
+      tune_by_quality(f.controller, f.target, f.scenarios, f.options, [&](int done, int, int round) {
+        if (round == 1 && done == 1) clock.arm();  // the stall lands in the next candidate's run
+      });
+  ASSERT_EQ(clock.stalls(), 1);
+  ASSERT_EQ(result.candidates.size(), 2u);
+  const ScenarioScore& calm = result.candidates[0].scenarios.front();
+  const ScenarioScore& stalled = result.candidates[1].scenarios.front();
+  EXPECT_EQ(calm.deadline_misses, 0);
+  EXPECT_EQ(calm.unconfirmed_misses, 0);
+  EXPECT_GE(stalled.unconfirmed_misses, 1);
+  EXPECT_EQ(stalled.deadline_misses, 0);
+}
+
 TEST(TuneByQuality, AcceptsARunWithinTheBaselinesTrackingBoundsAndWithoutMisses) {
   ScenarioScore s;
   s.completed = true;

@@ -9,6 +9,7 @@
 #include <variant>
 #include <vector>
 
+#include "support/bound_edges.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/models/vehicle_model.hpp"
 
@@ -155,10 +156,7 @@ void expect_loader_and_validate_reject_the_same(const OptionFields<Options>& fie
   for (const OptionField<Options>& field : fields) {
     const auto* real = std::get_if<double Options::*>(&field.member);
     if (real == nullptr) continue;
-    std::vector<double> outside;
-    if (field.bound.has_lower()) outside.push_back(field.bound.lower_open ? field.bound.lower : field.bound.lower - 1);
-    if (field.bound.has_upper()) outside.push_back(field.bound.upper_open ? field.bound.upper : field.bound.upper + 1);
-    for (const double value : outside) {
+    for (const double value : testing::values_just_outside(field.bound)) {
       SCOPED_TRACE(std::string(field.name) + " = " + Bound::number(value));
       VehicleParams params = minimal;
       set_on_vehicle(params, *real, value);
