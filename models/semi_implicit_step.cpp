@@ -10,9 +10,9 @@ const char* to_string(PredictionMethod method) noexcept {
 
 const OptionFields<PredictionOptions>& PredictionOptions::fields() {
   static const OptionFields<PredictionOptions> table{
-      {"substeps", &PredictionOptions::substeps, Bound::at_least(1)},
-      {"slow_substeps", &PredictionOptions::slow_substeps, Bound::at_least(1)},
-      {"max_newton_iterations", &PredictionOptions::max_newton_iterations, Bound::at_least(1)},
+      {"substeps", &PredictionOptions::substeps, Bound::closed(1, 1000)},
+      {"slow_substeps", &PredictionOptions::slow_substeps, Bound::closed(1, 1000)},
+      {"max_newton_iterations", &PredictionOptions::max_newton_iterations, Bound::closed(1, 100)},
       {"drive_lag", &PredictionOptions::drive_lag},
       {"steering_lag", &PredictionOptions::steering_lag},
   };

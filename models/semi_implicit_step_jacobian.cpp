@@ -15,12 +15,14 @@ struct SemiImplicitStepJacobian::Twin {
 };
 
 struct SemiImplicitStepJacobian::Data::Impl {
-  explicit Impl(const SemiImplicitStep<ModelJet>& step)
-      : data(step),
+  Impl(const SemiImplicitStepJacobian& jacobian, const SemiImplicitStep<ModelJet>& step)
+      : owner(&jacobian),
+        data(step),
         x(ModelJetVector::Zero(step.state_size())),
         u(ModelJetVector::Zero(step.model().input_size())),
         twist(ModelJetVector::Zero(3)),
         out(ModelJetVector::Zero(step.state_size())) {}
+  const SemiImplicitStepJacobian* owner;  // its scratch is shaped for this one only
   SemiImplicitStep<ModelJet>::Data data;
   ModelJetVector x, u, twist, out;  // u: module inputs (given, or mapped from the twist)
 };
@@ -34,7 +36,7 @@ SemiImplicitStepJacobian::SemiImplicitStepJacobian(const VehicleParams& params, 
 SemiImplicitStepJacobian::~SemiImplicitStepJacobian() = default;
 
 SemiImplicitStepJacobian::Data::Data(const SemiImplicitStepJacobian& jacobian)
-    : impl_(std::make_unique<Impl>(jacobian.twin_->step)) {}
+    : impl_(std::make_unique<Impl>(jacobian, jacobian.twin_->step)) {}
 SemiImplicitStepJacobian::Data::~Data() = default;
 SemiImplicitStepJacobian::Data::Data(Data&&) noexcept = default;
 SemiImplicitStepJacobian::Data& SemiImplicitStepJacobian::Data::operator=(Data&&) noexcept = default;
@@ -56,7 +58,10 @@ bool SemiImplicitStepJacobian::module_step(Data& data, const Eigen::Ref<const Ei
                                            Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                            Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                                            Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
-  if (!arguments_ok(state_size_, input_size_, x, u, dt, x_next, a, b, wear_gradient)) return false;
+  if (data.impl_ == nullptr || data.impl_->owner != this ||
+      !arguments_ok(state_size_, input_size_, x, u, dt, x_next, a, b, wear_gradient)) {
+    return false;
+  }
   const SemiImplicitStep<ModelJet>& step = twin_->step;
   Data::Impl& j = *data.impl_;
   bool first = true;
@@ -73,7 +78,10 @@ bool SemiImplicitStepJacobian::twist_step(Data& data, const Eigen::Ref<const Eig
                                           Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                           Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                                           Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
-  if (!arguments_ok(state_size_, 3, x, twist_body, dt, x_next, a, b, wear_gradient)) return false;
+  if (data.impl_ == nullptr || data.impl_->owner != this ||
+      !arguments_ok(state_size_, 3, x, twist_body, dt, x_next, a, b, wear_gradient)) {
+    return false;
+  }
   const SemiImplicitStep<ModelJet>& step = twin_->step;
   Data::Impl& j = *data.impl_;
   bool first = true;

@@ -203,6 +203,11 @@ const OptionFields<CeresOptions>& CeresOptions::fields() {
 
 void CeresOptions::validate() const {
   check_fields("CeresOptions", *this, fields());
+  // The table's choices name the solvers Impl maps (kLinearSolvers); a name only one list has is
+  // refused here rather than dereferenced as null.
+  if (find_linear_solver(linear_solver) == nullptr) {
+    throw_invalid_field("CeresOptions", "linear_solver", linear_solver, "has no Ceres solver type");
+  }
 }
 
 struct CeresSolver::Impl {

@@ -90,9 +90,15 @@ void QualityTuningOptions::validate() const {
   require_each_in_range("QualityTuningOptions", "horizons", horizons, kMaxHorizon);
   require_each_in_range("QualityTuningOptions", "knots", knots, kMaxHorizon);
   if (seeds.size() > 100) throw_invalid_field("QualityTuningOptions", "seeds.size()", seeds.size(), "must be <= 100");
+  // The controller's own rule for deadline_margin, from its table.
+  Bound margin_rule;
+  for (const OptionField<ControllerOptions>& field : ControllerOptions::timing_fields()) {
+    if (std::string(field.name) == "deadline_margin") margin_rule = field.bound;
+  }
   for (const double m : deadline_margins) {
-    // The controller's own rule for deadline_margin (its loader's Bound::closed(0, 0.5)).
-    if (!(m >= 0.0 && m <= 0.5)) throw_invalid_field("QualityTuningOptions", "deadline_margins[]", m, "must be in [0, 0.5]");
+    if (!std::isfinite(m) || !margin_rule.contains(m)) {
+      throw_invalid_field("QualityTuningOptions", "deadline_margins[]", m, margin_rule.describe());
+    }
   }
 }
 

@@ -9,7 +9,7 @@ namespace swerve {
 const OptionFields<StalenessOptions>& StalenessOptions::fields() {
   static const OptionFields<StalenessOptions> table{
       {"max_age", &StalenessOptions::max_age, Bound::positive()},
-      {"frozen_cycles", &StalenessOptions::frozen_cycles, Bound::at_least(2)},
+      {"frozen_cycles", &StalenessOptions::frozen_cycles, Bound::closed(2, 1000000)},
       {"moving_speed", &StalenessOptions::moving_speed, Bound::positive()},
   };
   return table;

@@ -1,6 +1,7 @@
 // Reading an options table's fields from YAML (read_fields): present keys read with their type,
-// absent ones left alone, a table's YAML key used where it differs from the field's name, and a
-// value outside the table's rule rejected where it was read, naming the file, key path and value.
+// absent ones left alone, a table's YAML key used where it differs from the field's name, a value
+// outside the table's rule rejected where it was read, naming the file, key path and value, and a
+// block that is not a map refused.
 #include "swerve/app/option_reader.hpp"
 
 #include <gtest/gtest.h>
@@ -66,6 +67,20 @@ TEST(OptionReader, RejectsAValueOutsideTheTablesRuleNamingFileKeyAndValue) {
   EXPECT_NE(error_of("  gain: .nan\n").find("must be a finite number"), std::string::npos);
   // The table's name for it is not its YAML key: an unknown key.
   EXPECT_NE(error_of("  mode: exact\n").find("sample.mode"), std::string::npos);
+}
+
+TEST(OptionReader, RefusesABlockThatIsNotAMap) {
+  for (const char* text : {"sample: 5\n", "sample:\n", "sample: [1, 2]\n"}) {
+    SCOPED_TRACE(text);
+    const config::ConfigNode root = config::ConfigNode::parse(text, "s.yaml");
+    Sample sample;
+    try {
+      config::read_fields(root.child("sample"), Sample::fields(), &sample);
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("s.yaml: sample: expected a map", 0), 0u) << e.what();
+    }
+  }
 }
 
 TEST(OptionReader, AnIntegerFieldsOpenBoundTakesTheIntegersInside) {

@@ -200,16 +200,17 @@ TEST(TuneByQuality, ScoresEachScenarioByTheMedianOverTheSeeds) {
   EXPECT_DOUBLE_EQ(both.step_p99_ms, std::max(seven.step_p99_ms, eight.step_p99_ms));
 }
 
-// A work clock (10 us a read) that, once armed, jumps by `stall_s` at its `after`-th read from then,
-// once: one scheduling stall of the operating system.
-class StallOnceClock final : public Clock {
+// A work clock (10 us a read) that, once armed, jumps by `stall_s` at its `after`-th read from then:
+// once (one scheduling stall of the operating system), or every `after` reads from then on.
+class StallingClock final : public Clock {
  public:
-  StallOnceClock(double stall_s, long after) : stall_(to_duration(stall_s)), after_(after) {}
+  StallingClock(double stall_s, long after, bool once) : stall_(to_duration(stall_s)), after_(after), once_(once) {}
   TimePoint now() const noexcept override {
     now_ += to_duration(10e-6);
     if (armed_ && --countdown_ == 0) {
       now_ += stall_;
-      armed_ = false;
+      armed_ = !once_;
+      countdown_ = after_;
       ++stalls_;
     }
     return now_;
@@ -223,6 +224,7 @@ class StallOnceClock final : public Clock {
  private:
   Duration stall_;
   long after_;
+  bool once_;
   mutable TimePoint now_{};
   mutable bool armed_ = false;
   mutable long countdown_ = 0;
@@ -233,7 +235,7 @@ class StallOnceClock final : public Clock {
 // second candidate's run (a miss at a 2 ms budget) does not make it unacceptable.
 TEST(TuneByQuality, AMissThatDoesNotRecurWhenItsRunIsRepeatedIsTheMachinesAndDoesNotCount) {
   QualityFixture f;
-  StallOnceClock clock(0.03, 50);
+  StallingClock clock(0.03, 50, /*once=*/true);
   f.options.clock = &clock;
   f.options.horizons = {5};  // with the controller file's own: two candidates
   f.scenarios.pop_back();
@@ -249,6 +251,24 @@ TEST(TuneByQuality, AMissThatDoesNotRecurWhenItsRunIsRepeatedIsTheMachinesAndDoe
   EXPECT_EQ(calm.unconfirmed_misses, 0);
   EXPECT_GE(stalled.unconfirmed_misses, 1);
   EXPECT_EQ(stalled.deadline_misses, 0);
+}
+
+// A candidate whose runs miss every time (here: a 30 ms stall every 2 000 clock reads, in the run
+// and in its repeat) keeps its misses and is not acceptable.
+TEST(TuneByQuality, AMissThatRecursWhenItsRunIsRepeatedCounts) {
+  QualityFixture f;
+  StallingClock clock(0.03, 2000, /*once=*/false);
+  f.options.clock = &clock;
+  f.options.horizons = {5};
+  f.scenarios.pop_back();
+  const QualityTuningResult result =
+      tune_by_quality(f.controller, f.target, f.scenarios, f.options, [&](int done, int, int round) {
+        if (round == 1 && done == 1) clock.arm();  // from the second candidate's run on, for good
+      });
+  ASSERT_EQ(result.candidates.size(), 2u);
+  const ScenarioScore& stalled = result.candidates[1].scenarios.front();
+  EXPECT_GE(stalled.deadline_misses, 1);
+  EXPECT_FALSE(stalled.acceptable());
 }
 
 TEST(TuneByQuality, AcceptsARunWithinTheBaselinesTrackingBoundsAndWithoutMisses) {

@@ -1,6 +1,7 @@
 // The prediction step's exact Jacobians (SemiImplicitStepJacobian) against central differences of
 // the double step itself, with module inputs and with the body twist as the input; their values
-// against the double step's; bad arguments; and two callers on two threads.
+// against the double step's; bad arguments and scratch made for another Jacobian; and two callers
+// on two threads.
 #include "swerve/models/semi_implicit_step_jacobian.hpp"
 
 #include <gtest/gtest.h>
@@ -132,7 +133,7 @@ TEST_F(SemiImplicitStepJacobianTest, TheTwistInputDifferentiatesThroughTheModule
   EXPECT_GT(b.cwiseAbs().maxCoeff(), 1e-3);
 }
 
-TEST_F(SemiImplicitStepJacobianTest, RefusesWrongSizesNonFiniteValuesAndABadStep) {
+TEST_F(SemiImplicitStepJacobianTest, RefusesWrongSizesNonFiniteValuesBadOptionsAndForeignScratch) {
   const int nx = jacobian_.state_size(), nu = jacobian_.input_size();
   Eigen::VectorXd u = Eigen::VectorXd::Zero(nu), x_next(nx), wear_gradient(nx + nu);
   Eigen::MatrixXd a(nx, nx), b(nx, nu);
@@ -149,6 +150,13 @@ TEST_F(SemiImplicitStepJacobianTest, RefusesWrongSizesNonFiniteValuesAndABadStep
   Eigen::VectorXd twist_gradient(nx + 3);
   EXPECT_FALSE(jacobian_.twist_step(data_, x_, Eigen::Vector3d(NAN, 0, 0), kDt, x_next, a, twist_b, &wear, twist_gradient));
   EXPECT_FALSE(jacobian_.twist_step(data_, x_, Eigen::Vector3d(0.5, 0, 0), kDt, x_next, a, b, &wear, wear_gradient));
+  // Scratch made for another vehicle's Jacobian (other sizes inside), or moved from.
+  const SemiImplicitStepJacobian other(testing::make_params(8), lagged());
+  SemiImplicitStepJacobian::Data foreign(other);
+  EXPECT_FALSE(jacobian_.module_step(foreign, x_, u, kDt, x_next, a, b, &wear, wear_gradient));
+  SemiImplicitStepJacobian::Data moved_to(std::move(data_));
+  EXPECT_FALSE(jacobian_.module_step(data_, x_, u, kDt, x_next, a, b, &wear, wear_gradient));  // NOLINT(bugprone-use-after-move)
+  EXPECT_TRUE(jacobian_.module_step(moved_to, x_, u, kDt, x_next, a, b, &wear, wear_gradient));
   PredictionOptions bad;
   bad.substeps = 0;
   EXPECT_THROW(SemiImplicitStepJacobian(params_, bad), ConfigError);

@@ -201,13 +201,13 @@ TEST(SemiImplicitStep, RejectsOptionsOutOfRangeNamingTheField) {
   };
   PredictionOptions options;
   options.substeps = 0;
-  EXPECT_EQ(message_of(options), "PredictionOptions.substeps = 0: must be >= 1");
+  EXPECT_EQ(message_of(options), "PredictionOptions.substeps = 0: must be in [1, 1000]");
   options = PredictionOptions{};
   options.slow_substeps = -2;
-  EXPECT_EQ(message_of(options), "PredictionOptions.slow_substeps = -2: must be >= 1");
+  EXPECT_EQ(message_of(options), "PredictionOptions.slow_substeps = -2: must be in [1, 1000]");
   options = PredictionOptions{};
   options.max_newton_iterations = 0;
-  EXPECT_EQ(message_of(options), "PredictionOptions.max_newton_iterations = 0: must be >= 1");
+  EXPECT_EQ(message_of(options), "PredictionOptions.max_newton_iterations = 0: must be in [1, 100]");
   EXPECT_EQ(message_of(PredictionOptions{}), "(accepted)");
 }
 

@@ -21,21 +21,22 @@ namespace detail {
 inline int int_lower(const Bound& bound) {
   if (!bound.has_lower()) return INT_MIN + 1;
   const double lo = bound.lower_open ? std::floor(bound.lower) + 1.0 : std::ceil(bound.lower);
-  return static_cast<int>(std::max(lo, static_cast<double>(INT_MIN + 1)));
+  return static_cast<int>(std::clamp(lo, static_cast<double>(INT_MIN + 1), static_cast<double>(INT_MAX)));
 }
 inline int int_upper(const Bound& bound) {
   if (!bound.has_upper()) return INT_MAX;
   const double hi = bound.upper_open ? std::ceil(bound.upper) - 1.0 : std::floor(bound.upper);
-  return static_cast<int>(std::min(hi, static_cast<double>(INT_MAX)));
+  return static_cast<int>(std::clamp(hi, static_cast<double>(INT_MIN + 1), static_cast<double>(INT_MAX)));
 }
 
 }  // namespace detail
 
-// Every field of `fields` whose key `node` (a map) holds is read into *options; the others keep
-// their value. Throws ConfigError "<file>: <path>.<key> = <value>: <rule>" for a value of the
-// wrong type or outside its rule.
+// Every field of `fields` whose key `node` holds is read into *options; the others keep their
+// value. Throws ConfigError "<file>: <path>.<key> = <value>: <rule>" for a value of the wrong type
+// or outside its rule, and "<file>: <path>: expected a map" when `node` is not a map.
 template <typename Options>
 void read_fields(const ConfigNode& node, const OptionFields<Options>& fields, Options* options) {
+  (void)node.keys();  // "expected a map, got ..." for a block that is not one (`weights: 5`)
   for (const OptionField<Options>& field : fields) {
     const std::string key = field.yaml_key();
     if (!node.has(key)) continue;

@@ -17,7 +17,7 @@
 
 namespace swerve {
 
-// An allowed interval of a number. A NaN is in none; an infinity only in an interval open to it.
+// An allowed interval of a number. A NaN or an infinity is in none (an unbounded end is +-1e308).
 struct Bound {
   double lower = -1e308;
   double upper = 1e308;

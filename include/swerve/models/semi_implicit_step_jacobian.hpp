@@ -26,8 +26,9 @@ class SemiImplicitStepJacobian {
   int state_size() const noexcept { return state_size_; }
   int input_size() const noexcept { return input_size_; }  // module inputs: 2 per module
 
-  // The caller's scratch: the step's Jet data and the seeded inputs. The Jacobian object itself is
-  // immutable, so evaluations that each pass a Data of their own may run on threads of their own.
+  // The caller's scratch: the step's Jet data and the seeded inputs, for the Jacobian it was made
+  // from only. The Jacobian object itself is immutable, so evaluations that each pass a Data of
+  // their own may run on threads of their own.
   class Data {
    public:
     explicit Data(const SemiImplicitStepJacobian& jacobian);  // allocates; nothing after
@@ -42,8 +43,9 @@ class SemiImplicitStepJacobian {
   };
 
   // With module inputs u (steering rate, wheel speed per module): a is nx x nx, b nx x nu,
-  // wear_gradient nx + nu entries. False (outputs unspecified) for wrong sizes, a non-finite or
-  // non-positive dt, non-finite x or u, a failed step, or a non-finite derivative. No allocation.
+  // wear_gradient nx + nu entries. False (outputs unspecified) for a Data made for another
+  // Jacobian (or moved from), wrong sizes, a non-finite or non-positive dt, non-finite x or u, a
+  // failed step, or a non-finite derivative. No allocation.
   bool module_step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                    double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                    Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
