@@ -1,7 +1,6 @@
 #include "swerve/models/magic_formula_tire.hpp"
 
 #include <cmath>
-#include <sstream>
 
 #include "magic_formula_tire_impl.hpp"
 #include "swerve/core/config_error.hpp"
@@ -11,20 +10,28 @@ namespace {
 
 constexpr double kHalfPi = 1.57079632679489661923;
 
-[[noreturn]] void reject(const std::string& field, double value, const std::string& rule) {
-  throw_invalid_field("MagicFormulaParams", field, value, rule);
-}
-
-void check_channel(const std::string& name, const MagicFormulaCoefficients& k) {
-  if (!std::isfinite(k.b) || k.b <= 0.0) reject(name + ".B", k.b, "must be finite and > 0");
-  if (!std::isfinite(k.c) || k.c <= 0.0 || k.c >= 2.0) {
-    reject(name + ".C", k.c, "must be in (0, 2) (the force must not reverse sign at large slip)");
-  }
-  if (!std::isfinite(k.e) || k.e > 1.0) reject(name + ".E", k.e, "must be finite and <= 1");
-  if (k.mu && (!std::isfinite(*k.mu) || *k.mu <= 0.0)) reject(name + ".mu", *k.mu, "must be finite and > 0");
-}
-
 }  // namespace
+
+const OptionFields<MagicFormulaCoefficients>& MagicFormulaCoefficients::fields() {
+  static const OptionFields<MagicFormulaCoefficients> table{
+      {"B", &MagicFormulaCoefficients::b, Bound::positive()},
+      {"C", &MagicFormulaCoefficients::c, Bound::open(0.0, 2.0), {}, nullptr,
+       "(the force must not reverse sign at large slip)"},
+      // Pacejka's condition for a single peak.
+      {"E", &MagicFormulaCoefficients::e, Bound{-1e308, 1.0, false, false}},
+      {"mu", &MagicFormulaCoefficients::mu, Bound::positive()},
+  };
+  return table;
+}
+
+const OptionFields<MagicFormulaParams>& MagicFormulaParams::fields() {
+  static const OptionFields<MagicFormulaParams> table{
+      {"mu", &MagicFormulaParams::mu, Bound::positive()},
+      {"slip_speed_epsilon", &MagicFormulaParams::slip_speed_epsilon, Bound::positive()},
+      {"smooth_slip", &MagicFormulaParams::smooth_slip},
+  };
+  return table;
+}
 
 const char* to_string(CombinedSlipMethod method) {
   switch (method) {
@@ -36,12 +43,9 @@ const char* to_string(CombinedSlipMethod method) {
 }
 
 void MagicFormulaParams::validate() const {
-  if (!std::isfinite(mu) || mu <= 0.0) reject("mu", mu, "must be finite and > 0");
-  check_channel("longitudinal", longitudinal);
-  check_channel("lateral", lateral);
-  if (!std::isfinite(slip_speed_epsilon) || slip_speed_epsilon <= 0.0) {
-    reject("slip_speed_epsilon", slip_speed_epsilon, "must be finite and > 0");
-  }
+  check_fields("MagicFormulaParams", *this, fields());
+  check_fields("MagicFormulaParams.longitudinal", longitudinal, MagicFormulaCoefficients::fields());
+  check_fields("MagicFormulaParams.lateral", lateral, MagicFormulaCoefficients::fields());
 }
 
 double magic_formula_peak_slip(const MagicFormulaCoefficients& k) {

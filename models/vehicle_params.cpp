@@ -87,6 +87,7 @@ const OptionFields<VehicleParams>& VehicleParams::fields() {
       {"mass", &VehicleParams::mass, Bound::positive()},
       {"yaw_inertia", &VehicleParams::yaw_inertia, Bound::positive()},
       {"gravity", &VehicleParams::gravity, Bound::positive()},
+      {"cog_height", &VehicleParams::cog_height, Bound::positive()},
   };
   return table;
 }
@@ -95,9 +96,6 @@ void VehicleParams::validate() const {
   check_fields("VehicleParams", *this, fields());
   if (!center_of_mass_body.allFinite()) {
     reject("center_of_mass", format(center_of_mass_body), "must be finite");
-  }
-  if (cog_height && (!std::isfinite(*cog_height) || *cog_height <= 0.0)) {
-    reject("cog_height", *cog_height, "must be finite and > 0");
   }
   check_fields("VehicleParams.actuators", actuators, ActuatorParams::fields());
   check_fields("VehicleParams.plant", plant, PlantOptions::fields());

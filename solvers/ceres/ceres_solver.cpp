@@ -188,28 +188,6 @@ class DeadlineCallback final : public ceres::IterationCallback {
 
 }  // namespace
 
-const OptionFields<CeresOptions>& CeresOptions::fields() {
-  // Ceres itself takes tolerances >= 0 (0: that test off).
-  static const OptionFields<CeresOptions> table{
-      {"max_iterations", &CeresOptions::max_iterations, Bound::at_least(1)},
-      {"function_tolerance", &CeresOptions::function_tolerance, Bound::non_negative()},
-      {"gradient_tolerance", &CeresOptions::gradient_tolerance, Bound::non_negative()},
-      {"parameter_tolerance", &CeresOptions::parameter_tolerance, Bound::non_negative()},
-      {"linear_solver", &CeresOptions::linear_solver, Bound::any(), {"dense_qr", "dense_normal_cholesky"}},
-      {"step_penalty_weight", &CeresOptions::step_penalty_weight, Bound::non_negative()},
-  };
-  return table;
-}
-
-void CeresOptions::validate() const {
-  check_fields("CeresOptions", *this, fields());
-  // The table's choices name the solvers Impl maps (kLinearSolvers); a name only one list has is
-  // refused here rather than dereferenced as null.
-  if (find_linear_solver(linear_solver) == nullptr) {
-    throw_invalid_field("CeresOptions", "linear_solver", linear_solver, "has no Ceres solver type");
-  }
-}
-
 struct CeresSolver::Impl {
   Impl(const OcpProblem& shape, const CeresOptions& options)
       : residuals(shape, options.step_penalty_weight),
@@ -284,6 +262,11 @@ CeresSolver::CeresSolver(const OcpProblem& problem_shape, CeresOptions options)
     : Solver(problem_shape), options_(std::move(options)), nx_(problem_shape.state_size()), nu_(problem_shape.input_size()),
       horizon_(problem_shape.horizon()) {
   options_.validate();
+  // The table's choices name the solvers kLinearSolvers maps; a name only one list has is refused
+  // here rather than dereferenced as null.
+  if (find_linear_solver(options_.linear_solver) == nullptr) {
+    throw_invalid_field("CeresOptions", "linear_solver", options_.linear_solver, "has no Ceres solver type");
+  }
   impl_ = std::make_unique<Impl>(problem_shape, options_);
 }
 

@@ -23,27 +23,6 @@ double clamp_to_ipopt(double bound) { return std::clamp(bound, -kIpoptInfinity, 
 
 }  // namespace
 
-const OptionFields<IpoptOptions>& IpoptOptions::fields() {
-  static const OptionFields<IpoptOptions> table{
-      {"tol", &IpoptOptions::tol, Bound::positive()},
-      {"constr_viol_tol", &IpoptOptions::constr_viol_tol, Bound::positive()},
-      {"acceptable_tol", &IpoptOptions::acceptable_tol, Bound::positive()},
-      {"max_iterations", &IpoptOptions::max_iterations, Bound::at_least(1)},
-      {"mu_strategy", &IpoptOptions::mu_strategy, Bound::any(), {"adaptive", "monotone"}},
-      {"linear_solver", &IpoptOptions::linear_solver, Bound::any(), {"mumps"}, nullptr,
-       "(the only linear solver Debian's Ipopt 3.11 is built with)"},
-      {"print_level", &IpoptOptions::print_level, Bound::closed(0, 12)},
-      {"hessian", &IpoptOptions::hessian, Bound::any(), {"exact", "limited-memory"}},
-      {"lbfgs_history", &IpoptOptions::lbfgs_history, Bound::closed(1, 100)},
-      {"warm_start", &IpoptOptions::warm_start},
-      {"warm_start_multipliers", &IpoptOptions::warm_start_multipliers},
-      {"warm_mu_init", &IpoptOptions::warm_mu_init, Bound::positive()},
-      {"startup_estimate", &IpoptOptions::startup_estimate, Bound::non_negative()},
-  };
-  return table;
-}
-
-void IpoptOptions::validate() const { check_fields("IpoptOptions", *this, fields()); }
 
 // An estimate of a duration after a new measurement: it rises at once and falls halfway, so a
 // slower run is believed and a faster one averaged.

@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <numeric>
@@ -348,6 +349,18 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   return result;
 }
 
+namespace {
+
+// The shortest text that reads back as `value`: 0.05, not the 17 digits yaml-cpp writes for a
+// double (0.050000000000000003), which a user then reads in the tuned file.
+YAML::Node shortest_number(double value) {
+  char text[32];
+  const char* end = std::to_chars(text, text + sizeof text, value).ptr;
+  return YAML::Node(std::string(static_cast<const char*>(text), end));
+}
+
+}  // namespace
+
 void write_tuned_controller(const std::string& base_file, const TuningCandidate& candidate, const TargetConfig& target,
                             const std::string& header, const std::string& path) {
   YAML::Node document;
@@ -359,13 +372,12 @@ void write_tuned_controller(const std::string& base_file, const TuningCandidate&
   YAML::Node controller = document["controller"];
   if (!controller.IsMap()) throw ConfigError(base_file + ": no controller: map to tune");
   controller["horizon"] = candidate.horizon;
-  controller["dt"] = target.control_period;
-  controller["solve_budget"] = target.solve_budget;
+  controller["dt"] = shortest_number(target.control_period);
+  controller["solve_budget"] = shortest_number(target.solve_budget);
   controller["solver"]["sa"]["knots"] = candidate.knots;
-  controller["deadline_margin"] = candidate.deadline_margin;
+  controller["deadline_margin"] = shortest_number(candidate.deadline_margin);
   controller["description"] = "wear-aware MPC tuned for " + target.name + " (swerve-mpc tune)";
   YAML::Emitter emitter;
-  emitter.SetDoublePrecision(12);
   emitter << document;
   {
     std::ofstream out(path);

@@ -6,15 +6,13 @@
 namespace swerve {
 namespace {
 
-using config::Bound;
 using config::ConfigNode;
 
 MagicFormulaCoefficients load_channel(const ConfigNode& node) {
   MagicFormulaCoefficients k;
-  k.b = node.get_double("B", Bound::positive());
-  k.c = node.get_double("C", Bound{0.0, 2.0, true, true});
-  k.e = node.get_double_or("E", 0.0, Bound{-1e308, 1.0, false, false});
-  if (node.has("mu")) k.mu = node.get_double("mu", Bound::positive());
+  (void)node.child("B");  // required, as is C
+  (void)node.child("C");
+  config::read_fields(node, MagicFormulaCoefficients::fields(), &k);
   return k;
 }
 
@@ -23,18 +21,18 @@ MagicFormulaParams load_tire(const ConfigNode& node) {
   tire.longitudinal = load_channel(node.child("longitudinal"));
   tire.lateral = load_channel(node.child("lateral"));
   // The common mu serves every channel without its own; with both set it may be left out.
-  if (tire.longitudinal.mu && tire.lateral.mu && !node.has("mu")) {
+  const bool both_channels_have_mu = tire.longitudinal.mu && tire.lateral.mu;
+  if (both_channels_have_mu && !node.has("mu")) {
     tire.mu = *tire.longitudinal.mu;  // unused: both channels have their own
   } else {
-    tire.mu = node.get_double("mu", Bound::positive());
+    (void)node.child("mu");  // "required key is missing"
   }
+  config::read_fields(node, MagicFormulaParams::fields(), &tire);
   const std::string method =
       node.get_choice_or("combined_slip", {"none", "ellipse_cap", "normalized_slip"}, "normalized_slip");
   tire.combined_slip = method == "none"          ? CombinedSlipMethod::kNone
                        : method == "ellipse_cap" ? CombinedSlipMethod::kEllipseCap
                                                  : CombinedSlipMethod::kNormalizedSlip;
-  tire.slip_speed_epsilon = node.get_double_or("slip_speed_epsilon", tire.slip_speed_epsilon, Bound::positive());
-  tire.smooth_slip = node.get_bool_or("smooth_slip", tire.smooth_slip);
   return tire;
 }
 
@@ -61,7 +59,6 @@ VehicleParams load_vehicle_config(const ConfigNode& node) {
   (void)node.child("yaw_inertia");
   config::read_fields(node, VehicleParams::fields(), &params);
   if (node.has("center_of_mass")) params.center_of_mass_body = get_point(node, "center_of_mass");
-  if (node.has("cog_height")) params.cog_height = node.get_double("cog_height", Bound::positive());
   if (const auto casters = node.optional_child("casters")) {
     for (std::size_t j = 0; j < casters->size(); ++j) {
       const ConfigNode caster = casters->at(j);

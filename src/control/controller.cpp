@@ -106,11 +106,7 @@ void TrackingTolerance::validate() const {
 }
 
 const OptionFields<ControllerOptions>& ControllerOptions::sampling_fields() {
-  static const OptionFields<ControllerOptions> table{
-      {"horizon", &ControllerOptions::horizon, Bound::closed(1, kMaxHorizon)},
-      {"dt", &ControllerOptions::dt, Bound::positive()},
-  };
-  return table;
+  return horizon_and_step_fields<ControllerOptions>();
 }
 
 const OptionFields<ControllerOptions>& ControllerOptions::timing_fields() {

@@ -48,10 +48,7 @@ const OptionFields<BaselineOptions>& BaselineOptions::fields() {
 }
 
 void BaselineOptions::validate() const {
-  if (horizon < 1 || horizon > kMaxHorizon) {
-    reject("horizon", horizon, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
-  }
-  if (!std::isfinite(dt) || dt <= 0.0) reject("dt", dt, "must be finite and > 0");
+  check_fields("BaselineOptions", *this, horizon_and_step_fields<BaselineOptions>());
   check_fields("BaselineOptions", *this, fields());
   if (!(twist_weight.minCoeff() > 0.0 || rate_weight.minCoeff() > 0.0)) {
     reject("twist_weight", twist_weight.transpose(), "or rate_weight must be > 0 on every axis (the plan must be unique)");

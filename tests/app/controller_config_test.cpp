@@ -266,6 +266,26 @@ TEST(ControllerConfig, AcceptsAZeroCeresToleranceAsCeresAndValidateDo) {
   EXPECT_EQ(c.solver.ceres.gradient_tolerance, 0.0);
 }
 
+// The baseline's horizon and dt come from the controller's keys; its validate() keeps the same
+// rule (it wrote its own before).
+TEST(BaselineOptions, ValidateRejectsTheHorizonsAndStepsTheControllerRejects) {
+  for (const OptionField<ControllerOptions>& field : ControllerOptions::sampling_fields()) {
+    for (const double value : testing::values_just_outside(field.bound)) {
+      SCOPED_TRACE(std::string(field.name) + " = " + Bound::number(value));
+      BaselineOptions o;
+      if (std::string(field.name) == "horizon") o.horizon = static_cast<int>(value);
+      if (std::string(field.name) == "dt") o.dt = value;
+      try {
+        o.validate();
+        ADD_FAILURE() << "accepted";
+      } catch (const ConfigError& e) {
+        EXPECT_NE(std::string(e.what()).find("BaselineOptions." + std::string(field.name) + " = "), std::string::npos)
+            << e.what();
+      }
+    }
+  }
+}
+
 TEST(BaselineOptions, ValidateRejectsMoreGaussNewtonIterationsThanTheLoaderAllows) {
   BaselineOptions o;
   o.gauss_newton_iterations = 101;

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <string>
 
 namespace swerve {
@@ -18,6 +19,7 @@ struct Sample {
   bool on = false;
   Eigen::Vector3d weights{1.0, 2.0, 3.0};
   std::string mode = "fast";
+  std::optional<double> height;
 
   static const OptionFields<Sample>& fields() {
     static const OptionFields<Sample> table{
@@ -27,6 +29,7 @@ struct Sample {
         {"on", &Sample::on},
         {"weights", &Sample::weights, Bound::non_negative()},
         {"mode", &Sample::mode, Bound::any(), {"fast", "exact"}, "method"},
+        {"height", &Sample::height, Bound::positive()},
     };
     return table;
   }
@@ -67,6 +70,12 @@ TEST(OptionReader, RejectsAValueOutsideTheTablesRuleNamingFileKeyAndValue) {
   EXPECT_NE(error_of("  gain: .nan\n").find("must be a finite number"), std::string::npos);
   // The table's name for it is not its YAML key: an unknown key.
   EXPECT_NE(error_of("  mode: exact\n").find("sample.mode"), std::string::npos);
+}
+
+TEST(OptionReader, SetsAnOptionalNumberOnlyWhenItsKeyIsPresent) {
+  EXPECT_FALSE(read("  gain: 1\n").height.has_value());
+  EXPECT_EQ(read("  height: 0.4\n").height, std::optional<double>(0.4));
+  EXPECT_EQ(error_of("  height: 0\n"), "s.yaml: sample.height = 0: must be > 0");
 }
 
 TEST(OptionReader, RefusesABlockThatIsNotAMap) {

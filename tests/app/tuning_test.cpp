@@ -367,6 +367,9 @@ TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsT
   std::stringstream text;
   text << in.rdbuf();
   EXPECT_EQ(text.str().rfind("# tuned for a test\n", 0), 0u) << text.str();
+  // Numbers as a user would write them (yaml-cpp wrote 0.3 as 0.29999999999999999).
+  EXPECT_NE(text.str().find("deadline_margin: 0.3\n"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("dt: 0.02\n"), std::string::npos) << text.str();
   const ControllerConfig tuned = load_controller_config_file(path);
   const ControllerConfig original = load_controller_config_file(base);
   EXPECT_EQ(tuned.mpc.horizon, 30);

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 
 namespace swerve {
@@ -19,6 +20,7 @@ struct Sample {
   bool on = true;
   Eigen::Vector3d weights{1.0, 2.0, 3.0};
   std::string mode = "fast";
+  std::optional<double> height;  // unset by default
 
   static const OptionFields<Sample>& fields() {
     static const OptionFields<Sample> table{
@@ -28,6 +30,7 @@ struct Sample {
         {"on", &Sample::on},
         {"weights", &Sample::weights, Bound::non_negative()},
         {"mode", &Sample::mode, Bound::any(), {"fast", "exact"}, "method"},
+        {"height", &Sample::height, Bound::positive(), {}, nullptr, "(m)"},
     };
     return table;
   }
@@ -73,6 +76,13 @@ TEST(OptionFields, RejectsNaNAndInfinityEvenWhereTheBoundIsOpenTowardsIt) {
   EXPECT_EQ(with([](Sample& s) { s.mass = kInf; }), "Sample.mass = inf: must be finite and > 0 (kg)");
   EXPECT_EQ(with([](Sample& s) { s.gain = std::nan(""); }), "Sample.gain = nan: must be in (0, 1]");
   EXPECT_EQ(with([](Sample& s) { s.weights.z() = kInf; }).rfind("Sample.weights = ", 0), 0u);
+}
+
+TEST(OptionFields, AnOptionalNumberIsCheckedOnlyWhenSet) {
+  EXPECT_EQ(with([](Sample& s) { s.height = std::nullopt; }), "accepted");
+  EXPECT_EQ(with([](Sample& s) { s.height = 0.4; }), "accepted");
+  EXPECT_EQ(with([](Sample& s) { s.height = 0.0; }), "Sample.height = 0: must be finite and > 0 (m)");
+  EXPECT_EQ(with([](Sample& s) { s.height = std::nan(""); }), "Sample.height = nan: must be finite and > 0 (m)");
 }
 
 TEST(OptionFields, ChecksTheFieldsInTheTablesOrder) {

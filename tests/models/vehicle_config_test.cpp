@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -186,6 +188,67 @@ TEST(VehicleConfig, TheLoaderAndValidateRejectTheSameValuesOfEveryVehicleTable) 
                                              [](VehicleParams& p, double PlantOptions::*m, double v) { p.plant.*m = v; });
   expect_loader_and_validate_reject_the_same(WearParams::fields(), "wear",
                                              [](VehicleParams& p, double WearParams::*m, double v) { p.wear.*m = v; });
+}
+
+// The tire's tables the same way: each channel rule in the lateral channel of the minimal file
+// and of a vehicle built in code, and the tire's own rules in its block.
+TEST(VehicleConfig, TheLoaderAndValidateRejectTheSameTireValues) {
+  const VehicleParams minimal = load_text(kMinimal);
+  for (const OptionField<MagicFormulaCoefficients>& field : MagicFormulaCoefficients::fields()) {
+    for (const double value : testing::values_just_outside(field.bound)) {
+      SCOPED_TRACE(std::string(field.name) + " = " + Bound::number(value));
+      VehicleParams params = minimal;
+      if (const auto* real = std::get_if<double MagicFormulaCoefficients::*>(&field.member)) {
+        params.tire.lateral.*(*real) = value;
+      } else if (const auto* maybe = std::get_if<std::optional<double> MagicFormulaCoefficients::*>(&field.member)) {
+        params.tire.lateral.*(*maybe) = value;
+      } else {
+        continue;
+      }
+      try {
+        params.validate();
+        ADD_FAILURE() << "validate() accepted it";
+      } catch (const ConfigError& e) {
+        EXPECT_NE(std::string(e.what()).find("MagicFormulaParams.lateral." + std::string(field.name) + " = "),
+                  std::string::npos)
+            << e.what();
+      }
+      std::map<std::string, std::string> keys{{"B", "12"}, {"C", "1.2"}};
+      keys[field.yaml_key()] = Bound::number(value);
+      std::string channel = "lateral: {";
+      for (const auto& [key, text] : keys) channel += (channel.back() == '{' ? "" : ", ") + key + ": " + text;
+      expect_error(with("lateral: {B: 12, C: 1.2}", channel + "}"),
+                   "vehicle.tire.lateral." + std::string(field.yaml_key()) + " = " + Bound::number(value));
+    }
+  }
+  for (const OptionField<MagicFormulaParams>& field : MagicFormulaParams::fields()) {
+    const auto* real = std::get_if<double MagicFormulaParams::*>(&field.member);
+    if (real == nullptr) continue;
+    for (const double value : testing::values_just_outside(field.bound)) {
+      SCOPED_TRACE(std::string(field.name) + " = " + Bound::number(value));
+      VehicleParams params = minimal;
+      params.tire.*(*real) = value;
+      EXPECT_THROW(params.validate(), ConfigError);
+      const std::string key = field.yaml_key();
+      const std::string entry = key + ": " + Bound::number(value);
+      expect_error(key == "mu" ? with("mu: 0.9", entry) : with("tire: {", "tire: {" + entry + ", "),
+                   "vehicle.tire." + key + " = " + Bound::number(value));
+    }
+  }
+}
+
+TEST(VehicleConfig, CogHeightIsCheckedByTheVehiclesTableWhenSet) {
+  VehicleParams params = load_text(kMinimal);
+  params.cog_height = -0.2;
+  try {
+    params.validate();
+    ADD_FAILURE() << "validate() accepted it";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("VehicleParams.cog_height = -0.2: must be finite and > 0"), std::string::npos)
+        << e.what();
+  }
+  expect_error(with("mass: 100", "mass: 100\n  cog_height: 0"), "vehicle.cog_height = 0: must be > 0");
+  EXPECT_DOUBLE_EQ(load_text(with("mass: 100", "mass: 100\n  cog_height: 0.4")).cog_height.value_or(0.0), 0.4);
 }
 
 }  // namespace

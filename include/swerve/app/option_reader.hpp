@@ -42,6 +42,8 @@ void read_fields(const ConfigNode& node, const OptionFields<Options>& fields, Op
     if (!node.has(key)) continue;
     if (const auto* real = std::get_if<double Options::*>(&field.member)) {
       options->*(*real) = node.get_double(key, field.bound);
+    } else if (const auto* maybe = std::get_if<std::optional<double> Options::*>(&field.member)) {
+      options->*(*maybe) = node.get_double(key, field.bound);
     } else if (const auto* whole = std::get_if<int Options::*>(&field.member)) {
       options->*(*whole) = node.get_int(key, detail::int_lower(field.bound), detail::int_upper(field.bound));
     } else if (const auto* flag = std::get_if<bool Options::*>(&field.member)) {

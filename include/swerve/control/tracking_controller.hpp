@@ -6,10 +6,22 @@
 
 #include <memory>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/ocp/solver.hpp"
 
 namespace swerve {
+
+// The sampling rule every controller's options share (ControllerOptions, BaselineOptions): a
+// horizon of 1 to kMaxHorizon steps of dt > 0 each. One table, so the two cannot drift apart.
+template <typename Options>
+const OptionFields<Options>& horizon_and_step_fields() {
+  static const OptionFields<Options> table{
+      {"horizon", &Options::horizon, Bound::closed(1, kMaxHorizon)},
+      {"dt", &Options::dt, Bound::positive()},
+  };
+  return table;
+}
 
 class Reference;
 

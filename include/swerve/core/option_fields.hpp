@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <variant>
@@ -67,8 +68,9 @@ struct Bound {
 // One field of Options: what validate() names it, where it is, and what it allows.
 template <typename Options>
 struct OptionField {
+  // std::optional<double>: a number that may be left unset (checked only when set).
   using Member = std::variant<double Options::*, int Options::*, bool Options::*, Eigen::Vector3d Options::*,
-                              std::string Options::*>;
+                              std::string Options::*, std::optional<double> Options::*>;
   const char* name;                   // the member's name, as validate()'s messages say it
   Member member;
   Bound bound = Bound::any();         // numbers (every entry of a vector, finite); unused otherwise
@@ -108,6 +110,11 @@ void check_fields(const char* owner, const Options& options, const OptionFields<
       const double value = options.*(*real);
       if (!std::isfinite(value) || !field.bound.contains(value)) {
         throw_invalid_field(owner, field.name, value, detail::with_note(field.bound.describe_finite(), field.note));
+      }
+    } else if (const auto* maybe = std::get_if<std::optional<double> Options::*>(&field.member)) {
+      const std::optional<double>& value = options.*(*maybe);
+      if (value && (!std::isfinite(*value) || !field.bound.contains(*value))) {
+        throw_invalid_field(owner, field.name, *value, detail::with_note(field.bound.describe_finite(), field.note));
       }
     } else if (const auto* whole = std::get_if<int Options::*>(&field.member)) {
       const int value = options.*(*whole);

@@ -5,8 +5,9 @@
 
 #include <cmath>
 #include <optional>
-
 #include <string>
+
+#include "swerve/core/option_fields.hpp"
 
 namespace swerve {
 
@@ -40,6 +41,10 @@ struct MagicFormulaCoefficients {
   // This channel's own peak friction coefficient (Pacejka's mu_x or mu_y, D = mu Fz), e.g. for a
   // tread that grips differently along and across; unset: MagicFormulaParams::mu.
   std::optional<double> mu{};  // (braced, so {B, C, E} aggregate initialisation stays warning-free)
+
+  // The rules (YAML keys B, C, E, mu), read by the loader too; MagicFormulaParams::validate()
+  // checks each channel by them.
+  static const OptionFields<MagicFormulaCoefficients>& fields();
 };
 
 struct MagicFormulaParams {
@@ -57,8 +62,10 @@ struct MagicFormulaParams {
   double mu_longitudinal() const { return longitudinal.mu.value_or(mu); }
   double mu_lateral() const { return lateral.mu.value_or(mu); }
 
+  // The rules of mu, slip_speed_epsilon and smooth_slip (the loader reads them from the same table).
+  static const OptionFields<MagicFormulaParams>& fields();
   // Throws ConfigError naming the field, its value and the rule ("MagicFormulaParams.mu = 0: must
-  // be finite and > 0").
+  // be finite and > 0", "MagicFormulaParams.lateral.C = 2: must be in (0, 2) ...").
   void validate() const;
 };
 

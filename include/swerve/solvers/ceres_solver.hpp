@@ -42,9 +42,26 @@ struct CeresOptions {
   double parameter_tolerance = 1e-10;      // relative step size
   std::string linear_solver = "dense_qr";  // dense_qr | dense_normal_cholesky
   double step_penalty_weight = 1e4;        // on violations of the per-step change bounds
-  static const OptionFields<CeresOptions>& fields();  // the rules, read by the YAML loader too
+  // The rules, read by the YAML loader too; defined in this header, so a build without the Ceres
+  // backend (the arm64 cross build) still loads and checks a `ceres:` block.
+  static const OptionFields<CeresOptions>& fields();
   void validate() const;                   // ConfigError naming the field and value
 };
+
+inline const OptionFields<CeresOptions>& CeresOptions::fields() {
+  // Ceres itself takes tolerances >= 0 (0: that test off).
+  static const OptionFields<CeresOptions> table{
+      {"max_iterations", &CeresOptions::max_iterations, Bound::at_least(1)},
+      {"function_tolerance", &CeresOptions::function_tolerance, Bound::non_negative()},
+      {"gradient_tolerance", &CeresOptions::gradient_tolerance, Bound::non_negative()},
+      {"parameter_tolerance", &CeresOptions::parameter_tolerance, Bound::non_negative()},
+      {"linear_solver", &CeresOptions::linear_solver, Bound::any(), {"dense_qr", "dense_normal_cholesky"}},
+      {"step_penalty_weight", &CeresOptions::step_penalty_weight, Bound::non_negative()},
+  };
+  return table;
+}
+
+inline void CeresOptions::validate() const { check_fields("CeresOptions", *this, fields()); }
 
 class CeresSolver final : public Solver {
  public:

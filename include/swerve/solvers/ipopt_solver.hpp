@@ -57,9 +57,33 @@ struct IpoptOptions {
   // lower than its model). An exact-Hessian iteration that would still end late is abandoned
   // between stages of its Hessian and the last iterate returned.
   double startup_estimate = 0.0;
-  static const OptionFields<IpoptOptions>& fields();  // the rules, read by the YAML loader too
+  // The rules, read by the YAML loader too; defined in this header, so a build without the Ipopt
+  // backend (the arm64 cross build: no arm64 Ipopt) still loads and checks an `ipopt:` block.
+  static const OptionFields<IpoptOptions>& fields();
   void validate() const;           // ConfigError naming the field and value
 };
+
+inline const OptionFields<IpoptOptions>& IpoptOptions::fields() {
+  static const OptionFields<IpoptOptions> table{
+      {"tol", &IpoptOptions::tol, Bound::positive()},
+      {"constr_viol_tol", &IpoptOptions::constr_viol_tol, Bound::positive()},
+      {"acceptable_tol", &IpoptOptions::acceptable_tol, Bound::positive()},
+      {"max_iterations", &IpoptOptions::max_iterations, Bound::at_least(1)},
+      {"mu_strategy", &IpoptOptions::mu_strategy, Bound::any(), {"adaptive", "monotone"}},
+      {"linear_solver", &IpoptOptions::linear_solver, Bound::any(), {"mumps"}, nullptr,
+       "(the only linear solver Debian's Ipopt 3.11 is built with)"},
+      {"print_level", &IpoptOptions::print_level, Bound::closed(0, 12)},
+      {"hessian", &IpoptOptions::hessian, Bound::any(), {"exact", "limited-memory"}},
+      {"lbfgs_history", &IpoptOptions::lbfgs_history, Bound::closed(1, 100)},
+      {"warm_start", &IpoptOptions::warm_start},
+      {"warm_start_multipliers", &IpoptOptions::warm_start_multipliers},
+      {"warm_mu_init", &IpoptOptions::warm_mu_init, Bound::positive()},
+      {"startup_estimate", &IpoptOptions::startup_estimate, Bound::non_negative()},
+  };
+  return table;
+}
+
+inline void IpoptOptions::validate() const { check_fields("IpoptOptions", *this, fields()); }
 
 class IpoptSolver final : public Solver {
  public:
