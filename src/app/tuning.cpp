@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "swerve/app/scenario_runner.hpp"
+#include "swerve/solvers/solver_factory.hpp"
 
 namespace swerve {
 namespace {
@@ -91,6 +92,15 @@ void QualityTuningOptions::validate() const {
   require_each_in_range("QualityTuningOptions", "horizons", horizons, kMaxHorizon);
   require_each_in_range("QualityTuningOptions", "knots", knots, kMaxHorizon);
   if (seeds.size() > 100) throw_invalid_field("QualityTuningOptions", "seeds.size()", seeds.size(), "must be <= 100");
+  const std::vector<std::string>& built = built_backends();
+  for (const std::string& backend : backends) {
+    if (std::find(built.begin(), built.end(), backend) == built.end()) {
+      std::string listing;
+      for (const std::string& name : built) listing += (listing.empty() ? "" : ", ") + name;
+      throw ConfigError("QualityTuningOptions: backends[] = '" + backend + "': not a backend of this build (built: " +
+                        listing + ")");
+    }
+  }
   // The controller's own rule for deadline_margin, from its table.
   Bound margin_rule;
   for (const OptionField<ControllerOptions>& field : ControllerOptions::timing_fields()) {
@@ -241,7 +251,8 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     ScenarioController entry{"wear_mpc", "", controller};
     entry.config.set_sampling(candidate.horizon, period);
     entry.config.mpc.solve_budget = result.budget_here_s;
-    entry.config.solver.sa.knots = candidate.knots;
+    entry.config.solver.backend = candidate.backend;
+    if (candidate.backend == "sa") entry.config.solver.sa.knots = candidate.knots;
     entry.config.mpc.deadline_margin = candidate.deadline_margin;
     ScenarioScore s;
     s.scenario = scenarios[index].name;
@@ -277,11 +288,13 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   };
 
   // Round 1: every candidate on the first scenario; the controller's own setting is one of them.
-  const auto add = [&](int horizon, int knots, double margin) {
-    const TuningCandidate candidate{horizon, std::min(knots, horizon), margin};
+  // Knots are the sa backend's alone: the others' candidates carry 0.
+  const auto add = [&](const std::string& backend, int horizon, int knots, double margin) {
+    const TuningCandidate candidate{horizon, backend == "sa" ? std::min(knots, horizon) : 0, margin, backend};
     for (std::size_t i = 0; i < result.candidates.size(); ++i) {
       const TuningCandidate& c = result.candidates[i].candidate;
-      if (c.horizon == candidate.horizon && c.knots == candidate.knots && c.deadline_margin == candidate.deadline_margin) {
+      if (c.backend == candidate.backend && c.horizon == candidate.horizon && c.knots == candidate.knots &&
+          c.deadline_margin == candidate.deadline_margin) {
         return static_cast<int>(i);
       }
     }
@@ -292,13 +305,19 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   };
   const std::vector<double> margins =
       options.deadline_margins.empty() ? std::vector<double>{controller.mpc.deadline_margin} : options.deadline_margins;
-  for (const int horizon : options.horizons) {
-    for (const int knots : options.knots) {
-      for (const double margin : margins) add(horizon, knots, margin);
+  const std::vector<std::string> backends =
+      options.backends.empty() ? std::vector<std::string>{controller.solver.backend} : options.backends;
+  for (const std::string& backend : backends) {
+    for (const int horizon : options.horizons) {
+      const std::vector<int> knot_counts = backend == "sa" ? options.knots : std::vector<int>{0};
+      for (const int knots : knot_counts) {
+        for (const double margin : margins) add(backend, horizon, knots, margin);
+      }
     }
   }
   const int knots_given = controller.solver.sa.knots > 0 ? controller.solver.sa.knots : controller.mpc.horizon;
-  result.incumbent = add(controller.mpc.horizon, knots_given, controller.mpc.deadline_margin);
+  result.incumbent =
+      add(controller.solver.backend, controller.mpc.horizon, knots_given, controller.mpc.deadline_margin);
   const int total = static_cast<int>(result.candidates.size());
   for (int i = 0; i < total; ++i) {
     CandidateScore& score = result.candidates[static_cast<std::size_t>(i)];
@@ -374,7 +393,8 @@ void write_tuned_controller(const std::string& base_file, const TuningCandidate&
   controller["horizon"] = candidate.horizon;
   controller["dt"] = shortest_number(target.control_period);
   controller["solve_budget"] = shortest_number(target.solve_budget);
-  controller["solver"]["sa"]["knots"] = candidate.knots;
+  controller["solver"]["backend"] = candidate.backend;
+  if (candidate.backend == "sa") controller["solver"]["sa"]["knots"] = candidate.knots;
   controller["deadline_margin"] = shortest_number(candidate.deadline_margin);
   controller["description"] = "wear-aware MPC tuned for " + target.name + " (swerve-mpc tune)";
   YAML::Emitter emitter;

@@ -1,5 +1,5 @@
 // `swerve-mpc tune`: tunes the wear-aware controller for an embedded target (swerve/app/tuning.hpp).
-// With --scenarios: by closed-loop quality against the kinematic baseline (horizon and SA knots),
+// With --scenarios: by closed-loop quality against the kinematic baseline (backend, horizon, SA knots),
 // printing every candidate and the winner, and writing its YAML (--write). Without: sizing only,
 // the optimiser proposals per solve at each horizon.
 #include <unistd.h>
@@ -31,6 +31,7 @@ struct TuneArguments {
   TuningOptions options;
   std::vector<std::string> scenario_files;  // quality mode when given
   std::vector<int> knots{3, 6};
+  std::vector<std::string> backends;        // quality; empty: the controller file's own
   std::vector<double> margins;              // deadline margins (quality); empty: the file's own
   std::vector<std::uint64_t> seeds;         // simulator seeds (quality); empty: each scenario's own
   std::string write_file;                   // the winner's controller YAML
@@ -59,6 +60,13 @@ void check_write_file(const std::string& path, bool force) {
   }
 }
 
+// "sa, horizon 10, 3 knots" / "nlopt, horizon 10": knots are the sa backend's alone.
+std::string describe(const TuningCandidate& c) {
+  std::string text = c.backend + ", horizon " + std::to_string(c.horizon);
+  if (c.backend == "sa") text += ", " + std::to_string(c.knots) + " knots";
+  return text;
+}
+
 nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& target) {
   nlohmann::json rows = nlohmann::json::array();
   for (const CandidateScore& c : result.candidates) {
@@ -72,7 +80,7 @@ nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& ta
                            {"unconfirmed_misses", s.unconfirmed_misses}, {"fallbacks", s.fallbacks},
                            {"acceptable", s.acceptable()}});
     }
-    rows.push_back({{"horizon", c.candidate.horizon}, {"knots", c.candidate.knots},
+    rows.push_back({{"backend", c.candidate.backend}, {"horizon", c.candidate.horizon}, {"knots", c.candidate.knots},
                     {"deadline_margin", c.candidate.deadline_margin}, {"finalist", c.finalist},
                     {"geomean_wear_ratio", c.geomean_wear_ratio}, {"unacceptable", c.unacceptable},
                     {"scenarios", scenarios}});
@@ -94,6 +102,7 @@ int tune_by_quality_command(const TuneArguments& a) {
   QualityTuningOptions options;
   options.horizons = a.horizons_given ? a.options.horizons : std::vector<int>{10, 15, 20, 30};
   options.knots = a.knots;
+  options.backends = a.backends;
   options.deadline_margins = a.margins;
   options.seeds = a.seeds;
   std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
@@ -115,12 +124,17 @@ int tune_by_quality_command(const TuneArguments& a) {
   for (const std::string& file : a.scenario_files) scenarios.push_back(load_scenario_config_file(file));
   const ControllerConfig controller = load_controller_config_file(a.controller_file);
   const TargetConfig target = load_target_config_file(a.target_file);
+  std::size_t candidates = 0;  // as tune_by_quality makes them, before the controller's own is added
+  const std::vector<std::string> backends =
+      options.backends.empty() ? std::vector<std::string>{controller.solver.backend} : options.backends;
+  for (const std::string& backend : backends) {
+    candidates += options.horizons.size() * (backend == "sa" ? options.knots.size() : 1) *
+                  std::max<std::size_t>(1, options.deadline_margins.size());
+  }
   std::printf("tune: controller %s, target %s: %.0f ms of every %.0f ms cycle at %.2fx this machine's time "
               "(%.2f ms here), %zu candidates on %zu scenarios\n",
               controller.name.c_str(), target.name.c_str(), 1e3 * target.solve_budget, 1e3 * target.control_period,
-              target.cpu_slowdown, 1e3 * target.solve_budget / target.cpu_slowdown,
-              options.horizons.size() * options.knots.size() * std::max<std::size_t>(1, options.deadline_margins.size()),
-              scenarios.size());
+              target.cpu_slowdown, 1e3 * target.solve_budget / target.cpu_slowdown, candidates, scenarios.size());
   if (!options.seeds.empty()) std::printf("each on %zu seeds: medians per scenario\n", options.seeds.size());
   if (work_clock) std::printf("%s\n", work_clock_notice(a.work_clock).c_str());
   std::fflush(stdout);
@@ -133,12 +147,14 @@ int tune_by_quality_command(const TuneArguments& a) {
         std::fflush(stderr);
       });
   // One row per candidate: per scenario wear ratio and RMSE ratio, then the summary.
-  std::printf("%7s %5s %6s", "horizon", "knots", "margin");
+  std::printf("%7s %7s %5s %6s", "backend", "horizon", "knots", "margin");
   for (const ScenarioConfig& s : scenarios) std::printf("  %-22.22s", s.name.c_str());
   std::printf(" %10s %8s %6s %14s\n", "geo. wear", "misses", "once", "unacceptable");
   for (std::size_t i = 0; i < result.candidates.size(); ++i) {
     const CandidateScore& c = result.candidates[i];
-    std::printf("%7d %5d %6.2f", c.candidate.horizon, c.candidate.knots, c.candidate.deadline_margin);
+    std::printf("%7s %7d %5s %6.2f", c.candidate.backend.c_str(), c.candidate.horizon,
+                c.candidate.backend == "sa" ? std::to_string(c.candidate.knots).c_str() : "-",
+                c.candidate.deadline_margin);
     int misses = 0;
     int once = 0;  // misses that did not recur when their run was repeated (not counted)
     for (std::size_t k = 0; k < scenarios.size(); ++k) {
@@ -167,8 +183,8 @@ int tune_by_quality_command(const TuneArguments& a) {
   const auto write = [&](const CandidateScore& chosen, const std::string& how) {
     std::ostringstream header;
     header << "# Tuned by `swerve-mpc tune` for target " << target.name << " (" << target.description
-           << ") from " << a.controller_file << ":\n# horizon " << chosen.candidate.horizon << ", dt "
-           << target.control_period << " s, SA knots " << chosen.candidate.knots << ", deadline margin "
+           << ") from " << a.controller_file << ":\n# backend " << describe(chosen.candidate) << ", dt "
+           << target.control_period << " s, deadline margin "
            << chosen.candidate.deadline_margin << ", solve budget " << target.solve_budget
            << " s; geometric-mean wear " << chosen.geomean_wear_ratio << " of the kinematic baseline's on";
     for (const ScenarioScore& s : chosen.scenarios) header << " " << s.scenario;
@@ -178,8 +194,8 @@ int tune_by_quality_command(const TuneArguments& a) {
       header << ")";
     }
     const CandidateScore& own = result.candidates[static_cast<std::size_t>(result.incumbent)];
-    header << "\n# (the controller file's own horizon " << own.candidate.horizon << " and "
-           << own.candidate.knots << " knots: " << own.geomean_wear_ratio << "), at " << target.cpu_slowdown
+    header << "\n# (the controller file's own " << describe(own.candidate) << ": " << own.geomean_wear_ratio
+           << "), at " << target.cpu_slowdown
            << "x this machine's time.\n# Rule: " << how << ".\n";
     for (const ScenarioScore& s : chosen.scenarios) {
       if (s.acceptable()) continue;
@@ -195,7 +211,7 @@ int tune_by_quality_command(const TuneArguments& a) {
     std::printf(
         "no candidate kept the baseline's tracking without a deadline miss on every scenario: raise the "
         "budget, "
-        "or try other horizons and knots\n");
+        "or try other backends, horizons and knots\n");
     if (result.closest < 0) {
       std::printf("and every candidate missed a deadline on some scenario: nothing fits the budget\n");
       return kExitFailure;
@@ -206,9 +222,9 @@ int tune_by_quality_command(const TuneArguments& a) {
       if (s.tracking_excess() > worst->tracking_excess()) worst = &s;
     }
     std::printf(
-        "closest: horizon %d, %d SA knots, deadline margin %.2f (worst: %s at %.2fx its RMSE bound)\n"
+        "closest: %s, deadline margin %.2f (worst: %s at %.2fx its RMSE bound)\n"
         "closest rule: %s\n",
-        closest.candidate.horizon, closest.candidate.knots, closest.candidate.deadline_margin,
+        describe(closest.candidate).c_str(), closest.candidate.deadline_margin,
         worst->scenario.c_str(), worst->tracking_excess(), QualityTuningResult::closest_rule());
     if (a.write_file.empty()) return kExitFailure;
     if (!a.accept_tracking_loss) {
@@ -222,10 +238,10 @@ int tune_by_quality_command(const TuneArguments& a) {
   }
   const CandidateScore& best = result.candidates[static_cast<std::size_t>(result.best)];
   std::printf(
-      "best: horizon %d (%.2f s of lookahead at %.0f ms), %d SA knots, deadline margin %.2f: geometric-mean "
+      "best: %s (%.2f s of lookahead at %.0f ms), deadline margin %.2f: geometric-mean "
       "wear %.3f of the baseline's\n",
-      best.candidate.horizon, best.candidate.horizon * target.control_period, 1e3 * target.control_period,
-      best.candidate.knots, best.candidate.deadline_margin, best.geomean_wear_ratio);
+      describe(best.candidate).c_str(), best.candidate.horizon * target.control_period, 1e3 * target.control_period,
+      best.candidate.deadline_margin, best.geomean_wear_ratio);
   if (!a.write_file.empty()) write(best, QualityTuningResult::rule());
   return kExitOk;
 }
@@ -287,6 +303,10 @@ Command make_tune_command() {
             app.add_option("--knots", a->knots, "Candidate SA knot counts (quality), comma-separated")
                 ->delimiter(',')
                 ->capture_default_str();
+            app.add_option("--backends", a->backends,
+                           "Candidate solver backends (quality; sa at every knot count, the others once per "
+                           "horizon and margin), comma-separated [the controller file's own]")
+                ->delimiter(',');
             app.add_option("--margins", a->margins,
                            "Candidate deadline margins (quality; share of the budget kept free), comma-separated "
                            "[the controller file's own]")

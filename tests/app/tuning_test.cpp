@@ -160,6 +160,34 @@ TEST(TuneByQuality, RunsEveryCandidateOnTheFirstScenarioThenTheBetterHalfAndTheI
   EXPECT_GE(finalists, 2);                     // the better half of three, and the incumbent
 }
 
+// The backend is a dimension of the search (issue 19): sa at every knot count, another backend once
+// per horizon (its candidates carry 0 knots), each run with its own backend.
+TEST(TuneByQuality, TriesSaAtEveryKnotCountAndAnotherBackendOncePerHorizon) {
+  QualityFixture f;
+  f.options.horizons = {5};
+  f.options.knots = {2, 3};
+  f.options.backends = {"sa", "nlopt"};
+  const QualityTuningResult result = tune_by_quality(f.controller, f.target, f.scenarios, f.options);
+  // (sa, 5, 2), (sa, 5, 3), (nlopt, 5), and the controller file's own (sa, 20, 3).
+  ASSERT_EQ(result.candidates.size(), 4u);
+  const TuningCandidate& nlopt = result.candidates[2].candidate;
+  EXPECT_EQ(result.candidates[0].candidate.backend, "sa");
+  EXPECT_EQ(result.candidates[0].candidate.knots, 2);
+  EXPECT_EQ(result.candidates[1].candidate.knots, 3);
+  EXPECT_EQ(nlopt.backend, "nlopt");
+  EXPECT_EQ(nlopt.horizon, 5);
+  EXPECT_EQ(nlopt.knots, 0);
+  EXPECT_EQ(result.incumbent, 3);
+  EXPECT_EQ(result.candidates[3].candidate.backend, f.controller.solver.backend);
+  // On the work clock every run is repeatable: had the backend not been set, the nlopt candidate
+  // would have run SA at the file's 3 knots and scored exactly as (sa, 5, 3).
+  ASSERT_EQ(f.controller.solver.sa.knots, 3);
+  ASSERT_FALSE(result.candidates[2].scenarios.empty());
+  ASSERT_FALSE(result.candidates[1].scenarios.empty());
+  EXPECT_NE(result.candidates[2].scenarios.front().wear_ratio, result.candidates[1].scenarios.front().wear_ratio);
+  EXPECT_TRUE(result.candidates[2].scenarios.front().completed);
+}
+
 TEST(TuneByQuality, ChoosesTheLeastWearAmongFinalistsAcceptableOnEveryScenario) {
   QualityFixture f;
   const QualityTuningResult result = tune_by_quality(f.controller, f.target, f.scenarios, f.options);
@@ -384,6 +412,23 @@ TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsT
   std::remove(path.c_str());
 }
 
+TEST(TuneByQuality, WritesAnotherBackendsWinnerWithItsBackendAndLeavesTheSaKnotsAlone) {
+  const std::string base = config_file("controllers/default.yaml");
+  const std::string path = ::testing::TempDir() + "tuned_nlopt_controller.yaml";
+  TargetConfig target;
+  target.name = "test";
+  target.control_period = 0.05;
+  target.solve_budget = 0.02;
+  write_tuned_controller(base, TuningCandidate{15, 0, 0.2, "nlopt"}, target, "# tuned for a test\n", path);
+  const ControllerConfig tuned = load_controller_config_file(path);
+  const ControllerConfig original = load_controller_config_file(base);
+  EXPECT_EQ(tuned.solver.backend, "nlopt");
+  EXPECT_EQ(tuned.mpc.horizon, 15);
+  EXPECT_EQ(tuned.solver.sa.knots, original.solver.sa.knots);
+  EXPECT_EQ(tuned.solver.nlopt.algorithm, original.solver.nlopt.algorithm);
+  std::remove(path.c_str());
+}
+
 TEST(TuneByQuality, RejectsAScenarioWithoutABaselineAndBadOptionsNamingThem) {
   QualityFixture f;
   std::vector<ScenarioConfig> without = {f.scenarios.front()};
@@ -403,6 +448,15 @@ TEST(TuneByQuality, RejectsAScenarioWithoutABaselineAndBadOptionsNamingThem) {
     FAIL() << "accepted 0 knots";
   } catch (const ConfigError& error) {
     EXPECT_NE(std::string(error.what()).find("knots[] = 0"), std::string::npos) << error.what();
+  }
+  bad = f.options;
+  bad.backends = {"sa", "simplex"};
+  try {
+    tune_by_quality(f.controller, f.target, f.scenarios, bad);
+    FAIL() << "accepted a backend that does not exist";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("backends[] = 'simplex'"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("built: sa"), std::string::npos) << error.what();
   }
   bad = f.options;
   bad.deadline_margins = {0.15, 0.6};

@@ -1,9 +1,10 @@
 // Tuning the wear-aware controller for an embedded target, in two parts. Sizing (tune_horizon):
 // per candidate horizon, how many optimiser proposals fit in a solve at the target's budget
 // translated to this machine (budget / cpu_slowdown); SA always spends its whole budget, so solve
-// time alone says nothing. Quality (tune_by_quality): candidates (horizon, SA knots) run the given
-// scenarios in closed loop at that budget against the kinematic baseline, and the winner is the
-// least wear that keeps the baseline's tracking and misses no deadline (issue 19).
+// time alone says nothing. Quality (tune_by_quality): candidates (backend, horizon, SA knots,
+// deadline margin) run the given scenarios in closed loop at that budget against the kinematic
+// baseline, and the winner is the least wear that keeps the baseline's tracking and misses no
+// deadline (issue 19).
 #pragma once
 
 #include <cstdint>
@@ -52,14 +53,18 @@ TuningResult tune_horizon(const VehicleParams& vehicle, const ControllerConfig& 
 
 struct TuningCandidate {
   int horizon = 20;              // steps of the target's control period
-  int knots = 3;                 // SA move-blocking knots
+  int knots = 3;                 // SA move-blocking knots (backend sa); 0 for the other backends
   double deadline_margin = 0.15; // share of the budget kept free for the OS and the step's own variation
+  std::string backend = "sa";    // controller.solver.backend
 };
 
 struct QualityTuningOptions {
   std::vector<int> horizons{10, 15, 20, 30};
-  std::vector<int> knots{3, 6};
+  std::vector<int> knots{3, 6};           // for the sa backend
   std::vector<double> deadline_margins;  // empty: the controller's own only
+  // Backends to try, each a built one (built_backends()); empty: the controller's own only. The
+  // sa backend is tried at every knot count, the others once per horizon and margin.
+  std::vector<std::string> backends;
   std::vector<std::uint64_t> seeds;      // simulator seeds per scenario (medians over them); empty: the scenario's
   const Clock* clock = nullptr;  // the controllers' clock (nullptr: the steady clock; tests inject one)
   void validate() const;         // ConfigError naming the field and value
@@ -118,8 +123,8 @@ int closest_candidate(const std::vector<CandidateScore>& candidates, std::size_t
 using TuningProgress = std::function<void(int, int, int)>;
 
 // Every scenario needs a kinematic_baseline controller; `controller` is the wear_mpc config whose
-// horizon, step (the target's control period), budget (translated), SA knots and deadline margin are
-// varied; its own horizon, knots and margin are a candidate too (the incumbent). Round 1 runs every candidate on the first
+// backend, horizon, step (the target's control period), budget (translated), SA knots and deadline
+// margin are varied; its own backend, horizon, knots and margin are a candidate too (the incumbent). Round 1 runs every candidate on the first
 // scenario; round 2 runs the better half (fewest unacceptable runs, then least wear) and the
 // incumbent on all; only if none of those is acceptable everywhere, round 3 runs the rest on all,
 // in round 1's order, until one is. Scenarios run at the target's control period.
@@ -127,8 +132,9 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
                                     const std::vector<ScenarioConfig>& scenarios, const QualityTuningOptions& options,
                                     const TuningProgress& progress = {});
 
-// Writes `base_file` (a controller YAML) with the candidate's horizon, dt (the target's control
-// period), solve budget (the target's), SA knots and deadline margin to `path`, headed by `header` (comment lines),
+// Writes `base_file` (a controller YAML) with the candidate's backend, horizon, dt (the target's
+// control period), solve budget (the target's), SA knots (backend sa) and deadline margin to `path`,
+// headed by `header` (comment lines),
 // and loads it back to check it. Throws ConfigError / std::runtime_error naming the file.
 void write_tuned_controller(const std::string& base_file, const TuningCandidate& candidate, const TargetConfig& target,
                             const std::string& header, const std::string& path);
