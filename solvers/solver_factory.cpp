@@ -5,15 +5,6 @@
 #include "swerve/core/config_error.hpp"
 
 namespace swerve {
-namespace {
-
-std::string built_list() {
-  std::string list;
-  for (const std::string& name : built_backends()) list += (list.empty() ? "" : ", ") + name;
-  return list;
-}
-
-}  // namespace
 
 const std::vector<std::string>& built_backends() {
   static const std::vector<std::string> backends = {"sa", "nlopt"
@@ -29,10 +20,16 @@ const std::vector<std::string>& built_backends() {
   return backends;
 }
 
+std::string built_backends_text() {
+  std::string list;
+  for (const std::string& name : built_backends()) list += (list.empty() ? "" : ", ") + name;
+  return list;
+}
+
 void SolverConfig::validate() const {
   const auto& built = built_backends();
   if (std::find(built.begin(), built.end(), backend) == built.end()) {
-    throw ConfigError("controller.solver.backend: '" + backend + "' was not built (built: " + built_list() + ")");
+    throw ConfigError("controller.solver.backend: '" + backend + "' was not built (built: " + built_backends_text() + ")");
   }
   if (backend == "sa") sa.validate();
   if (backend == "nlopt") nlopt.validate();

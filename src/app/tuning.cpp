@@ -95,10 +95,8 @@ void QualityTuningOptions::validate() const {
   const std::vector<std::string>& built = built_backends();
   for (const std::string& backend : backends) {
     if (std::find(built.begin(), built.end(), backend) == built.end()) {
-      std::string listing;
-      for (const std::string& name : built) listing += (listing.empty() ? "" : ", ") + name;
       throw ConfigError("QualityTuningOptions: backends[] = '" + backend + "': not a backend of this build (built: " +
-                        listing + ")");
+                        built_backends_text() + ")");
     }
   }
   // The controller's own rule for deadline_margin, from its table.

@@ -59,9 +59,7 @@ const CLI::Validator kBackendRule(
     [](std::string& name) -> std::string {
       const std::vector<std::string>& built = built_backends();
       if (std::find(built.begin(), built.end(), name) != built.end()) return "";
-      std::string listing;
-      for (const std::string& b : built) listing += (listing.empty() ? "" : ", ") + b;
-      return "'" + printable_value(name) + "' was not built (built: " + listing + ")";
+      return "'" + printable_value(name) + "' was not built (built: " + built_backends_text() + ")";
     },
     "BACKEND");
 

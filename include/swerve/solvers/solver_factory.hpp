@@ -26,6 +26,8 @@ struct SolverConfig {
 
 // Backends compiled into this build, in a stable order ("sa", ...).
 const std::vector<std::string>& built_backends();
+// The same, as messages list them: "sa, nlopt, ipopt, ceres".
+std::string built_backends_text();
 
 // Throws ConfigError ("controller.solver.backend: 'ipopt' was not built (built: sa)").
 std::unique_ptr<Solver> make_solver(const SolverConfig& config, const OcpProblem& problem);
