@@ -204,6 +204,38 @@ bool better(const CandidateScore& a, const CandidateScore& b) {
 
 }  // namespace
 
+QualityCandidates quality_candidates(const ControllerConfig& controller, const QualityTuningOptions& options) {
+  QualityCandidates out;
+  // Knots are the sa backend's alone: the others' candidates carry 0.
+  const auto add = [&](const std::string& backend, int horizon, int knots, double margin) {
+    const TuningCandidate candidate{horizon, backend == "sa" ? std::min(knots, horizon) : 0, margin, backend};
+    for (std::size_t i = 0; i < out.candidates.size(); ++i) {
+      const TuningCandidate& c = out.candidates[i];
+      if (c.backend == candidate.backend && c.horizon == candidate.horizon && c.knots == candidate.knots &&
+          c.deadline_margin == candidate.deadline_margin) {
+        return static_cast<int>(i);
+      }
+    }
+    out.candidates.push_back(candidate);
+    return static_cast<int>(out.candidates.size()) - 1;
+  };
+  const std::vector<double> margins =
+      options.deadline_margins.empty() ? std::vector<double>{controller.mpc.deadline_margin} : options.deadline_margins;
+  const std::vector<std::string> backends =
+      options.backends.empty() ? std::vector<std::string>{controller.solver.backend} : options.backends;
+  for (const std::string& backend : backends) {
+    for (const int horizon : options.horizons) {
+      const std::vector<int> knot_counts = backend == "sa" ? options.knots : std::vector<int>{0};
+      for (const int knots : knot_counts) {
+        for (const double margin : margins) add(backend, horizon, knots, margin);
+      }
+    }
+  }
+  const int knots_given = controller.solver.sa.knots > 0 ? controller.solver.sa.knots : controller.mpc.horizon;
+  out.incumbent = add(controller.solver.backend, controller.mpc.horizon, knots_given, controller.mpc.deadline_margin);
+  return out;
+}
+
 QualityTuningResult tune_by_quality(const ControllerConfig& controller, const TargetConfig& target,
                                     const std::vector<ScenarioConfig>& scenarios, const QualityTuningOptions& options,
                                     const TuningProgress& progress) {
@@ -286,36 +318,13 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   };
 
   // Round 1: every candidate on the first scenario; the controller's own setting is one of them.
-  // Knots are the sa backend's alone: the others' candidates carry 0.
-  const auto add = [&](const std::string& backend, int horizon, int knots, double margin) {
-    const TuningCandidate candidate{horizon, backend == "sa" ? std::min(knots, horizon) : 0, margin, backend};
-    for (std::size_t i = 0; i < result.candidates.size(); ++i) {
-      const TuningCandidate& c = result.candidates[i].candidate;
-      if (c.backend == candidate.backend && c.horizon == candidate.horizon && c.knots == candidate.knots &&
-          c.deadline_margin == candidate.deadline_margin) {
-        return static_cast<int>(i);
-      }
-    }
+  const QualityCandidates listed = quality_candidates(controller, options);
+  for (const TuningCandidate& candidate : listed.candidates) {
     CandidateScore score;
     score.candidate = candidate;
     result.candidates.push_back(score);
-    return static_cast<int>(result.candidates.size()) - 1;
-  };
-  const std::vector<double> margins =
-      options.deadline_margins.empty() ? std::vector<double>{controller.mpc.deadline_margin} : options.deadline_margins;
-  const std::vector<std::string> backends =
-      options.backends.empty() ? std::vector<std::string>{controller.solver.backend} : options.backends;
-  for (const std::string& backend : backends) {
-    for (const int horizon : options.horizons) {
-      const std::vector<int> knot_counts = backend == "sa" ? options.knots : std::vector<int>{0};
-      for (const int knots : knot_counts) {
-        for (const double margin : margins) add(backend, horizon, knots, margin);
-      }
-    }
   }
-  const int knots_given = controller.solver.sa.knots > 0 ? controller.solver.sa.knots : controller.mpc.horizon;
-  result.incumbent =
-      add(controller.solver.backend, controller.mpc.horizon, knots_given, controller.mpc.deadline_margin);
+  result.incumbent = listed.incumbent;
   const int total = static_cast<int>(result.candidates.size());
   for (int i = 0; i < total; ++i) {
     CandidateScore& score = result.candidates[static_cast<std::size_t>(i)];

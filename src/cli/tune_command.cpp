@@ -124,13 +124,7 @@ int tune_by_quality_command(const TuneArguments& a) {
   for (const std::string& file : a.scenario_files) scenarios.push_back(load_scenario_config_file(file));
   const ControllerConfig controller = load_controller_config_file(a.controller_file);
   const TargetConfig target = load_target_config_file(a.target_file);
-  std::size_t candidates = 0;  // as tune_by_quality makes them, before the controller's own is added
-  const std::vector<std::string> backends =
-      options.backends.empty() ? std::vector<std::string>{controller.solver.backend} : options.backends;
-  for (const std::string& backend : backends) {
-    candidates += options.horizons.size() * (backend == "sa" ? options.knots.size() : 1) *
-                  std::max<std::size_t>(1, options.deadline_margins.size());
-  }
+  const std::size_t candidates = quality_candidates(controller, options).candidates.size();
   std::printf("tune: controller %s, target %s: %.0f ms of every %.0f ms cycle at %.2fx this machine's time "
               "(%.2f ms here), %zu candidates on %zu scenarios\n",
               controller.name.c_str(), target.name.c_str(), 1e3 * target.solve_budget, 1e3 * target.control_period,

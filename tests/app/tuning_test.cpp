@@ -188,6 +188,18 @@ TEST(TuneByQuality, TriesSaAtEveryKnotCountAndAnotherBackendOncePerHorizon) {
   EXPECT_TRUE(result.candidates[2].scenarios.front().completed);
 }
 
+// The list the CLI counts before the search is the one the search runs: a setting equal to the
+// controller's own is not run twice.
+TEST(TuneByQuality, ListsTheControllersOwnSettingOnceWhenACandidateEqualsIt) {
+  QualityFixture f;
+  f.options.horizons = {5, 20};
+  f.options.knots = {3};
+  const QualityCandidates listed = quality_candidates(f.controller, f.options);
+  ASSERT_EQ(listed.candidates.size(), 2u);  // (sa, 5, 3), (sa, 20, 3) = the file's own
+  EXPECT_EQ(listed.incumbent, 1);
+  EXPECT_EQ(listed.candidates[1].horizon, f.controller.mpc.horizon);
+}
+
 TEST(TuneByQuality, ChoosesTheLeastWearAmongFinalistsAcceptableOnEveryScenario) {
   QualityFixture f;
   const QualityTuningResult result = tune_by_quality(f.controller, f.target, f.scenarios, f.options);

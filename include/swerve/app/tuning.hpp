@@ -122,6 +122,15 @@ int closest_candidate(const std::vector<CandidateScore>& candidates, std::size_t
 // (candidates done, candidates in this round, round) after each candidate's round.
 using TuningProgress = std::function<void(int, int, int)>;
 
+// The candidates tune_by_quality runs, in its order: per backend (the options' or the controller's
+// own), horizon, knot count (the sa backend's alone; the others carry 0, once) and margin, without
+// repeats, and the controller's own setting (`incumbent`: its index, appended unless present).
+struct QualityCandidates {
+  std::vector<TuningCandidate> candidates;
+  int incumbent = -1;
+};
+QualityCandidates quality_candidates(const ControllerConfig& controller, const QualityTuningOptions& options);
+
 // Every scenario needs a kinematic_baseline controller; `controller` is the wear_mpc config whose
 // backend, horizon, step (the target's control period), budget (translated), SA knots and deadline
 // margin are varied; its own backend, horizon, knots and margin are a candidate too (the incumbent). Round 1 runs every candidate on the first
