@@ -11,11 +11,14 @@ namespace swerve {
 namespace detail {
 
 // sin(C atan(B x - E (B x - atan(B x)))), the normalised Magic Formula (Pacejka 2012, eq. 4.49).
+// With E = 0 (every shipped tyre) the curvature term is exactly zero, value and derivatives, so
+// its arctangent is skipped: one of the five per module and evaluation, the same bits.
 template <typename T>
 T magic_formula_curve(const MagicFormulaCoefficients& k, const T& x) {
   using std::atan;
   using std::sin;
   const T bx = k.b * x;
+  if (k.e == 0.0) return sin(k.c * atan(bx));
   return sin(k.c * atan(bx - k.e * (bx - atan(bx))));
 }
 

@@ -126,8 +126,9 @@ Eigen::VectorXd VehicleModel<T>::complete_state(const Eigen::VectorXd& prefix) c
 // rotation wheel -> body by delta_i, yaw moment about the CoM, wear (assumption 5), and the
 // module's own state derivatives (steering angle, actuator and transient-slip states).
 template <typename T>
-void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, ForceSums* sums,
-                                    ModuleDiagnostics<T>* diag, T* x_dot) const noexcept {
+void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, const double* steering_cos,
+                                    const double* steering_sin, ForceSums* sums, ModuleDiagnostics<T>* diag,
+                                    T* x_dot) const noexcept {
   using std::cos;
   using std::sin;
   using std::sqrt;
@@ -174,8 +175,8 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
   // Contact-point velocity: body frame v + r z x p (zero scrub radius: steering does not move the
   // contact), then into the wheel frame by R(-delta).
   const Eigen::Matrix<T, 2, 1> v_contact = point_velocity<T>(vx, vy, r, p);
-  const T c = cos(delta);
-  const T s = sin(delta);
+  const T c = steering_cos != nullptr ? T(steering_cos[i]) : cos(delta);
+  const T s = steering_sin != nullptr ? T(steering_sin[i]) : sin(delta);
   const T u_wheel = c * v_contact.x() + s * v_contact.y();
   const T v_wheel = c * v_contact.y() - s * v_contact.x();
   const T tread_speed = radius * omega;
@@ -232,6 +233,15 @@ template <typename T>
 ModelStatus VehicleModel<T>::derivative(const Eigen::Ref<const Vector>& x_in, const Eigen::Ref<const Vector>& u_in,
                                         Eigen::Ref<Vector> x_dot_out, ModuleDiagnostics<T>* diagnostics,
                                         T* total_wear_rate) const noexcept {
+  return derivative_at_steering(x_in, u_in, nullptr, nullptr, x_dot_out, diagnostics, total_wear_rate);
+}
+
+template <typename T>
+ModelStatus VehicleModel<T>::derivative_at_steering(const Eigen::Ref<const Vector>& x_in,
+                                                    const Eigen::Ref<const Vector>& u_in, const double* steering_cos,
+                                                    const double* steering_sin, Eigen::Ref<Vector> x_dot_out,
+                                                    ModuleDiagnostics<T>* diagnostics,
+                                                    T* total_wear_rate) const noexcept {
   using std::cos;
   using std::sin;
   using std::sqrt;
@@ -289,7 +299,7 @@ ModelStatus VehicleModel<T>::derivative(const Eigen::Ref<const Vector>& x_in, co
   ForceSums sums;
   if (!load_transfer_) {
     for (int i = 0; i < modules_; ++i) {
-      module_forces(x, u, i, T(static_loads_[static_cast<std::size_t>(i)]), &sums,
+      module_forces(x, u, i, T(static_loads_[static_cast<std::size_t>(i)]), steering_cos, steering_sin, &sums,
                     diagnostics != nullptr ? diagnostics + i : nullptr, x_dot);
     }
     add_casters(&sums, nullptr);
@@ -299,7 +309,8 @@ ModelStatus VehicleModel<T>::derivative(const Eigen::Ref<const Vector>& x_in, co
     // transferred loads; the forces are then evaluated again at those loads.
     ForceSums first;
     for (int i = 0; i < modules_; ++i) {
-      module_forces(x, u, i, T(static_loads_[static_cast<std::size_t>(i)]), &first, nullptr, x_dot);
+      module_forces(x, u, i, T(static_loads_[static_cast<std::size_t>(i)]), steering_cos, steering_sin, &first, nullptr,
+                    x_dot);
     }
     add_casters(&first, nullptr);
     const T accel[2] = {first.fx_body / params_.mass, first.fy_body / params_.mass};
@@ -307,7 +318,7 @@ ModelStatus VehicleModel<T>::derivative(const Eigen::Ref<const Vector>& x_in, co
       const auto k = static_cast<std::size_t>(i);
       T fz = static_loads_[k] + transfer_per_ax_[k] * accel[0] + transfer_per_ay_[k] * accel[1];
       if (scalar_value(fz) < 0.0) fz = T(0.0);
-      module_forces(x, u, i, fz, &sums, diagnostics != nullptr ? diagnostics + i : nullptr, x_dot);
+      module_forces(x, u, i, fz, steering_cos, steering_sin, &sums, diagnostics != nullptr ? diagnostics + i : nullptr, x_dot);
     }
     add_casters(&sums, accel);
   }

@@ -54,6 +54,28 @@ TEST(MagicFormulaTire, LateralForceMatchesHandTable) {
   }
 }
 
+// With E = 0 the curvature term is skipped (one arctangent fewer): the force must be the general
+// formula's bit for bit, and its Jet derivative the hand-derived D C B cos(C atan(B x)) / (1 + (B x)^2).
+TEST(MagicFormulaTire, ZeroCurvatureFactorGivesTheGeneralFormulasBitsAndItsDerivative) {
+  MagicFormulaParams p = table_params();
+  p.longitudinal.e = 0.0;
+  const MagicFormulaTire<double> tire(p);
+  const MagicFormulaTire<ModelJet> jet_tire(p);
+  const double b = p.longitudinal.b;
+  const double c = p.longitudinal.c;
+  const double d = kMu * kFz;
+  for (const double kappa : {-0.7, -0.05, 0.0, 1e-7, 0.02, 0.1, 0.3, 2.0}) {
+    const double bx = b * kappa;
+    const double general = d * std::sin(c * std::atan(bx - p.longitudinal.e * (bx - std::atan(bx))));
+    EXPECT_EQ(tire.pure_longitudinal(kappa, kFz), general) << "kappa = " << kappa;
+    ModelJet kappa_jet(kappa, 0);
+    const ModelJet force = jet_tire.pure_longitudinal(kappa_jet, ModelJet(kFz));
+    EXPECT_EQ(force.a, general) << "kappa = " << kappa;
+    const double slope = d * c * b * std::cos(c * std::atan(bx)) / (1.0 + bx * bx);
+    EXPECT_NEAR(force.v[0], slope, 1e-9 * std::abs(slope) + 1e-9) << "kappa = " << kappa;
+  }
+}
+
 TEST(MagicFormulaTire, ForcesAreOddInSlip) {
   for (auto method : {CombinedSlipMethod::kNone, CombinedSlipMethod::kEllipseCap, CombinedSlipMethod::kNormalizedSlip}) {
     MagicFormulaParams p = table_params();

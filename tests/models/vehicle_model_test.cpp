@@ -305,6 +305,46 @@ TEST(VehicleModel, RecommendedSubstepsKeepRk4StableOnTheStiffSlipDynamics) {
   EXPECT_GT(largest, 2e-3);  // grew (until the tire saturates) instead of decaying
 }
 
+// The Newton solve over the body twist hands the model each module's steering cos and sin once per
+// solve: given those of the state's own angles, the result is derivative()'s bit for bit; given
+// another angle's, it is derivative() at that angle (so the given values are what is used).
+TEST(VehicleModel, DerivativeAtGivenSteeringTrigIsTheDerivativeAtThoseAngles) {
+  const VehicleModel<double> model(testing::make_params(4), Fidelity::kIdeal);
+  const int n = model.modules();
+  Vector x = Vector::Zero(model.state_size());
+  x(StateIndex::kVx) = 0.7;
+  x(StateIndex::kVy) = -0.2;
+  x(StateIndex::kYawRate) = 0.4;
+  Vector u = Vector::Zero(model.input_size());
+  std::vector<double> cos_delta(static_cast<std::size_t>(n)), sin_delta(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    x(StateIndex::steering(i)) = -0.3 + 0.25 * i;
+    u(InputIndex::wheel_speed(i)) = 7.0 + 0.5 * i;
+    u(InputIndex::steering_rate(i)) = 0.1 * i;
+    cos_delta[static_cast<std::size_t>(i)] = std::cos(x(StateIndex::steering(i)));
+    sin_delta[static_cast<std::size_t>(i)] = std::sin(x(StateIndex::steering(i)));
+  }
+  Vector expected(model.state_size()), given(model.state_size());
+  double expected_wear = 0.0, given_wear = 0.0;
+  ASSERT_EQ(model.derivative(x, u, expected, nullptr, &expected_wear), ModelStatus::kOk);
+  ASSERT_EQ(model.derivative_at_steering(x, u, cos_delta.data(), sin_delta.data(), given, nullptr, &given_wear),
+            ModelStatus::kOk);
+  for (int k = 0; k < model.state_size(); ++k) EXPECT_EQ(given(k), expected(k)) << "row " << k;
+  EXPECT_EQ(given_wear, expected_wear);
+
+  Vector turned = x;
+  turned(StateIndex::steering(2)) += 0.4;
+  cos_delta[2] = std::cos(turned(StateIndex::steering(2)));
+  sin_delta[2] = std::sin(turned(StateIndex::steering(2)));
+  ASSERT_EQ(model.derivative(turned, u, expected), ModelStatus::kOk);
+  ASSERT_EQ(model.derivative_at_steering(x, u, cos_delta.data(), sin_delta.data(), given, nullptr, nullptr),
+            ModelStatus::kOk);
+  for (int k = StateIndex::kVx; k <= StateIndex::kYawRate; ++k) EXPECT_EQ(given(k), expected(k)) << "row " << k;
+  Vector original(model.state_size());
+  ASSERT_EQ(model.derivative(x, u, original), ModelStatus::kOk);
+  EXPECT_GT((given.segment<3>(StateIndex::kVx) - original.segment<3>(StateIndex::kVx)).norm(), 1e-3);  // it moved
+}
+
 TEST(VehicleModel, NonFiniteStateOrInputIsReportedNotPropagated) {
   const VehicleModel<double> model(testing::make_params(4), Fidelity::kIdeal);
   Vector x = Vector::Zero(model.state_size());

@@ -88,13 +88,16 @@ class BodyTwistSolver {
           state_dot(TwistJetVector::Zero(solver.state_size_)), diagnostics(static_cast<std::size_t>(solver.modules_)),
           value_state(Eigen::VectorXd::Zero(solver.state_size_)), value_inputs(Eigen::VectorXd::Zero(solver.input_size_)),
           value_state_dot(Eigen::VectorXd::Zero(solver.state_size_)),
-          value_diagnostics(static_cast<std::size_t>(solver.modules_)) {}
+          value_diagnostics(static_cast<std::size_t>(solver.modules_)),
+          steering_cos(static_cast<std::size_t>(solver.modules_)), steering_sin(static_cast<std::size_t>(solver.modules_)) {}
     TwistJetVector state, inputs, state_dot;
     std::vector<ModuleDiagnostics<TwistJet>> diagnostics;
     TwistJet wear_rate{0.0};
     Eigen::VectorXd value_state, value_inputs, value_state_dot;
     std::vector<ModuleDiagnostics<double>> value_diagnostics;
     double value_wear_rate = 0.0;
+    // Each module's steering cos and sin: fixed over a solve, computed once at its start.
+    std::vector<double> steering_cos, steering_sin;
     bool final_in_double = false;  // whether the last evaluation was final_values()
     long evaluations = 0;
   };
@@ -113,6 +116,11 @@ class BodyTwistSolver {
              const Eigen::Vector3d& v0, const Eigen::Vector3d& guess, double h, Eigen::Vector3d* v_out) const noexcept {
     for (Eigen::Index k = 0; k < d.state.size(); ++k) d.state[k] = TwistJet(trial_state[k]);
     for (Eigen::Index k = 0; k < d.inputs.size(); ++k) d.inputs[k] = TwistJet(inputs[k]);
+    for (int i = 0; i < modules_; ++i) {
+      const double delta = trial_state[StateIndex::steering(i)];
+      d.steering_cos[static_cast<std::size_t>(i)] = std::cos(delta);
+      d.steering_sin[static_cast<std::size_t>(i)] = std::sin(delta);
+    }
     Eigen::Vector3d v = guess, a;
     Eigen::Matrix3d da_dv;
     if (!acceleration(d, v, &a, &da_dv)) return false;
@@ -181,7 +189,8 @@ class BodyTwistSolver {
   bool acceleration(Data& d, const Eigen::Vector3d& v, Eigen::Vector3d* a, Eigen::Matrix3d* da_dv) const noexcept {
     ++d.evaluations;
     for (int j = 0; j < 3; ++j) d.state[StateIndex::kVx + j] = TwistJet(v[j], j);
-    if (model_.derivative(d.state, d.inputs, d.state_dot, d.diagnostics.data(), &d.wear_rate) != ModelStatus::kOk) {
+    if (model_.derivative_at_steering(d.state, d.inputs, d.steering_cos.data(), d.steering_sin.data(), d.state_dot,
+                                      d.diagnostics.data(), &d.wear_rate) != ModelStatus::kOk) {
       return false;
     }
     for (int i = 0; i < 3; ++i) {
@@ -198,8 +207,9 @@ class BodyTwistSolver {
     for (Eigen::Index k = 0; k < d.state.size(); ++k) d.value_state[k] = d.state[k].a;
     for (Eigen::Index k = 0; k < d.inputs.size(); ++k) d.value_inputs[k] = d.inputs[k].a;
     d.value_state.segment<3>(StateIndex::kVx) = v;
-    return value_model_.derivative(d.value_state, d.value_inputs, d.value_state_dot, d.value_diagnostics.data(),
-                                   &d.value_wear_rate) == ModelStatus::kOk &&
+    return value_model_.derivative_at_steering(d.value_state, d.value_inputs, d.steering_cos.data(),
+                                               d.steering_sin.data(), d.value_state_dot, d.value_diagnostics.data(),
+                                               &d.value_wear_rate) == ModelStatus::kOk &&
            std::isfinite(d.value_wear_rate);
   }
 

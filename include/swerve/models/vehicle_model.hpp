@@ -110,6 +110,13 @@ class VehicleModel {
   ModelStatus derivative(const Eigen::Ref<const Vector>& x, const Eigen::Ref<const Vector>& u,
                          Eigen::Ref<Vector> x_dot, ModuleDiagnostics<T>* diagnostics = nullptr,
                          T* total_wear_rate = nullptr) const noexcept;
+  // derivative() for a caller that holds the steering angles fixed over many evaluations (the
+  // semi-implicit step's Newton solve over the body twist): each module's cos and sin of its
+  // steering angle (modules() entries each) are given instead of computed, a sixth of an
+  // evaluation's transcendental calls. The angles in x must carry no derivative part.
+  ModelStatus derivative_at_steering(const Eigen::Ref<const Vector>& x, const Eigen::Ref<const Vector>& u,
+                                     const double* steering_cos, const double* steering_sin, Eigen::Ref<Vector> x_dot,
+                                     ModuleDiagnostics<T>* diagnostics, T* total_wear_rate) const noexcept;
 
   // A full state from its prefix (size 6 + n): fidelity extras set to pure rolling (wheel speeds
   // matching the contact speed, steering rates and transient slips zero). Allocates (setup only).
@@ -117,8 +124,9 @@ class VehicleModel {
 
  private:
   struct ForceSums;
-  void module_forces(const T* x, const T* u, int module, const T& fz, ForceSums* sums,
-                     ModuleDiagnostics<T>* diag, T* x_dot) const noexcept;
+  // steering_cos/sin: as derivative_at_steering, or null (computed from x).
+  void module_forces(const T* x, const T* u, int module, const T& fz, const double* steering_cos,
+                     const double* steering_sin, ForceSums* sums, ModuleDiagnostics<T>* diag, T* x_dot) const noexcept;
 
   VehicleParams params_;
   Fidelity fidelity_;
