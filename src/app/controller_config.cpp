@@ -102,9 +102,14 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
         solver->fail_at("backend", error.what());
       }
     }
-    if (c.mpc.solve_budget > dt) {
-      node.fail_at("solve_budget", "= " + std::to_string(c.mpc.solve_budget) + ": must not exceed dt (" +
-                                       std::to_string(dt) + "), the controller's period");
+    if (c.mpc.control_period > dt) {
+      node.fail_at("control_period", "= " + std::to_string(c.mpc.control_period) + ": must not exceed dt (" +
+                                         std::to_string(dt) + "): a cycle must not skip a prediction step");
+    }
+    if (c.mpc.solve_budget > c.mpc.period()) {
+      node.fail_at("solve_budget", "= " + std::to_string(c.mpc.solve_budget) + ": must not exceed " +
+                                       (c.mpc.control_period > 0.0 ? "control_period (" : "dt (") +
+                                       std::to_string(c.mpc.period()) + "), the controller's period");
     }
   }
   if (const auto baseline = node.optional_child("baseline")) c.baseline = load_baseline(*baseline, c.baseline);

@@ -202,10 +202,10 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
     const MeasurementFilterOptions options = load_measurement_filter(*filter, MeasurementFilterOptions{});
     for (ScenarioController& c : s.controllers) c.config.set_measurement_filter(options);
   }
-  s.simulator.control_period = s.controllers.front().config.dt();
+  s.simulator.control_period = s.controllers.front().config.period();
   for (const ScenarioController& c : s.controllers) {
-    if (std::abs(c.config.dt() - s.simulator.control_period) > 1e-12) {
-      controllers.fail("controller '" + c.name + "' has dt = " + format(c.config.dt()) + " but '" +
+    if (std::abs(c.config.period() - s.simulator.control_period) > 1e-12) {
+      controllers.fail("controller '" + c.name + "' has a control period of " + format(c.config.period()) + " s but '" +
                        s.controllers.front().name + "' has " + format(s.simulator.control_period) +
                        ": all controllers of a scenario share the control period");
     }

@@ -109,6 +109,9 @@ void QualityTuningOptions::validate() const {
       throw_invalid_field("QualityTuningOptions", "deadline_margins[]", m, margin_rule.describe());
     }
   }
+  for (const double dt : dts) {
+    if (!(dt > 0.0 && dt <= 1.0)) throw_invalid_field("QualityTuningOptions", "dts[]", dt, "must be in (0, 1] s");
+  }
 }
 
 namespace {
@@ -204,15 +207,17 @@ bool better(const CandidateScore& a, const CandidateScore& b) {
 
 }  // namespace
 
-QualityCandidates quality_candidates(const ControllerConfig& controller, const QualityTuningOptions& options) {
+QualityCandidates quality_candidates(const ControllerConfig& controller, const QualityTuningOptions& options,
+                                     double control_period) {
   QualityCandidates out;
-  // Knots are the sa backend's alone: the others' candidates carry 0.
-  const auto add = [&](const std::string& backend, int horizon, int knots, double margin) {
-    const TuningCandidate candidate{horizon, backend == "sa" ? std::min(knots, horizon) : 0, margin, backend};
+  // Knots are the sa backend's alone: the others' candidates carry 0. A dt within a nanosecond of
+  // another is the same (0.05 typed and 0.05 read from a target file).
+  const auto add = [&](const std::string& backend, double dt, int horizon, int knots, double margin) {
+    const TuningCandidate candidate{horizon, backend == "sa" ? std::min(knots, horizon) : 0, margin, backend, dt};
     for (std::size_t i = 0; i < out.candidates.size(); ++i) {
       const TuningCandidate& c = out.candidates[i];
-      if (c.backend == candidate.backend && c.horizon == candidate.horizon && c.knots == candidate.knots &&
-          c.deadline_margin == candidate.deadline_margin) {
+      if (c.backend == candidate.backend && c.horizon == candidate.horizon && std::abs(c.dt - candidate.dt) < 1e-9 &&
+          c.knots == candidate.knots && c.deadline_margin == candidate.deadline_margin) {
         return static_cast<int>(i);
       }
     }
@@ -223,16 +228,22 @@ QualityCandidates quality_candidates(const ControllerConfig& controller, const Q
       options.deadline_margins.empty() ? std::vector<double>{controller.mpc.deadline_margin} : options.deadline_margins;
   const std::vector<std::string> backends =
       options.backends.empty() ? std::vector<std::string>{controller.solver.backend} : options.backends;
+  const std::vector<double> dts = options.dts.empty() ? std::vector<double>{control_period} : options.dts;
   for (const std::string& backend : backends) {
-    for (const int horizon : options.horizons) {
-      const std::vector<int> knot_counts = backend == "sa" ? options.knots : std::vector<int>{0};
-      for (const int knots : knot_counts) {
-        for (const double margin : margins) add(backend, horizon, knots, margin);
+    for (const double dt : dts) {
+      for (const int horizon : options.horizons) {
+        const std::vector<int> knot_counts = backend == "sa" ? options.knots : std::vector<int>{0};
+        for (const int knots : knot_counts) {
+          for (const double margin : margins) add(backend, dt, horizon, knots, margin);
+        }
       }
     }
   }
   const int knots_given = controller.solver.sa.knots > 0 ? controller.solver.sa.knots : controller.mpc.horizon;
-  out.incumbent = add(controller.solver.backend, controller.mpc.horizon, knots_given, controller.mpc.deadline_margin);
+  // The file's own step: its period's (run at the target's), or its own dt when longer than its period.
+  const double own_dt = controller.mpc.dt > controller.mpc.period() ? controller.mpc.dt : control_period;
+  out.incumbent =
+      add(controller.solver.backend, own_dt, controller.mpc.horizon, knots_given, controller.mpc.deadline_margin);
   return out;
 }
 
@@ -246,6 +257,12 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   QualityTuningResult result;
   result.budget_here_s = target.solve_budget / target.cpu_slowdown;
   const double period = target.control_period;
+  for (const double dt : options.dts) {
+    if (dt < period - 1e-9) {
+      throw_invalid_field("QualityTuningOptions", "dts[]", dt,
+                          "must be at least the target's control period (" + std::to_string(period) + " s)");
+    }
+  }
 
   // Every scenario at the target's period, once per seed (the scenario's own when none is given),
   // and its baseline there, run once.
@@ -279,7 +296,8 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   };
   const auto score_on = [&](const TuningCandidate& candidate, std::size_t index) {
     ScenarioController entry{"wear_mpc", "", controller};
-    entry.config.set_sampling(candidate.horizon, period);
+    entry.config.set_sampling(candidate.horizon, candidate.step_at(period));
+    entry.config.mpc.control_period = period;
     entry.config.mpc.solve_budget = result.budget_here_s;
     entry.config.solver.backend = candidate.backend;
     if (candidate.backend == "sa") entry.config.solver.sa.knots = candidate.knots;
@@ -318,7 +336,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   };
 
   // Round 1: every candidate on the first scenario; the controller's own setting is one of them.
-  const QualityCandidates listed = quality_candidates(controller, options);
+  const QualityCandidates listed = quality_candidates(controller, options, period);
   for (const TuningCandidate& candidate : listed.candidates) {
     CandidateScore score;
     score.candidate = candidate;
@@ -398,7 +416,13 @@ void write_tuned_controller(const std::string& base_file, const TuningCandidate&
   YAML::Node controller = document["controller"];
   if (!controller.IsMap()) throw ConfigError(base_file + ": no controller: map to tune");
   controller["horizon"] = candidate.horizon;
-  controller["dt"] = shortest_number(target.control_period);
+  const double dt = candidate.step_at(target.control_period);
+  controller["dt"] = shortest_number(dt);
+  if (std::abs(dt - target.control_period) < 1e-9) {
+    controller.remove("control_period");
+  } else {
+    controller["control_period"] = shortest_number(target.control_period);
+  }
   controller["solve_budget"] = shortest_number(target.solve_budget);
   controller["solver"]["backend"] = candidate.backend;
   if (candidate.backend == "sa") controller["solver"]["sa"]["knots"] = candidate.knots;
@@ -424,7 +448,12 @@ std::vector<RealTimeRow> measure_real_time(const ControllerConfig& controller, c
   std::vector<RealTimeRow> rows;
   for (const ScenarioConfig& scenario : scenarios) {
     ScenarioController entry{"wear_mpc", "", controller};
-    entry.config.set_sampling(controller.mpc.horizon, target.control_period);
+    // At the target's period, the prediction step in the same ratio to it as in the file.
+    const bool longer_step = controller.mpc.dt > controller.mpc.period();
+    entry.config.set_sampling(controller.mpc.horizon, longer_step ? controller.mpc.dt * (target.control_period /
+                                                                                         controller.mpc.period())
+                                                                  : target.control_period);
+    entry.config.mpc.control_period = target.control_period;
     entry.config.mpc.solve_budget = target.solve_budget / target.cpu_slowdown;
     const ControllerRun run = run_controller(at_period(scenario, target.control_period), entry, {}, 0, clock);
     std::vector<double> steps_ms, proposals;

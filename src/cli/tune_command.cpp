@@ -33,6 +33,7 @@ struct TuneArguments {
   std::vector<int> knots{3, 6};
   std::vector<std::string> backends;        // quality; empty: the controller file's own
   std::vector<double> margins;              // deadline margins (quality); empty: the file's own
+  std::vector<double> dts;                  // prediction steps (quality); empty: the target's control period
   std::vector<std::uint64_t> seeds;         // simulator seeds (quality); empty: each scenario's own
   std::string write_file;                   // the winner's controller YAML
   std::string out_dir;                      // tune.json
@@ -60,9 +61,11 @@ void check_write_file(const std::string& path, bool force) {
   }
 }
 
-// "sa, horizon 10, 3 knots" / "nlopt, horizon 10": knots are the sa backend's alone.
+// "sa, horizon 10, dt 0.05 s, 3 knots" / "nlopt, horizon 10, dt 0.1 s": knots are the sa backend's alone.
 std::string describe(const TuningCandidate& c) {
-  std::string text = c.backend + ", horizon " + std::to_string(c.horizon);
+  char dt[32];
+  std::snprintf(dt, sizeof dt, "%g", c.dt);
+  std::string text = c.backend + ", horizon " + std::to_string(c.horizon) + ", dt " + dt + " s";
   if (c.backend == "sa") text += ", " + std::to_string(c.knots) + " knots";
   return text;
 }
@@ -80,7 +83,8 @@ nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& ta
                            {"unconfirmed_misses", s.unconfirmed_misses}, {"fallbacks", s.fallbacks},
                            {"acceptable", s.acceptable()}});
     }
-    rows.push_back({{"backend", c.candidate.backend}, {"horizon", c.candidate.horizon}, {"knots", c.candidate.knots},
+    rows.push_back({{"backend", c.candidate.backend}, {"horizon", c.candidate.horizon}, {"dt_s", c.candidate.step_at(target.control_period)},
+                    {"knots", c.candidate.knots},
                     {"deadline_margin", c.candidate.deadline_margin}, {"finalist", c.finalist},
                     {"geomean_wear_ratio", c.geomean_wear_ratio}, {"unacceptable", c.unacceptable},
                     {"scenarios", scenarios}});
@@ -105,6 +109,7 @@ int tune_by_quality_command(const TuneArguments& a) {
   options.backends = a.backends;
   options.deadline_margins = a.margins;
   options.seeds = a.seeds;
+  options.dts = a.dts;
   std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
   if (work_clock) options.clock = &*work_clock;
   try {
@@ -124,7 +129,14 @@ int tune_by_quality_command(const TuneArguments& a) {
   for (const std::string& file : a.scenario_files) scenarios.push_back(load_scenario_config_file(file));
   const ControllerConfig controller = load_controller_config_file(a.controller_file);
   const TargetConfig target = load_target_config_file(a.target_file);
-  const std::size_t candidates = quality_candidates(controller, options).candidates.size();
+  for (const double dt : options.dts) {
+    if (dt < target.control_period - 1e-9) {
+      throw UsageError("tune: --dts: " + std::to_string(dt) + " s is shorter than the control period of target " +
+                       target.name + " (" + std::to_string(target.control_period) +
+                       " s): a cycle must not skip a prediction step");
+    }
+  }
+  const std::size_t candidates = quality_candidates(controller, options, target.control_period).candidates.size();
   std::printf("tune: controller %s, target %s: %.0f ms of every %.0f ms cycle at %.2fx this machine's time "
               "(%.2f ms here), %zu candidates on %zu scenarios\n",
               controller.name.c_str(), target.name.c_str(), 1e3 * target.solve_budget, 1e3 * target.control_period,
@@ -141,12 +153,12 @@ int tune_by_quality_command(const TuneArguments& a) {
         std::fflush(stderr);
       });
   // One row per candidate: per scenario wear ratio and RMSE ratio, then the summary.
-  std::printf("%7s %7s %5s %6s", "backend", "horizon", "knots", "margin");
+  std::printf("%7s %7s %6s %5s %6s", "backend", "horizon", "dt", "knots", "margin");
   for (const ScenarioConfig& s : scenarios) std::printf("  %-22.22s", s.name.c_str());
   std::printf(" %10s %8s %6s %14s\n", "geo. wear", "misses", "once", "unacceptable");
   for (std::size_t i = 0; i < result.candidates.size(); ++i) {
     const CandidateScore& c = result.candidates[i];
-    std::printf("%7s %7d %5s %6.2f", c.candidate.backend.c_str(), c.candidate.horizon,
+    std::printf("%7s %7d %6g %5s %6.2f", c.candidate.backend.c_str(), c.candidate.horizon, c.candidate.step_at(target.control_period),
                 c.candidate.backend == "sa" ? std::to_string(c.candidate.knots).c_str() : "-",
                 c.candidate.deadline_margin);
     int misses = 0;
@@ -177,7 +189,7 @@ int tune_by_quality_command(const TuneArguments& a) {
   const auto write = [&](const CandidateScore& chosen, const std::string& how) {
     std::ostringstream header;
     header << "# Tuned by `swerve-mpc tune` for target " << target.name << " (" << target.description
-           << ") from " << a.controller_file << ":\n# backend " << describe(chosen.candidate) << ", dt "
+           << ") from " << a.controller_file << ":\n# backend " << describe(chosen.candidate) << ", control period "
            << target.control_period << " s, deadline margin "
            << chosen.candidate.deadline_margin << ", solve budget " << target.solve_budget
            << " s; geometric-mean wear " << chosen.geomean_wear_ratio << " of the kinematic baseline's on";
@@ -234,7 +246,7 @@ int tune_by_quality_command(const TuneArguments& a) {
   std::printf(
       "best: %s (%.2f s of lookahead at %.0f ms), deadline margin %.2f: geometric-mean "
       "wear %.3f of the baseline's\n",
-      describe(best.candidate).c_str(), best.candidate.horizon * target.control_period, 1e3 * target.control_period,
+      describe(best.candidate).c_str(), best.candidate.horizon * best.candidate.step_at(target.control_period), 1e3 * target.control_period,
       best.candidate.deadline_margin, best.geomean_wear_ratio);
   if (!a.write_file.empty()) write(best, QualityTuningResult::rule());
   return kExitOk;
@@ -304,6 +316,11 @@ Command make_tune_command() {
             app.add_option("--margins", a->margins,
                            "Candidate deadline margins (quality; share of the budget kept free), comma-separated "
                            "[the controller file's own]")
+                ->delimiter(',');
+            app.add_option("--dts", a->dts,
+                           "Candidate prediction steps dt in s (quality; each at least the target's control "
+                           "period: a longer one looks as far with fewer steps), comma-separated [the control "
+                           "period]")
                 ->delimiter(',');
             app.add_option("--seeds", a->seeds,
                            "Simulator seeds each candidate runs every scenario with (quality; medians over them), "

@@ -21,26 +21,30 @@ double outermost_module_radius(const ModuleLayout& layout) {
 CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout, double vehicle_mass) {
   const int modules = layout.size();
   CostWeights w;
-  w.pose = o.pose_weight;
+  // ControllerOptions::weights_step: stage weights by dt / weights_step, weights on a change per
+  // step and the terminal scale by its inverse; both exactly 1 when off or at that step.
+  const double stage = o.weights_step > 0.0 ? o.dt / o.weights_step : 1.0;
+  const double per_change = o.weights_step > 0.0 ? o.weights_step / o.dt : 1.0;
+  w.pose = stage * o.pose_weight;
   if (o.heading_weight_from_geometry) {
     const double lever = o.heading_lever * outermost_module_radius(layout);
-    w.pose.z() = 0.5 * (o.pose_weight.x() + o.pose_weight.y()) * lever * lever;
+    w.pose.z() = stage * 0.5 * (o.pose_weight.x() + o.pose_weight.y()) * lever * lever;
   }
-  w.twist = o.twist_weight;
-  w.terminal_scale = o.terminal_scale;
+  w.twist = stage * o.twist_weight;
+  w.terminal_scale = per_change * o.terminal_scale;
   w.pose_huber_width = o.pose_huber_width;
   w.wear = o.effective_wear_weight(vehicle_mass);
-  w.tube_penalty = o.tracking_tolerance.penalty;
+  w.tube_penalty = stage * o.tracking_tolerance.penalty;
   if (o.parameterization == InputParameterization::kBodyTwist) {
     w.effort = Eigen::VectorXd::Zero(3);
-    w.rate = Eigen::VectorXd::Constant(3, o.twist_smoothness);
+    w.rate = Eigen::VectorXd::Constant(3, per_change * o.twist_smoothness);
     return w;
   }
   w.effort = Eigen::VectorXd(2 * modules);
   w.rate = Eigen::VectorXd(2 * modules);
   for (int i = 0; i < modules; ++i) {
-    w.effort.segment<2>(2 * i) << o.steering_rate_effort, o.wheel_speed_effort;
-    w.rate.segment<2>(2 * i) << o.steering_rate_smoothness, o.wheel_speed_smoothness;
+    w.effort.segment<2>(2 * i) << stage * o.steering_rate_effort, stage * o.wheel_speed_effort;
+    w.rate.segment<2>(2 * i) << per_change * o.steering_rate_smoothness, per_change * o.wheel_speed_smoothness;
   }
   return w;
 }
@@ -111,6 +115,7 @@ const OptionFields<ControllerOptions>& ControllerOptions::sampling_fields() {
 
 const OptionFields<ControllerOptions>& ControllerOptions::timing_fields() {
   static const OptionFields<ControllerOptions> table{
+      {"control_period", &ControllerOptions::control_period, Bound::non_negative(), {}, nullptr, "(s; 0: dt)"},
       {"solve_budget", &ControllerOptions::solve_budget, Bound::positive()},
       {"overrun_grace", &ControllerOptions::overrun_grace, Bound::non_negative()},
       {"deadline_margin", &ControllerOptions::deadline_margin, Bound::closed(0.0, 0.5), {}, nullptr,
@@ -126,6 +131,8 @@ const OptionFields<ControllerOptions>& ControllerOptions::weight_fields() {
       {"pose_weight", &ControllerOptions::pose_weight, Bound::non_negative(), {}, "pose"},
       {"twist_weight", &ControllerOptions::twist_weight, Bound::non_negative(), {}, "twist"},
       {"terminal_scale", &ControllerOptions::terminal_scale, Bound::non_negative()},
+      {"weights_step", &ControllerOptions::weights_step, Bound::non_negative(), {}, "step",
+       "(s: the dt the weights are set for; 0: off)"},
       {"pose_huber_width", &ControllerOptions::pose_huber_width, Bound::non_negative()},
       {"wear_weight", &ControllerOptions::wear_weight, Bound::non_negative(), {}, "wear"},
       {"wear_reference_mass", &ControllerOptions::wear_reference_mass, Bound::non_negative()},
@@ -146,6 +153,10 @@ void ControllerOptions::validate() const {
   check_fields("ControllerOptions", *this, sampling_fields());
   check_fields("ControllerOptions", *this, timing_fields());
   check_fields("ControllerOptions", *this, weight_fields());
+  if (control_period > dt) {
+    throw_invalid_field("ControllerOptions", "control_period", control_period,
+                        "must not exceed dt (" + std::to_string(dt) + " s): a cycle must not skip a prediction step");
+  }
   measurement_filter.validate();
   stale_measurement.validate();
   tracking_tolerance.validate();
@@ -157,7 +168,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
                        std::string name)
     : name_(std::move(name)), options_(validated(options)), layout_(vehicle.layout), reference_(std::move(reference)),
       baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()),
-      monitor_(6 + vehicle.layout.size(), options_.stale_measurement), latency_(vehicle.layout, options_.dt, options_.measurement_filter) {
+      monitor_(6 + vehicle.layout.size(), options_.stale_measurement), latency_(vehicle.layout, options_.period(), options_.measurement_filter) {
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
@@ -186,7 +197,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   applied_decision_ = Eigen::VectorXd::Zero(problem_->input_size());
   applied_input_ = Eigen::VectorXd::Zero(2 * modules_);
   fallback_input_ = Eigen::VectorXd::Zero(2 * modules_);
-  module_bounds_ = input_bounds(layout_, options_.dt);
+  module_bounds_ = input_bounds(layout_, options_.period());  // per cycle: the fallbacks' limits
   output_.modules = ModuleArray<ModuleCommand>(modules_);
   now_ = Eigen::VectorXd::Zero(6 + modules_);
   prediction_state_ = Eigen::VectorXd::Zero(problem_->state_size());
@@ -223,13 +234,13 @@ void Controller::reset() noexcept {
 
 void Controller::apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                                      const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept {
-  // The inputs are already feasible; the angle target follows the rate over one step.
+  // The inputs are already feasible; the angle target follows the rate over one period.
   applied_input_ = module_inputs;
   for (int i = 0; i < modules_; ++i) {
     ModuleCommand& command = output_.modules[i];
     command.steering_rate = applied_input_[2 * i];
     command.wheel_speed = applied_input_[2 * i + 1];
-    command.steering_angle = wrap_angle(steering_angles[i] + options_.dt * command.steering_rate);
+    command.steering_angle = wrap_angle(steering_angles[i] + options_.period() * command.steering_rate);
   }
 }
 
@@ -242,7 +253,7 @@ double Controller::rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& 
 void Controller::estimate_actuators(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {
   const double elapsed = t - actuators_time_;
   double mean = 0.0;
-  if (actuators_known_ && elapsed > 0.0 && elapsed <= 4.0 * options_.dt) {
+  if (actuators_known_ && elapsed > 0.0 && elapsed <= 4.0 * options_.period()) {
     // The time since the last commands were sent, through the drives' lag and clamp.
     const DriveLag lag{drive_time_constant_, max_wheel_acceleration_};
     for (Eigen::Index i = 0; i < wheel_speeds_.size(); ++i) {
@@ -393,7 +404,7 @@ void Controller::refuse(const Eigen::Ref<const Eigen::VectorXd>& measured, const
 }
 
 void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
-  fill_safe_stop(layout_, options_.dt, measured, &output_.modules);
+  fill_safe_stop(layout_, options_.period(), measured, &output_.modules);
   for (int i = 0; i < modules_; ++i) {
     applied_input_[2 * i] = 0.0;
     applied_input_[2 * i + 1] = output_.modules[i].wheel_speed;
@@ -446,9 +457,9 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   actuators_estimated_ = false;
   output_.solve = SolveSummary{};
   output_.measurement_stale = false;
-  // The previous plan moves on by one cycle whatever happens now.
+  // The previous plan moves on by one cycle whatever happens now (period / dt of its steps).
   if (plan_.valid) {
-    plan_.shift();
+    plan_.shift(options_.period() / options_.dt);
     ++plan_age_;
   }
   if (!is_plausible_state(measured, layout_) || !std::isfinite(t)) {

@@ -41,6 +41,38 @@ void Solution::shift() noexcept {
   for (Eigen::Index k = 0; k + 1 < states.cols(); ++k) states.col(k) = states.col(k + 1);
 }
 
+namespace {
+
+// Column k of `m` becomes m interpolated at k + whole + fraction (0 <= fraction < 1), the last
+// column standing for every point past it. In place: column k reads only columns >= k.
+void shift_columns(Eigen::MatrixXd& m, Eigen::Index whole, double fraction) noexcept {
+  const Eigen::Index last = m.cols() - 1;
+  for (Eigen::Index k = 0; k <= last; ++k) {
+    const Eigen::Index from = std::min(k + whole, last);
+    const Eigen::Index to = std::min(from + 1, last);
+    if (fraction == 0.0 || from == to) {
+      m.col(k) = m.col(from);
+    } else {
+      m.col(k) = (1.0 - fraction) * m.col(from) + fraction * m.col(to);
+    }
+  }
+}
+
+}  // namespace
+
+void Solution::shift(double steps) noexcept {
+  if (!(steps > 0.0) || !std::isfinite(steps) || inputs.cols() == 0) return;
+  if (steps == 1.0) {
+    shift();
+    return;
+  }
+  const double whole = std::floor(steps);
+  const double max_whole = static_cast<double>(states.cols());
+  const Eigen::Index whole_steps = static_cast<Eigen::Index>(std::min(whole, max_whole));
+  shift_columns(inputs, whole_steps, steps - whole);
+  shift_columns(states, whole_steps, steps - whole);
+}
+
 StartPlan::StartPlan(const OcpProblem& shape)
     : inputs_(Eigen::MatrixXd::Zero(shape.input_size(), shape.horizon())),
       states_(Eigen::MatrixXd::Zero(shape.state_size(), shape.horizon() + 1)),

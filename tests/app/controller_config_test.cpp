@@ -137,6 +137,25 @@ TEST(ControllerConfig, ReadsThePoseHuberWidthAndRejectsABadOne) {
   }
 }
 
+TEST(ControllerConfig, ReadsAControlPeriodShorterThanTheStepAndRejectsOneLongerOrABudgetPastIt) {
+  const ControllerConfig c = load("  dt: 0.1\n  control_period: 0.05\n  solve_budget: 0.02\n");
+  EXPECT_DOUBLE_EQ(c.mpc.dt, 0.1);
+  EXPECT_DOUBLE_EQ(c.period(), 0.05);  // the scenario steps it, and its plant, every 50 ms
+  EXPECT_DOUBLE_EQ(load("  dt: 0.1\n").period(), 0.1);  // without one: dt
+  expect_rejected("  dt: 0.05\n  control_period: 0.1\n", "controller.control_period");
+  expect_rejected("  dt: 0.1\n  control_period: -0.05\n", "controller.control_period");
+  // The budget is a share of the period, not of the longer step.
+  expect_rejected("  dt: 0.1\n  control_period: 0.05\n  solve_budget: 0.08\n", "controller.solve_budget");
+}
+
+TEST(ControllerConfig, ReadsTheStepTheWeightsAreSetForAndRejectsABadOne) {
+  EXPECT_DOUBLE_EQ(load("  weights: {step: 0.05}\n").mpc.weights_step, 0.05);
+  EXPECT_DOUBLE_EQ(load("").mpc.weights_step, 0.0);
+  for (const char* block : {"  weights: {step: -0.05}\n", "  weights: {step: .nan}\n", "  weights: {step: fast}\n"}) {
+    expect_rejected(block, "controller.weights.step");
+  }
+}
+
 TEST(ControllerConfig, ReadsTheHeadingLever) {
   EXPECT_DOUBLE_EQ(load("  weights: {heading_from_geometry: true, heading_lever: 2.5}\n").mpc.heading_lever, 2.5);
   EXPECT_DOUBLE_EQ(load("").mpc.heading_lever, 1.0);

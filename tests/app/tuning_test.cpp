@@ -194,10 +194,53 @@ TEST(TuneByQuality, ListsTheControllersOwnSettingOnceWhenACandidateEqualsIt) {
   QualityFixture f;
   f.options.horizons = {5, 20};
   f.options.knots = {3};
-  const QualityCandidates listed = quality_candidates(f.controller, f.options);
+  const QualityCandidates listed = quality_candidates(f.controller, f.options, f.target.control_period);
   ASSERT_EQ(listed.candidates.size(), 2u);  // (sa, 5, 3), (sa, 20, 3) = the file's own
   EXPECT_EQ(listed.incumbent, 1);
   EXPECT_EQ(listed.candidates[1].horizon, f.controller.mpc.horizon);
+}
+
+// Issue 19's dt axis: every dt at every horizon, the controller's own at the control period.
+TEST(TuneByQuality, ListsEachPredictionStepAtEveryHorizonAndTheOwnSettingAtTheControlPeriod) {
+  QualityFixture f;
+  f.options.horizons = {5, 10};
+  f.options.knots = {3};
+  f.options.dts = {0.05, 0.1};
+  const QualityCandidates listed = quality_candidates(f.controller, f.options, 0.05);
+  ASSERT_EQ(listed.candidates.size(), 5u);  // (5, 10) x (0.05, 0.1), then the file's own (20, 0.05)
+  EXPECT_DOUBLE_EQ(listed.candidates[0].dt, 0.05);
+  EXPECT_DOUBLE_EQ(listed.candidates[2].dt, 0.1);
+  EXPECT_EQ(listed.candidates[2].horizon, 5);
+  EXPECT_EQ(listed.incumbent, 4);
+  EXPECT_DOUBLE_EQ(listed.candidates[4].dt, 0.05);
+  // Without dts: the control period alone, whatever the target's.
+  f.options.dts.clear();
+  for (const TuningCandidate& c : quality_candidates(f.controller, f.options, 0.04).candidates) {
+    EXPECT_DOUBLE_EQ(c.dt, 0.04);
+  }
+}
+
+TEST(TuneByQuality, RunsACandidateWithALongerStepAtTheTargetsPeriodAndRejectsAShorterStep) {
+  QualityFixture f;
+  f.options.horizons = {5};
+  f.options.dts = {0.1};
+  const QualityTuningResult result = tune_by_quality(f.controller, f.target, {f.scenarios.front()}, f.options);
+  ASSERT_EQ(result.candidates.size(), 2u);  // (5, 0.1 s) and the file's own
+  const ScenarioScore& longer = result.candidates[0].scenarios.front();
+  EXPECT_TRUE(longer.completed);
+  EXPECT_GT(longer.wear_ratio, 0.0);
+  // A different controller from the own setting's at horizon 5 and 50 ms: it ran with the 0.1 s step.
+  QualityTuningOptions at_period = f.options;
+  at_period.dts = {0.05};
+  const QualityTuningResult short_step = tune_by_quality(f.controller, f.target, {f.scenarios.front()}, at_period);
+  EXPECT_NE(short_step.candidates[0].scenarios.front().rmse_m, longer.rmse_m);
+  at_period.dts = {0.02};
+  try {
+    tune_by_quality(f.controller, f.target, f.scenarios, at_period);
+    FAIL() << "accepted a step shorter than the control period";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("dts[] = 0.02"), std::string::npos) << error.what();
+  }
 }
 
 TEST(TuneByQuality, ChoosesTheLeastWearAmongFinalistsAcceptableOnEveryScenario) {
@@ -421,6 +464,32 @@ TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsT
   EXPECT_DOUBLE_EQ(tuned.mpc.wear_weight, original.mpc.wear_weight);
   EXPECT_EQ(tuned.mpc.pose_weight, original.mpc.pose_weight);
   EXPECT_DOUBLE_EQ(tuned.solver.sa.polish_share, original.solver.sa.polish_share);
+  std::remove(path.c_str());
+}
+
+TEST(TuneByQuality, WritesALongerStepWithTheTargetsControlPeriodAndDropsItAtThePeriod) {
+  const std::string base = config_file("controllers/default.yaml");
+  const std::string path = ::testing::TempDir() + "tuned_longer_step.yaml";
+  TargetConfig target;
+  target.name = "test";
+  target.control_period = 0.05;
+  target.solve_budget = 0.02;
+  TuningCandidate candidate{10, 3, 0.15, "sa", 0.1};
+  write_tuned_controller(base, candidate, target, "# tuned for a test\n", path);
+  ControllerConfig tuned = load_controller_config_file(path);
+  EXPECT_DOUBLE_EQ(tuned.mpc.dt, 0.1);
+  EXPECT_DOUBLE_EQ(tuned.period(), 0.05);
+  EXPECT_EQ(tuned.mpc.horizon, 10);
+  // Tuned again from that file at the period: no control_period key is left behind.
+  candidate.dt = 0.05;
+  write_tuned_controller(path, candidate, target, "# tuned for a test\n", path);
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str().find("control_period"), std::string::npos) << text.str();
+  tuned = load_controller_config_file(path);
+  EXPECT_DOUBLE_EQ(tuned.mpc.dt, 0.05);
+  EXPECT_DOUBLE_EQ(tuned.period(), 0.05);
   std::remove(path.c_str());
 }
 

@@ -363,6 +363,11 @@ TEST(Controller, RejectsEveryInvalidOptionNamingTheField) {
       {"wheel_speed_smoothness", [](ControllerOptions& o) { o.wheel_speed_smoothness = -1.0; }},
       {"twist_smoothness", [](ControllerOptions& o) { o.twist_smoothness = -1.0; }},
       {"max_plan_age", [](ControllerOptions& o) { o.max_plan_age = -1; }},
+      {"control_period", [](ControllerOptions& o) { o.control_period = -0.01; }},
+      {"control_period", [](ControllerOptions& o) { o.control_period = kNaN; }},
+      {"control_period", [](ControllerOptions& o) { o.control_period = 2.0 * o.dt; }},  // a cycle would skip a step
+      {"weights_step", [](ControllerOptions& o) { o.weights_step = -0.05; }},
+      {"weights_step", [](ControllerOptions& o) { o.weights_step = kNaN; }},
   };
   FakeScript script;
   for (const BadOption& bad : cases) {
@@ -1064,6 +1069,78 @@ TEST(Controller, CommandsTheSteeringAngleOneCycleAlongTheCommandedRate) {
                   1e-12);
     }
   }
+}
+
+// A prediction step of two control periods (issue 19's dt axis): the angle target follows the rate
+// over the period the command stands for, not over the longer prediction step.
+TEST(Controller, CommandsTheSteeringAngleOnePeriodAlongTheRateWhenThePredictionStepIsLonger) {
+  FakeScript script;
+  ControllerOptions options = fast_options(InputParameterization::kModuleRates);
+  options.dt = 0.1;
+  options.control_period = 0.05;
+  Controller controller = make_fake_controller(&script, options);
+  Eigen::VectorXd state = at_rest();
+  for (int i = 0; i < 4; ++i) state[6 + i] = 0.3;
+  const ControlOutput& out = controller.step(state, 0.0);
+  ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(out.modules[i].steering_angle, 0.3 + 0.05 * planned_value(0), 1e-12);
+}
+
+// With a prediction step of two periods the previous plan moves on half a step per cycle: a failed
+// solve at plan age a sends the plan at a / 2 steps, interpolated between its columns.
+TEST(Controller, ThePreviousPlanMovesOnByThePeriodsShareOfAStepEachCycle) {
+  FakeScript script;
+  ControllerOptions options = fast_options(InputParameterization::kModuleRates);
+  options.dt = 0.1;
+  options.control_period = 0.05;
+  Controller controller = make_fake_controller(&script, options);
+  const Eigen::VectorXd state = at_rest();
+  ASSERT_EQ(controller.step(state, 0.0).source, CommandSource::kOptimizer);
+  script.mode = FakeMode::kFail;
+  for (int age = 1; age <= options.max_plan_age; ++age) {
+    SCOPED_TRACE(age);
+    const ControlOutput& out = controller.step(state, age * options.control_period);
+    ASSERT_EQ(out.source, CommandSource::kPreviousPlan) << to_string(out.source);
+    // planned_value is linear in the step: at a / 2 steps, 0.01 (a / 2 + 1).
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(out.modules[i].steering_rate, 0.01 * (0.5 * age + 1.0), 1e-12);
+  }
+}
+
+// ControllerOptions::weights_step: the same motion costs the same per second at any dt.
+TEST(Controller, WeightsSetForOneStepAreRescaledToAnotherSoTheCostPerSecondStays) {
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.pose_weight = {20.0, 20.0, 200.0};
+  options.twist_weight = {10.0, 10.0, 10.0};
+  options.terminal_scale = 30.0;
+  options.twist_smoothness = 1.0;
+  options.wear_weight = 0.3;
+  options.tracking_tolerance = {0.05, 0.05, 1e5};
+  options.dt = 0.1;
+  options.control_period = 0.05;
+  options.solve_budget = 0.005;
+  const CostWeights as_written = make_fake_controller(&script, options).problem().weights();
+  EXPECT_EQ(as_written.pose, options.pose_weight);  // off: the weights as written at any dt
+  EXPECT_EQ(as_written.terminal_scale, 30.0);
+  options.weights_step = 0.05;
+  const CostWeights w = make_fake_controller(&script, options).problem().weights();
+  // Twice the step: stage weights doubled (half as many stages per second), the weight on a change
+  // per step halved (each change about twice as large, squared, over half the stages), the
+  // terminal scale halved (the terminal weight, scale x stage weight, stays), the wear unchanged.
+  EXPECT_NEAR(w.pose.x(), 40.0, 1e-12);
+  EXPECT_NEAR(w.pose.z(), 400.0, 1e-12);
+  EXPECT_NEAR(w.twist.y(), 20.0, 1e-12);
+  EXPECT_NEAR(w.rate[0], 0.5, 1e-12);
+  EXPECT_NEAR(w.terminal_scale * w.pose.x(), 30.0 * 20.0, 1e-9);
+  EXPECT_NEAR(w.tube_penalty, 2e5, 1e-6);
+  EXPECT_DOUBLE_EQ(w.wear, as_written.wear);
+  // At the step they were set for, bit for bit as written.
+  options.dt = 0.05;
+  options.control_period = 0.0;
+  const CostWeights same = make_fake_controller(&script, options).problem().weights();
+  EXPECT_EQ(same.pose, options.pose_weight);
+  EXPECT_EQ(same.terminal_scale, 30.0);
+  EXPECT_EQ(same.rate[0], 1.0);
 }
 
 // Tracking-tolerance mode (issue 15): the reference held at its start (t < 0), so the baseline holds

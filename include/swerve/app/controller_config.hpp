@@ -24,6 +24,8 @@ struct ControllerConfig {
   BaselineOptions baseline;    // the baseline controller, and the wear_mpc's initial-guess planner
   double solve_budget() const { return kind == ControllerKind::kWearMpc ? mpc.solve_budget : baseline.dt; }
   double dt() const { return kind == ControllerKind::kWearMpc ? mpc.dt : baseline.dt; }
+  // s between steps: the wear_mpc's control_period (its dt when 0), the baseline's dt.
+  double period() const { return kind == ControllerKind::kWearMpc ? mpc.period() : baseline.dt; }
   // The observer in front of either controller (and of the wear_mpc's initial-guess planner).
   void set_measurement_filter(const MeasurementFilterOptions& filter);
   // Horizon N and step dt (s) of both the wear-aware controller and the baseline (its own, or the
@@ -35,9 +37,10 @@ struct ControllerConfig {
 // Keys (defaults in brackets; SI units):
 //   name, description [""], type (wear_mpc | kinematic_baseline), horizon [20], dt [0.05]
 //   wear_mpc only:
-//     solve_budget [0.02], overrun_grace [0.002], deadline_margin [0.05], baseline_guess [true], max_plan_age [5],
+//     control_period [dt] (s between steps; at most dt), solve_budget [0.02], overrun_grace [0.002], deadline_margin [0.05], baseline_guess [true], max_plan_age [5],
 //     inputs [body_twist] (body_twist | module_rates: what the optimiser searches, see ControllerOptions)
-//     weights: {pose [10,10,5], twist [0,0,0], terminal_scale [10], pose_huber_width [0], wear [1], steering_rate_effort [0.01],
+//     weights: {pose [10,10,5], twist [0,0,0], terminal_scale [10], step [0] (the dt they are set for; ControllerOptions::weights_step),
+//               pose_huber_width [0], wear [1], steering_rate_effort [0.01],
 //               wheel_speed_effort [0], steering_rate_smoothness [0.05], wheel_speed_smoothness [0.01],
 //               twist_smoothness [1] (body_twist inputs; the effort/smoothness keys above are for module_rates)}
 //     prediction: {method [semi_implicit] (semi_implicit | rk4), substeps [1], slow_substeps [5],

@@ -52,15 +52,20 @@ TuningResult tune_horizon(const VehicleParams& vehicle, const ControllerConfig& 
 // --- Tuning by closed-loop quality ---
 
 struct TuningCandidate {
-  int horizon = 20;              // steps of the target's control period
+  int horizon = 20;              // prediction steps of dt
   int knots = 3;                 // SA move-blocking knots (backend sa); 0 for the other backends
   double deadline_margin = 0.15; // share of the budget kept free for the OS and the step's own variation
   std::string backend = "sa";    // controller.solver.backend
+  double dt = 0.0;               // s, the prediction's step: the target's control period or longer; 0: the period
+  double step_at(double control_period) const noexcept { return dt > 0.0 ? dt : control_period; }
 };
 
 struct QualityTuningOptions {
   std::vector<int> horizons{10, 15, 20, 30};
   std::vector<int> knots{3, 6};           // for the sa backend
+  // Prediction steps dt (s), each at least the target's control period (a longer one looks as far
+  // with fewer steps; ControllerOptions::control_period); empty: the control period only.
+  std::vector<double> dts;
   std::vector<double> deadline_margins;  // empty: the controller's own only
   // Backends to try, each a built one (built_backends()); empty: the controller's own only. The
   // sa backend is tried at every knot count, the others once per horizon and margin.
@@ -122,14 +127,17 @@ int closest_candidate(const std::vector<CandidateScore>& candidates, std::size_t
 // (candidates done, candidates in this round, round) after each candidate's round.
 using TuningProgress = std::function<void(int, int, int)>;
 
-// The candidates tune_by_quality runs, in its order: per backend (the options' or the controller's
-// own), horizon, knot count (the sa backend's alone; the others carry 0, once) and margin, without
-// repeats, and the controller's own setting (`incumbent`: its index, appended unless present).
+// The candidates tune_by_quality runs at a target's `control_period`, in its order: per backend
+// (the options' or the controller's own), dt (the options' or the control period), horizon, knot
+// count (the sa backend's alone; the others carry 0, once) and margin, without repeats, and the
+// controller's own setting (`incumbent`: its index, appended unless present; its dt the control
+// period, or its own dt when its file steps its prediction longer than its period).
 struct QualityCandidates {
   std::vector<TuningCandidate> candidates;
   int incumbent = -1;
 };
-QualityCandidates quality_candidates(const ControllerConfig& controller, const QualityTuningOptions& options);
+QualityCandidates quality_candidates(const ControllerConfig& controller, const QualityTuningOptions& options,
+                                     double control_period);
 
 // Every scenario needs a kinematic_baseline controller; `controller` is the wear_mpc config whose
 // backend, horizon, step (the target's control period), budget (translated), SA knots and deadline
@@ -141,8 +149,9 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
                                     const std::vector<ScenarioConfig>& scenarios, const QualityTuningOptions& options,
                                     const TuningProgress& progress = {});
 
-// Writes `base_file` (a controller YAML) with the candidate's backend, horizon, dt (the target's
-// control period), solve budget (the target's), SA knots (backend sa) and deadline margin to `path`,
+// Writes `base_file` (a controller YAML) with the candidate's backend, horizon, dt, control period
+// (the target's; written only when it differs from dt), solve budget (the target's), SA knots
+// (backend sa) and deadline margin to `path`,
 // headed by `header` (comment lines),
 // and loads it back to check it. Throws ConfigError / std::runtime_error naming the file.
 void write_tuned_controller(const std::string& base_file, const TuningCandidate& candidate, const TargetConfig& target,

@@ -52,7 +52,12 @@ struct TrackingTolerance {
 
 struct ControllerOptions {
   int horizon = 20;                  // N (paper-notes assumption 7)
-  double dt = 0.05;                  // s
+  double dt = 0.05;                  // s: the prediction's step
+  // s between step() calls; 0: dt. A prediction step longer than the period looks as far ahead with
+  // fewer steps (cheaper rollouts, issue 19's dt axis); the previous plan then moves on by
+  // period / dt of a step each cycle (Solution::shift(double)). At most dt.
+  double control_period = 0.0;
+  double period() const noexcept { return control_period > 0.0 ? control_period : dt; }
   double solve_budget = 0.02;        // s of wall clock for the whole step(): baseline plan, problem update, solve
   double overrun_grace = 0.002;      // s past the deadline before an answer counts as late
   // Share of solve_budget kept free at the end of each step, for the work after the solve and for
@@ -74,6 +79,14 @@ struct ControllerOptions {
   double pose_huber_width = 0.0;
   Eigen::Vector3d twist_weight{0.0, 0.0, 0.0};
   double terminal_scale = 10.0;
+  // s: the prediction step the per-step weights were set for; 0: off (the weights as written at
+  // any dt). When set, a dt other than it rescales them so that the same motion costs the same
+  // per second of the horizon: the stage weights (pose, twist, efforts, the tube's penalty) by
+  // dt / weights_step, the smoothness weights on the change per step by weights_step / dt (a
+  // change per step grows with dt), and terminal_scale by weights_step / dt (the terminal weight
+  // stands for the cost past the horizon, which does not depend on the step). The wear is
+  // energy per step and sums to the same over the horizon at any dt.
+  double weights_step = 0.0;
   double wear_weight = 1.0;          // lambda; 0 gives the dynamic controller without wear
   // When > 0, the wear weight is the one for a vehicle of this mass (kg), and the controller uses
   // wear_weight * wear_reference_mass / mass on its own vehicle. Frictional-power wear of the same

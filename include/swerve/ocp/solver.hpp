@@ -45,6 +45,11 @@ struct Solution {
   void resize(int state_size, int input_size, int horizon);
   // Receding horizon: drop the first step and repeat the last (the warm start of the next cycle).
   void shift() noexcept;
+  // Moves the plan on by `steps` (> 0) of its steps, a fraction when the controller's period is
+  // shorter than the prediction step: column k becomes the plan linearly interpolated at k + steps,
+  // the last column repeated past the end. shift(1) is shift(), bit for bit. Non-finite or <= 0:
+  // unchanged.
+  void shift(double steps) noexcept;
 };
 
 // Up to kMaxGuesses input sequences (nu x N) the solver starts from, the most promising first; it
