@@ -345,7 +345,12 @@ PYBIND11_MODULE(swervempc, m) {
           [](ControllerConfig& c, int n) { c.set_sampling(n, c.mpc.dt); })
       .def_property(
           "dt", [](const ControllerConfig& c) { return c.mpc.dt; },
-          [](ControllerConfig& c, double dt) { c.set_sampling(c.mpc.horizon, dt); }, "s; the control period too")
+          [](ControllerConfig& c, double dt) { c.set_sampling(c.mpc.horizon, dt); },
+          "s, the prediction's step; the control period too unless control_period is set")
+      .def_property(
+          "control_period", [](const ControllerConfig& c) { return c.period(); },
+          [](ControllerConfig& c, double period) { c.mpc.control_period = period; },
+          "s between steps (wear_mpc: at most dt; setting it to dt or 0 steps every dt)")
       .def_property(
           "solve_budget", [](const ControllerConfig& c) { return c.mpc.solve_budget; },
           [](ControllerConfig& c, double s) { c.mpc.solve_budget = s; })

@@ -37,6 +37,9 @@ class Configs(unittest.TestCase):
         config.horizon = 10
         config.wear_weight = 0.1
         self.assertEqual(config.horizon, 10)
+        self.assertEqual(config.control_period, config.dt)  # unset: one step per period
+        config.control_period = config.dt / 2
+        self.assertEqual(config.control_period, config.dt / 2)
         config.validate()
 
     def test_a_missing_file_is_a_value_error_naming_it(self):
@@ -45,6 +48,10 @@ class Configs(unittest.TestCase):
 
     def test_an_invalid_setting_is_a_value_error_naming_the_field(self):
         config = sm.load_controller_config(CONTROLLER)
+        config.control_period = 2 * config.dt
+        with self.assertRaisesRegex(ValueError, "control_period"):
+            config.validate()
+        config.control_period = 0.0
         config.horizon = 0
         with self.assertRaisesRegex(ValueError, "horizon = 0"):
             config.validate()
