@@ -23,8 +23,9 @@ CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout,
   CostWeights w;
   // ControllerOptions::weights_step: stage weights by dt / weights_step, weights on a change per
   // step and the terminal scale by its inverse; both exactly 1 when off or at that step.
-  const double stage = o.weights_step > 0.0 ? o.dt / o.weights_step : 1.0;
-  const double per_change = o.weights_step > 0.0 ? o.weights_step / o.dt : 1.0;
+  const StepRescale rescale = step_rescale(o.dt, o.weights_step);
+  const double stage = rescale.stage;
+  const double per_change = rescale.per_change;
   w.pose = stage * o.pose_weight;
   if (o.heading_weight_from_geometry) {
     const double lever = o.heading_lever * outermost_module_radius(layout);

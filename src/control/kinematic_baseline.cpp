@@ -37,6 +37,8 @@ const OptionFields<BaselineOptions>& BaselineOptions::fields() {
       {"twist_weight", &BaselineOptions::twist_weight, Bound::non_negative()},
       {"rate_weight", &BaselineOptions::rate_weight, Bound::non_negative()},
       {"terminal_scale", &BaselineOptions::terminal_scale, Bound::non_negative()},
+      {"weights_step", &BaselineOptions::weights_step, Bound::non_negative(), {}, nullptr,
+       "(s: the dt the weights are set for; 0: off)"},
       {"gauss_newton_iterations", &BaselineOptions::gauss_newton_iterations, Bound::closed(1, 100)},
       {"cosine_scaling", &BaselineOptions::cosine_scaling},
       // The same rule as KinematicsOptions.flip_hysteresis: at pi/2 a module would never flip.
@@ -77,10 +79,13 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
   directions_ = ModuleArray<DriveDirection<double>>(modules_);
   now_ = Eigen::VectorXd::Zero(6 + modules_);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
+  const StepRescale rescale = step_rescale(options_.dt, options_.weights_step);
   for (int k = 0; k < horizon_; ++k) {
-    const double scale = k == horizon_ - 1 ? options_.terminal_scale : 1.0;
-    weights_.segment<3>(3 * k) = scale * options_.pose_weight;
+    const double scale = k == horizon_ - 1 ? rescale.per_change * options_.terminal_scale : 1.0;
+    weights_.segment<3>(3 * k) = scale * rescale.stage * options_.pose_weight;
   }
+  twist_weight_ = rescale.stage * options_.twist_weight;
+  rate_weight_ = rescale.per_change * options_.rate_weight;
 }
 
 void KinematicBaseline::reset() noexcept {
@@ -100,8 +105,8 @@ bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eig
     return false;
   }
   const double dt = options_.dt;
-  const Eigen::Matrix3d twist_weight = options_.twist_weight.asDiagonal();
-  const Eigen::Matrix3d rate_weight = options_.rate_weight.asDiagonal();
+  const Eigen::Matrix3d twist_weight = twist_weight_.asDiagonal();
+  const Eigen::Matrix3d rate_weight = rate_weight_.asDiagonal();
   for (int iteration = 0; iteration < options_.gauss_newton_iterations; ++iteration) {
     // Headings for the rotations: the reference's yaw rate first, then the last iterate's. Targets:
     // reference poses with headings unwrapped next to the predicted heading.

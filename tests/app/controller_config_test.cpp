@@ -312,6 +312,17 @@ TEST(BaselineOptions, ValidateRejectsMoreGaussNewtonIterationsThanTheLoaderAllow
   expect_rejected("  baseline: {gauss_newton_iterations: 101}\n", "controller.baseline.gauss_newton_iterations");
 }
 
+TEST(BaselineOptions, ReadsTheStepItsWeightsAreSetForAndTheShippedBaselineSetsItsOwn) {
+  EXPECT_DOUBLE_EQ(load("  baseline: {weights_step: 0.05}\n").baseline.weights_step, 0.05);
+  EXPECT_DOUBLE_EQ(load("").baseline.weights_step, 0.0);
+  expect_rejected("  baseline: {weights_step: -0.05}\n", "controller.baseline.weights_step");
+  // The shipped baseline's weights were tuned at its 50 ms step; a target's shorter period must
+  // rescale them rather than run them as written (README, "Tuned controller configs per target").
+  const ControllerConfig shipped =
+      load_controller_config_file(std::string(SWERVE_SOURCE_DIR) + "/configs/controllers/kinematic_baseline.yaml");
+  EXPECT_DOUBLE_EQ(shipped.baseline.weights_step, shipped.baseline.dt);
+}
+
 }  // namespace
 }  // namespace swerve
 

@@ -148,6 +148,51 @@ TEST(KinematicBaseline, RiccatiPlanEqualsTheDenseNormalEquationsOptimum) {
   }
 }
 
+TEST(KinematicBaseline, WeightsSetForOneStepAreRescaledToAnotherSoTheCostPerSecondStays) {
+  // Weights set for 50 ms steps, run at 20 ms: the plan must be the optimum of the problem with
+  // Q and R times 20/50, S and the terminal scale times 50/20, written out by hand (dense_plan
+  // knows nothing of weights_step). At its own step the option changes nothing, bit for bit.
+  ModuleLimits unbounded = testing::small_robot_limits();
+  unbounded.max_drive_speed = 1e3;
+  unbounded.max_drive_acceleration = 1e6;
+  const ModuleLayout layout = ModuleLayout::rectangle(0.6, 0.5, 0.1, unbounded);
+  const auto reference = testing::line_reference(0.5);
+  BaselineOptions set_for_50ms;
+  set_for_50ms.horizon = 25;
+  set_for_50ms.dt = 0.02;
+  set_for_50ms.gauss_newton_iterations = 1;
+  set_for_50ms.weights_step = 0.05;
+  BaselineOptions by_hand = set_for_50ms;
+  by_hand.weights_step = 0.0;
+  by_hand.pose_weight *= 0.4;
+  by_hand.twist_weight *= 0.4;
+  by_hand.rate_weight *= 2.5;
+  by_hand.terminal_scale *= 2.5;
+  Eigen::MatrixXd poses, twists;
+  met_reference(Eigen::Vector3d(0.1, 0.05, 0.2), Eigen::Vector3d(0.3, 0.05, 0.2), set_for_50ms.horizon, 0.02, &poses,
+                &twists);
+  const Eigen::Vector3d pose(0.0, 0.0, 0.1), twist(0.25, 0.0, 0.1);
+  KinematicBaseline rescaled(layout, reference, set_for_50ms);
+  ASSERT_TRUE(rescaled.plan_twists(pose, twist, twist, poses, twists));
+  const Eigen::MatrixXd expected = dense_plan(by_hand, pose, twist, poses, twists);
+  EXPECT_LT((rescaled.twist_plan() - expected).cwiseAbs().maxCoeff(), 1e-9);
+  // The weights as written give another plan: the comparison above can fail.
+  BaselineOptions as_written = set_for_50ms;
+  as_written.weights_step = 0.0;
+  EXPECT_GT((dense_plan(as_written, pose, twist, poses, twists) - expected).cwiseAbs().maxCoeff(), 1e-4);
+
+  BaselineOptions at_its_step = set_for_50ms;
+  at_its_step.dt = 0.05;
+  KinematicBaseline unchanged(layout, reference, at_its_step);
+  at_its_step.weights_step = 0.0;
+  KinematicBaseline off(layout, reference, at_its_step);
+  met_reference(Eigen::Vector3d(0.1, 0.05, 0.2), Eigen::Vector3d(0.3, 0.05, 0.2), at_its_step.horizon, 0.05, &poses,
+                &twists);
+  ASSERT_TRUE(unchanged.plan_twists(pose, twist, twist, poses, twists));
+  ASSERT_TRUE(off.plan_twists(pose, twist, twist, poses, twists));
+  EXPECT_TRUE(unchanged.twist_plan() == off.twist_plan());
+}
+
 TEST(KinematicBaseline, ItsPolicyReturnsThePlanAtThePlannedPosesAndCorrectsAPoseLeftBehind) {
   // One Gauss-Newton pass takes the rotations at the headings the reference's yaw rate reaches, so
   // the plan's own poses are pose_k+1 = pose_k + dt [R(psi_k) u_k], psi_k = psi_0 + dt sum r_ref.
@@ -425,6 +470,9 @@ TEST(KinematicBaseline, RejectsInvalidOptionsNamingTheField) {
   o = {};
   o.terminal_scale = -1.0;
   expect_named(o, "terminal_scale");
+  o = {};
+  o.weights_step = -0.05;
+  expect_named(o, "weights_step");
   o = {};
   o.gauss_newton_iterations = 0;
   expect_named(o, "gauss_newton_iterations");

@@ -31,6 +31,11 @@ struct BaselineOptions {
   double terminal_scale = 10.0;
   Eigen::Vector3d twist_weight{0.05, 0.05, 0.05};  // R on the deviation from the reference twist
   Eigen::Vector3d rate_weight{0.5, 0.5, 0.5};      // S on the change of twist between steps
+  // s: the step the weights above were set for; 0: off (as written at any dt). At another dt, Q
+  // and R scale by dt / weights_step, S and terminal_scale by weights_step / dt (step_rescale):
+  // the baseline run at a target's shorter control period keeps the balance it was tuned for,
+  // instead of pricing a change of twist 2.5x lower per second at 20 ms than at 50 ms.
+  double weights_step = 0.0;
   int gauss_newton_iterations = 3;
   bool cosine_scaling = false;       // the paper's baseline drives at the IK speed
   double flip_hysteresis = 0.1;      // rad around 90 deg, as in KinematicsOptions
@@ -118,6 +123,7 @@ class KinematicBaseline final : public TrackingController {
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
   using Vector6 = Eigen::Matrix<double, 6, 1>;
   Eigen::VectorXd weights_, target_;                  // 3N: pose weights and targets of steps 1..N
+  Eigen::Vector3d twist_weight_, rate_weight_;        // R and S at this dt (BaselineOptions::weights_step)
   Eigen::VectorXd headings_;                          // N: the headings the rotations are taken at
   Eigen::MatrixXd feedback_;                          // 3 x 6N: the Riccati gains K_k
   Eigen::MatrixXd feedforward_;                       // 3 x N

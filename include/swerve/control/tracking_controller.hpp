@@ -23,6 +23,20 @@ const OptionFields<Options>& horizon_and_step_fields() {
   return table;
 }
 
+// Per-step cost weights set for a step of `weights_step` seconds, used at a step of dt (both
+// controllers' `weights_step`; 0: off, both factors 1). A stage cost summed over the steps is a
+// Riemann sum of a cost per second, so it scales by dt / weights_step; a cost on the change
+// between steps (|u_k - u_k-1|^2, the change growing with dt) and the terminal scale, which
+// stands for the cost past the horizon (not per step), scale by weights_step / dt.
+struct StepRescale {
+  double stage = 1.0;
+  double per_change = 1.0;
+};
+inline StepRescale step_rescale(double dt, double weights_step) noexcept {
+  if (!(weights_step > 0.0) || !(dt > 0.0)) return {};
+  return {dt / weights_step, weights_step / dt};
+}
+
 class Reference;
 
 // Where the applied commands came from, worst last. kTrackingFirst: the solve succeeded, but its
