@@ -1071,13 +1071,19 @@ TEST(Controller, CommandsTheSteeringAngleOneCycleAlongTheCommandedRate) {
   }
 }
 
+// Module-rate inputs planned in steps of 0.1 s, stepped every 0.05 s.
+ControllerOptions two_periods_a_step() {
+  ControllerOptions options = fast_options(InputParameterization::kModuleRates);
+  options.dt = 0.1;
+  options.control_period = 0.05;
+  return options;
+}
+
 // A prediction step of two control periods (issue 19's dt axis): the angle target follows the rate
 // over the period the command stands for, not over the longer prediction step.
 TEST(Controller, CommandsTheSteeringAngleOnePeriodAlongTheRateWhenThePredictionStepIsLonger) {
   FakeScript script;
-  ControllerOptions options = fast_options(InputParameterization::kModuleRates);
-  options.dt = 0.1;
-  options.control_period = 0.05;
+  const ControllerOptions options = two_periods_a_step();
   Controller controller = make_fake_controller(&script, options);
   Eigen::VectorXd state = at_rest();
   for (int i = 0; i < 4; ++i) state[6 + i] = 0.3;
@@ -1090,9 +1096,7 @@ TEST(Controller, CommandsTheSteeringAngleOnePeriodAlongTheRateWhenThePredictionS
 // solve at plan age a sends the plan at a / 2 steps, interpolated between its columns.
 TEST(Controller, ThePreviousPlanMovesOnByThePeriodsShareOfAStepEachCycle) {
   FakeScript script;
-  ControllerOptions options = fast_options(InputParameterization::kModuleRates);
-  options.dt = 0.1;
-  options.control_period = 0.05;
+  const ControllerOptions options = two_periods_a_step();
   Controller controller = make_fake_controller(&script, options);
   const Eigen::VectorXd state = at_rest();
   ASSERT_EQ(controller.step(state, 0.0).source, CommandSource::kOptimizer);

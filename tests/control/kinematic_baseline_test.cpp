@@ -119,13 +119,19 @@ Eigen::MatrixXd dense_plan(const BaselineOptions& o, const Eigen::Vector3d& pose
   return Eigen::Map<const Eigen::MatrixXd>(u.data(), 3, n);
 }
 
-TEST(KinematicBaseline, RiccatiPlanEqualsTheDenseNormalEquationsOptimum) {
-  // The O(N) recursion must give the same optimum as the O(N^3) dense solve it replaced, for a
-  // reference the vehicle is off (pose, heading and twist), on drives whose limits never bind.
+// A 0.6 x 0.5 m robot on drives whose speed and acceleration limits never bind, so the plan is
+// the unconstrained optimum the dense solve computes.
+ModuleLayout unbounded_rectangle() {
   ModuleLimits unbounded = testing::small_robot_limits();
   unbounded.max_drive_speed = 1e3;
   unbounded.max_drive_acceleration = 1e6;
-  const ModuleLayout layout = ModuleLayout::rectangle(0.6, 0.5, 0.1, unbounded);
+  return ModuleLayout::rectangle(0.6, 0.5, 0.1, unbounded);
+}
+
+TEST(KinematicBaseline, RiccatiPlanEqualsTheDenseNormalEquationsOptimum) {
+  // The O(N) recursion must give the same optimum as the O(N^3) dense solve it replaced, for a
+  // reference the vehicle is off (pose, heading and twist), on drives whose limits never bind.
+  const ModuleLayout layout = unbounded_rectangle();
   const auto reference = testing::line_reference(0.5);
   for (const int horizon : {1, 7, 40}) {
     SCOPED_TRACE(::testing::Message() << "horizon " << horizon);
@@ -152,10 +158,7 @@ TEST(KinematicBaseline, WeightsSetForOneStepAreRescaledToAnotherSoTheCostPerSeco
   // Weights set for 50 ms steps, run at 20 ms: the plan must be the optimum of the problem with
   // Q and R times 20/50, S and the terminal scale times 50/20, written out by hand (dense_plan
   // knows nothing of weights_step). At its own step the option changes nothing, bit for bit.
-  ModuleLimits unbounded = testing::small_robot_limits();
-  unbounded.max_drive_speed = 1e3;
-  unbounded.max_drive_acceleration = 1e6;
-  const ModuleLayout layout = ModuleLayout::rectangle(0.6, 0.5, 0.1, unbounded);
+  const ModuleLayout layout = unbounded_rectangle();
   const auto reference = testing::line_reference(0.5);
   BaselineOptions set_for_50ms;
   set_for_50ms.horizon = 25;
@@ -196,10 +199,7 @@ TEST(KinematicBaseline, WeightsSetForOneStepAreRescaledToAnotherSoTheCostPerSeco
 TEST(KinematicBaseline, ItsPolicyReturnsThePlanAtThePlannedPosesAndCorrectsAPoseLeftBehind) {
   // One Gauss-Newton pass takes the rotations at the headings the reference's yaw rate reaches, so
   // the plan's own poses are pose_k+1 = pose_k + dt [R(psi_k) u_k], psi_k = psi_0 + dt sum r_ref.
-  ModuleLimits unbounded = testing::small_robot_limits();
-  unbounded.max_drive_speed = 1e3;
-  unbounded.max_drive_acceleration = 1e6;
-  const ModuleLayout layout = ModuleLayout::rectangle(0.6, 0.5, 0.1, unbounded);
+  const ModuleLayout layout = unbounded_rectangle();
   BaselineOptions options;
   options.gauss_newton_iterations = 1;
   Eigen::MatrixXd poses, twists;
