@@ -416,7 +416,13 @@ std::string ConfigNode::get_choice_or(const std::string& key, std::initializer_l
   return value ? value->as_choice(allowed) : fallback;
 }
 
-void ConfigNode::fail(const std::string& what) const {
+void ConfigNode::fail(const std::string& what_at_any_path) const {
+  // A struct's own message may already name this path (SolverConfig::validate names
+  // "controller.solver.backend"): said once, not twice.
+  const std::string own_path = path_ + ": ";
+  const std::string what = !path_.empty() && what_at_any_path.rfind(own_path, 0) == 0
+                               ? what_at_any_path.substr(own_path.size())
+                               : what_at_any_path;
   // Keys were checked for UTF-8 at parse time, but may still be long or hold a newline.
   const std::string source = printable_value(document_->source, std::string::npos);
   const std::string where = path_.empty() ? source : source + ": " + printable_value(path_, 2 * kMaxEchoedValueChars);

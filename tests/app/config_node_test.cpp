@@ -42,6 +42,18 @@ TEST(ConfigNode, ReadsTypedValuesAlongNestedPaths) {
   EXPECT_NO_THROW(root.expect_all_read());
 }
 
+TEST(ConfigNode, AFailureWhoseMessageAlreadyNamesItsKeyPathSaysThePathOnce) {
+  // SolverConfig::validate names "controller.solver.backend" itself; the loader fails at that key
+  // with it, and the cross build (no Ceres) printed "...: controller.solver.backend:
+  // controller.solver.backend: 'ceres' was not built". A message naming another path keeps it.
+  const ConfigNode root = ConfigNode::parse("controller:\n  solver: {backend: ceres}\n", "c.yaml");
+  const ConfigNode solver = root.child("controller").child("solver");
+  EXPECT_EQ(error_of([&] { solver.fail_at("backend", "controller.solver.backend: 'ceres' was not built (built: sa)"); }),
+            "c.yaml: controller.solver.backend: 'ceres' was not built (built: sa)");
+  EXPECT_EQ(error_of([&] { solver.fail_at("backend", "SaOptions.knots = 0: must be >= 1"); }),
+            "c.yaml: controller.solver.backend: SaOptions.knots = 0: must be >= 1");
+}
+
 TEST(ConfigNode, OptionalKeysFallBackToTheirDocumentedDefault) {
   const ConfigNode root = ConfigNode::parse("a: 1\n", "f.yaml");
   EXPECT_DOUBLE_EQ(root.get_double_or("missing", 2.5), 2.5);

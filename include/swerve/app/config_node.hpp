@@ -89,7 +89,8 @@ class ConfigNode {
   std::string get_choice_or(const std::string& key, std::initializer_list<const char*> allowed,
                             const std::string& fallback) const;
 
-  // Throws ConfigError "<file>: <path>: <what>" (path of this node, or of `key` below it).
+  // Throws ConfigError "<file>: <path>: <what>" (path of this node, or of `key` below it); a
+  // `what` that already starts with "<path>: " keeps its path once.
   [[noreturn]] void fail(const std::string& what) const;
   [[noreturn]] void fail_at(const std::string& key, const std::string& what) const;
 
