@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Plots a `swerve-mpc tune --scenarios ... --out DIR` result: quality against horizon, one line per
-SA knot count, for one or more targets (their budgets differ), written next to each tune.json.
+backend, SA knot count, prediction step and control period, for one or more targets (their budgets differ), written next to each tune.json.
 
 Left: the geometric-mean wear ratio to the kinematic baseline over the scenarios each candidate ran
 (finalists, which ran all of them, filled; round-1 candidates, which ran the first only, open).
@@ -24,13 +24,24 @@ def plot(directory):
     with open(path) as f:
         tune = json.load(f)
     figure, (wear_axis, rmse_axis) = plt.subplots(1, 2, figsize=(11, 4.2))
-    knots = sorted({c["knots"] for c in tune["candidates"]})
-    for k in knots:
-        rows = sorted((c for c in tune["candidates"] if c["knots"] == k), key=lambda c: c["horizon"])
+    # One line per setting other than the horizon: backend, SA knots, prediction step, control period
+    # (older tune.json files carry neither of the last two).
+    def setting(c):
+        return (c["backend"], c["knots"], c.get("dt_s", 0.0), c.get("control_period_s", tune["control_period_s"]))
+
+    def label(key):
+        backend, knots, dt, period = key
+        text = f"{backend}, {knots} knots" if backend == "sa" else backend
+        if dt:
+            text += f", dt {1e3 * dt:g} ms"
+        return text + f", every {1e3 * period:g} ms"
+
+    for key in sorted({setting(c) for c in tune["candidates"]}):
+        rows = sorted((c for c in tune["candidates"] if setting(c) == key), key=lambda c: c["horizon"])
         horizons = [c["horizon"] for c in rows]
         wear = [c["geomean_wear_ratio"] for c in rows]
         worst_rmse = [max(s["rmse_m"] / s["baseline_rmse_m"] for s in c["scenarios"]) for c in rows]
-        line, = wear_axis.plot(horizons, wear, "-", label=f"{k} knots")
+        line, = wear_axis.plot(horizons, wear, "-", label=label(key))
         rmse_axis.plot(horizons, worst_rmse, "-", color=line.get_color())
         for c, w, r in zip(rows, wear, worst_rmse):
             face = line.get_color() if c["finalist"] else "none"
@@ -50,7 +61,7 @@ def plot(directory):
     rmse_axis.axhline(1.1, color="gray", linestyle=":", linewidth=1)
     wear_axis.legend()
     figure.suptitle(f"tune: {tune['target']}, {1e3 * tune['solve_budget_s']:.0f} ms budget on the target "
-                    f"({1e3 * tune['budget_here_s']:.1f} ms here), {1e3 * tune['control_period_s']:.0f} ms period")
+                    f"({1e3 * tune['budget_here_s']:.1f} ms here) at its {1e3 * tune['control_period_s']:.0f} ms period")
     figure.tight_layout()
     out = os.path.join(directory, "tune.png")
     figure.savefig(out, dpi=110)

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 
 #include "swerve/app/scenario_runner.hpp"
@@ -112,6 +113,11 @@ void QualityTuningOptions::validate() const {
   for (const double dt : dts) {
     if (!(dt > 0.0 && dt <= 1.0)) throw_invalid_field("QualityTuningOptions", "dts[]", dt, "must be in (0, 1] s");
   }
+  for (const double period : periods) {
+    if (!(period > 0.0 && period <= 1.0)) {
+      throw_invalid_field("QualityTuningOptions", "periods[]", period, "must be in (0, 1] s");
+    }
+  }
 }
 
 namespace {
@@ -139,7 +145,43 @@ double ScenarioScore::tracking_excess() const {
 const char* QualityTuningResult::rule() {
   return "the least geometric-mean wear ratio among candidates that ran every scenario with position and heading "
          "RMSE within max(1.1x, +0.02 m / +0.5 deg) of the baseline's and no deadline miss (a run with a miss is "
-         "repeated; a miss counts when the repeat misses too)";
+         "repeated; a miss counts when the repeat misses too), those at least as good as the controller file's own "
+         "setting on every scenario (no more wear, no higher position RMSE) first";
+}
+
+bool no_worse_on_every_scenario(const CandidateScore& candidate, const CandidateScore& own) {
+  if (candidate.scenarios.size() != own.scenarios.size() || own.scenarios.empty()) return false;
+  for (std::size_t i = 0; i < own.scenarios.size(); ++i) {
+    const ScenarioScore& c = candidate.scenarios[i];
+    const ScenarioScore& o = own.scenarios[i];
+    if (c.scenario != o.scenario || c.wear_ratio > o.wear_ratio || c.rmse_m > o.rmse_m) return false;
+  }
+  return true;
+}
+
+int best_candidate(const std::vector<CandidateScore>& candidates, int incumbent) {
+  const CandidateScore* own =
+      incumbent >= 0 && static_cast<std::size_t>(incumbent) < candidates.size() ? &candidates[static_cast<std::size_t>(incumbent)] : nullptr;
+  const auto ahead_of_own = [&](int i) {
+    return own != nullptr && i != incumbent && no_worse_on_every_scenario(candidates[static_cast<std::size_t>(i)], *own);
+  };
+  int best = -1;
+  for (int i = 0; i < static_cast<int>(candidates.size()); ++i) {
+    const CandidateScore& score = candidates[static_cast<std::size_t>(i)];
+    if (!score.finalist || score.unacceptable > 0) continue;
+    if (best < 0) {
+      best = i;
+      continue;
+    }
+    const bool ahead = ahead_of_own(i);
+    const bool best_ahead = ahead_of_own(best);
+    if (ahead != best_ahead) {
+      if (ahead) best = i;
+    } else if (score.geomean_wear_ratio < candidates[static_cast<std::size_t>(best)].geomean_wear_ratio) {
+      best = i;
+    }
+  }
+  return best;
 }
 
 const char* QualityTuningResult::closest_rule() {
@@ -212,12 +254,14 @@ QualityCandidates quality_candidates(const ControllerConfig& controller, const Q
   QualityCandidates out;
   // Knots are the sa backend's alone: the others' candidates carry 0. A dt within a nanosecond of
   // another is the same (0.05 typed and 0.05 read from a target file).
-  const auto add = [&](const std::string& backend, double dt, int horizon, int knots, double margin) {
-    const TuningCandidate candidate{horizon, backend == "sa" ? std::min(knots, horizon) : 0, margin, backend, dt};
+  const auto add = [&](const std::string& backend, double dt, int horizon, int knots, double margin, double period) {
+    const TuningCandidate candidate{horizon, backend == "sa" ? std::min(knots, horizon) : 0, margin, backend, dt,
+                                    period};
     for (std::size_t i = 0; i < out.candidates.size(); ++i) {
       const TuningCandidate& c = out.candidates[i];
       if (c.backend == candidate.backend && c.horizon == candidate.horizon && std::abs(c.dt - candidate.dt) < 1e-9 &&
-          c.knots == candidate.knots && c.deadline_margin == candidate.deadline_margin) {
+          std::abs(c.control_period - candidate.control_period) < 1e-9 && c.knots == candidate.knots &&
+          c.deadline_margin == candidate.deadline_margin) {
         return static_cast<int>(i);
       }
     }
@@ -228,13 +272,19 @@ QualityCandidates quality_candidates(const ControllerConfig& controller, const Q
       options.deadline_margins.empty() ? std::vector<double>{controller.mpc.deadline_margin} : options.deadline_margins;
   const std::vector<std::string> backends =
       options.backends.empty() ? std::vector<std::string>{controller.solver.backend} : options.backends;
-  const std::vector<double> dts = options.dts.empty() ? std::vector<double>{control_period} : options.dts;
+  const std::vector<double> periods = options.periods.empty() ? std::vector<double>{control_period} : options.periods;
   for (const std::string& backend : backends) {
-    for (const double dt : dts) {
-      for (const int horizon : options.horizons) {
-        const std::vector<int> knot_counts = backend == "sa" ? options.knots : std::vector<int>{0};
-        for (const int knots : knot_counts) {
-          for (const double margin : margins) add(backend, dt, horizon, knots, margin);
+    for (const double period : periods) {
+      // The target's own period is carried as 0, as the incumbent's is.
+      const double candidate_period = std::abs(period - control_period) < 1e-9 ? 0.0 : period;
+      const std::vector<double> dts = options.dts.empty() ? std::vector<double>{period} : options.dts;
+      for (const double dt : dts) {
+        if (dt < period - 1e-9) continue;  // a cycle must not skip a prediction step
+        for (const int horizon : options.horizons) {
+          const std::vector<int> knot_counts = backend == "sa" ? options.knots : std::vector<int>{0};
+          for (const int knots : knot_counts) {
+            for (const double margin : margins) add(backend, dt, horizon, knots, margin, candidate_period);
+          }
         }
       }
     }
@@ -243,7 +293,7 @@ QualityCandidates quality_candidates(const ControllerConfig& controller, const Q
   // The file's own step: its period's (run at the target's), or its own dt when longer than its period.
   const double own_dt = controller.mpc.dt > controller.mpc.period() ? controller.mpc.dt : control_period;
   out.incumbent =
-      add(controller.solver.backend, own_dt, controller.mpc.horizon, knots_given, controller.mpc.deadline_margin);
+      add(controller.solver.backend, own_dt, controller.mpc.horizon, knots_given, controller.mpc.deadline_margin, 0.0);
   return out;
 }
 
@@ -257,33 +307,59 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   QualityTuningResult result;
   result.budget_here_s = target.solve_budget / target.cpu_slowdown;
   const double period = target.control_period;
+  // The periods tried, the target's own first (every wear ratio is against its baseline).
+  std::vector<double> periods{period};
+  for (const double p : options.periods) {
+    if (!target.budget_at(p)) {
+      throw_invalid_field("QualityTuningOptions", "periods[]", p,
+                          "is not a control period target " + target.name + " allows (" + target.periods_text() +
+                              " s; TargetConfig::other_periods)");
+    }
+    if (std::abs(p - period) >= 1e-9) periods.push_back(p);
+  }
+  const double shortest_tried =
+      options.periods.empty() ? period : *std::min_element(options.periods.begin(), options.periods.end());
   for (const double dt : options.dts) {
-    if (dt < period - 1e-9) {
+    if (dt < shortest_tried - 1e-9) {
       throw_invalid_field("QualityTuningOptions", "dts[]", dt,
-                          "must be at least the target's control period (" + std::to_string(period) + " s)");
+                          "must be at least the shortest control period tried (" + std::to_string(shortest_tried) +
+                              " s)");
     }
   }
+  const auto period_index = [&](const TuningCandidate& c) {
+    const double p = c.period_at(period);
+    for (std::size_t i = 0; i < periods.size(); ++i) {
+      if (std::abs(periods[i] - p) < 1e-9) return i;
+    }
+    return std::size_t{0};  // not reached: every candidate's period is one of `periods`
+  };
 
-  // Every scenario at the target's period, once per seed (the scenario's own when none is given),
-  // and its baseline there, run once.
-  std::vector<std::vector<ScenarioConfig>> runs;     // [scenario][seed]
-  std::vector<std::vector<RunMetrics>> baselines;    // [scenario][seed]
+  // Every scenario once per seed (the scenario's own when none is given), and its baseline at
+  // each period tried, run once.
+  std::vector<std::vector<ScenarioConfig>> runs;                    // [scenario][seed], at the target's period
+  std::vector<std::vector<std::vector<RunMetrics>>> baselines;      // [period][scenario][seed]
+  baselines.resize(periods.size());
   for (const ScenarioConfig& scenario : scenarios) {
     runs.emplace_back();
-    baselines.emplace_back();
-    ScenarioController baseline = baseline_of(scenario);
-    baseline.config.set_sampling(baseline.config.baseline.horizon, period);
     const std::vector<std::uint64_t> seeds =
         options.seeds.empty() ? std::vector<std::uint64_t>{scenario.simulator.seed} : options.seeds;
     for (const std::uint64_t seed : seeds) {
       runs.back().push_back(at_period(scenario, period));
       runs.back().back().simulator.seed = seed;
-      const ControllerRun run = run_controller(runs.back().back(), baseline, {}, 0, options.clock);
-      if (!run.completed) {
-        throw ConfigError("tune: the baseline failed on '" + scenario.name + "' (seed " + std::to_string(seed) +
-                          "): " + run.failure);
+    }
+    for (std::size_t p = 0; p < periods.size(); ++p) {
+      baselines[p].emplace_back();
+      ScenarioController baseline = baseline_of(scenario);
+      baseline.config.set_sampling(baseline.config.baseline.horizon, periods[p]);
+      for (const ScenarioConfig& run_config : runs.back()) {
+        const ControllerRun run = run_controller(at_period(run_config, periods[p]), baseline, {}, 0, options.clock);
+        if (!run.completed) {
+          throw ConfigError("tune: the baseline failed on '" + scenario.name + "' (seed " +
+                            std::to_string(run_config.simulator.seed) + ", period " + std::to_string(periods[p]) +
+                            " s): " + run.failure);
+        }
+        baselines[p].back().push_back(run.metrics);
       }
-      baselines.back().push_back(run.metrics);
     }
   }
 
@@ -296,9 +372,11 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   };
   const auto score_on = [&](const TuningCandidate& candidate, std::size_t index) {
     ScenarioController entry{"wear_mpc", "", controller};
+    const double candidate_period = candidate.period_at(period);
+    const std::size_t own = period_index(candidate);
     entry.config.set_sampling(candidate.horizon, candidate.step_at(period));
-    entry.config.mpc.control_period = period;
-    entry.config.mpc.solve_budget = result.budget_here_s;
+    entry.config.mpc.control_period = candidate_period;
+    entry.config.mpc.solve_budget = target.budget_at(candidate_period).value_or(target.solve_budget) / target.cpu_slowdown;
     entry.config.solver.backend = candidate.backend;
     if (candidate.backend == "sa") entry.config.solver.sa.knots = candidate.knots;
     entry.config.mpc.deadline_margin = candidate.deadline_margin;
@@ -307,21 +385,23 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     s.completed = true;
     std::vector<double> wear, rmse, baseline_rmse, heading, baseline_heading, step_p99;
     for (std::size_t k = 0; k < runs[index].size(); ++k) {
-      const ControllerRun run = run_controller(runs[index][k], entry, {}, 0, options.clock);
+      const ScenarioConfig scenario = at_period(runs[index][k], candidate_period);
+      const ControllerRun run = run_controller(scenario, entry, {}, 0, options.clock);
       int misses = run.metrics.deadline_misses;
       if (misses > 0) {
-        const ControllerRun again = run_controller(runs[index][k], entry, {}, 0, options.clock);
+        const ControllerRun again = run_controller(scenario, entry, {}, 0, options.clock);
         const int recurring = std::min(misses, again.metrics.deadline_misses);
         s.unconfirmed_misses += misses - recurring;
         misses = recurring;
       }
-      const RunMetrics& b = baselines[index][k];
+      const RunMetrics& b = baselines[0][index][k];           // the target's period: the wear yardstick
+      const RunMetrics& b_own = baselines[own][index][k];     // the candidate's period
       s.completed = s.completed && run.completed;
       wear.push_back(b.wear_total > 0.0 ? run.metrics.wear_total / b.wear_total : 1.0);
       rmse.push_back(run.metrics.tracking_rmse_m);
-      baseline_rmse.push_back(b.tracking_rmse_m);
+      baseline_rmse.push_back(std::min(b.tracking_rmse_m, b_own.tracking_rmse_m));
       heading.push_back(run.metrics.heading_rmse_rad);
-      baseline_heading.push_back(b.heading_rmse_rad);
+      baseline_heading.push_back(std::min(b.heading_rmse_rad, b_own.heading_rmse_rad));
       step_p99.push_back(run.metrics.step_time_p99_ms);
       s.deadline_misses += misses;
       s.fallbacks += run.metrics.fallbacks;
@@ -368,13 +448,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     summarise(&score);
     if (progress) progress(static_cast<int>(rank) + 1, static_cast<int>(finalists.size()), 2);
   }
-  const auto choose = [&] {
-    for (int i = 0; i < total; ++i) {
-      const CandidateScore& score = result.candidates[static_cast<std::size_t>(i)];
-      if (!score.finalist || score.unacceptable > 0) continue;
-      if (result.best < 0 || better(score, result.candidates[static_cast<std::size_t>(result.best)])) result.best = i;
-    }
-  };
+  const auto choose = [&] { result.best = best_candidate(result.candidates, result.incumbent); };
   choose();
   // Round 3, only when no finalist was acceptable everywhere (one scenario is a rough predictor of
   // the others): the rest, in round 1's order, on every scenario, until one is.
@@ -415,15 +489,21 @@ void write_tuned_controller(const std::string& base_file, const TuningCandidate&
   }
   YAML::Node controller = document["controller"];
   if (!controller.IsMap()) throw ConfigError(base_file + ": no controller: map to tune");
+  const double period = candidate.period_at(target.control_period);
+  const std::optional<double> budget = target.budget_at(period);
+  if (!budget) {
+    throw ConfigError(path + ": the candidate's control period " + std::to_string(period) + " s is not one target " +
+                      target.name + " allows (" + target.periods_text() + " s)");
+  }
   controller["horizon"] = candidate.horizon;
   const double dt = candidate.step_at(target.control_period);
   controller["dt"] = shortest_number(dt);
-  if (std::abs(dt - target.control_period) < 1e-9) {
+  if (std::abs(dt - period) < 1e-9) {
     controller.remove("control_period");
   } else {
-    controller["control_period"] = shortest_number(target.control_period);
+    controller["control_period"] = shortest_number(period);
   }
-  controller["solve_budget"] = shortest_number(target.solve_budget);
+  controller["solve_budget"] = shortest_number(*budget);
   controller["solver"]["backend"] = candidate.backend;
   if (candidate.backend == "sa") controller["solver"]["sa"]["knots"] = candidate.knots;
   controller["deadline_margin"] = shortest_number(candidate.deadline_margin);
@@ -448,14 +528,17 @@ std::vector<RealTimeRow> measure_real_time(const ControllerConfig& controller, c
   std::vector<RealTimeRow> rows;
   for (const ScenarioConfig& scenario : scenarios) {
     ScenarioController entry{"wear_mpc", "", controller};
-    // At the target's period, the prediction step in the same ratio to it as in the file.
+    // At the file's own period where the target allows it; else at the target's, the prediction
+    // step in the same ratio to it as in the file.
+    const std::optional<double> own_budget = target.budget_at(controller.mpc.period());
+    const double period = own_budget ? controller.mpc.period() : target.control_period;
+    const double budget = own_budget ? *own_budget : target.solve_budget;
     const bool longer_step = controller.mpc.dt > controller.mpc.period();
-    entry.config.set_sampling(controller.mpc.horizon, longer_step ? controller.mpc.dt * (target.control_period /
-                                                                                         controller.mpc.period())
-                                                                  : target.control_period);
-    entry.config.mpc.control_period = target.control_period;
-    entry.config.mpc.solve_budget = target.solve_budget / target.cpu_slowdown;
-    const ControllerRun run = run_controller(at_period(scenario, target.control_period), entry, {}, 0, clock);
+    entry.config.set_sampling(controller.mpc.horizon,
+                              longer_step ? controller.mpc.dt * (period / controller.mpc.period()) : period);
+    entry.config.mpc.control_period = period;
+    entry.config.mpc.solve_budget = budget / target.cpu_slowdown;
+    const ControllerRun run = run_controller(at_period(scenario, period), entry, {}, 0, clock);
     std::vector<double> steps_ms, proposals;
     for (const StepRecord& record : run.log) {
       if (record.step_time_s >= 0.0) steps_ms.push_back(1e3 * record.step_time_s * target.cpu_slowdown);
@@ -463,7 +546,8 @@ std::vector<RealTimeRow> measure_real_time(const ControllerConfig& controller, c
     }
     RealTimeRow row;
     row.scenario = scenario.name;
-    row.budget_ms = 1e3 * target.solve_budget;
+    row.period_ms = 1e3 * period;
+    row.budget_ms = 1e3 * budget;
     row.step_p50_ms = percentile(steps_ms, 50.0);
     row.step_p99_ms = percentile(steps_ms, 99.0);
     row.step_max_ms = steps_ms.empty() ? 0.0 : *std::max_element(steps_ms.begin(), steps_ms.end());

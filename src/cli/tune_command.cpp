@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -34,6 +35,7 @@ struct TuneArguments {
   std::vector<std::string> backends;        // quality; empty: the controller file's own
   std::vector<double> margins;              // deadline margins (quality); empty: the file's own
   std::vector<double> dts;                  // prediction steps (quality); empty: the target's control period
+  std::vector<double> periods;              // control periods (quality), each one the target allows; empty: its own
   std::vector<std::uint64_t> seeds;         // simulator seeds (quality); empty: each scenario's own
   std::string write_file;                   // the winner's controller YAML
   std::string out_dir;                      // tune.json
@@ -61,12 +63,18 @@ void check_write_file(const std::string& path, bool force) {
   }
 }
 
-// "sa, horizon 10, dt 0.05 s, 3 knots" / "nlopt, horizon 10, dt 0.1 s": knots are the sa backend's alone.
+// "sa, horizon 10, dt 0.05 s, 3 knots" / "nlopt, horizon 10, dt 0.1 s": knots are the sa backend's alone;
+// a candidate at another of the target's periods adds ", every 20 ms".
 std::string describe(const TuningCandidate& c) {
   char dt[32];
   std::snprintf(dt, sizeof dt, "%g", c.dt);
   std::string text = c.backend + ", horizon " + std::to_string(c.horizon) + ", dt " + dt + " s";
   if (c.backend == "sa") text += ", " + std::to_string(c.knots) + " knots";
+  if (c.control_period > 0.0) {  // another of the target's periods than its own
+    char period[32];
+    std::snprintf(period, sizeof period, "%g", 1e3 * c.control_period);
+    text += ", every " + std::string(period) + " ms";
+  }
   return text;
 }
 
@@ -83,10 +91,14 @@ nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& ta
                            {"unconfirmed_misses", s.unconfirmed_misses}, {"fallbacks", s.fallbacks},
                            {"acceptable", s.acceptable()}});
     }
-    rows.push_back({{"backend", c.candidate.backend}, {"horizon", c.candidate.horizon}, {"dt_s", c.candidate.step_at(target.control_period)},
+    rows.push_back({{"backend", c.candidate.backend}, {"horizon", c.candidate.horizon},
+                    {"control_period_s", c.candidate.period_at(target.control_period)},
+                    {"dt_s", c.candidate.step_at(target.control_period)},
                     {"knots", c.candidate.knots},
                     {"deadline_margin", c.candidate.deadline_margin}, {"finalist", c.finalist},
                     {"geomean_wear_ratio", c.geomean_wear_ratio}, {"unacceptable", c.unacceptable},
+                    {"no_worse_than_own", result.incumbent >= 0 && &c != &result.candidates[static_cast<std::size_t>(result.incumbent)] &&
+                                              no_worse_on_every_scenario(c, result.candidates[static_cast<std::size_t>(result.incumbent)])},
                     {"scenarios", scenarios}});
   }
   return {{"target", target.name},
@@ -110,6 +122,7 @@ int tune_by_quality_command(const TuneArguments& a) {
   options.deadline_margins = a.margins;
   options.seeds = a.seeds;
   options.dts = a.dts;
+  options.periods = a.periods;
   std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
   if (work_clock) options.clock = &*work_clock;
   try {
@@ -129,10 +142,20 @@ int tune_by_quality_command(const TuneArguments& a) {
   for (const std::string& file : a.scenario_files) scenarios.push_back(load_scenario_config_file(file));
   const ControllerConfig controller = load_controller_config_file(a.controller_file);
   const TargetConfig target = load_target_config_file(a.target_file);
+  double shortest_period = target.control_period;
+  if (!options.periods.empty()) shortest_period = options.periods.front();
+  for (const double period : options.periods) {
+    if (!target.budget_at(period)) {
+      throw UsageError("tune: --periods: " + Bound::number(period) + " s is not a control period target " +
+                       target.name + " allows (" + target.periods_text() + " s; its file's other_periods)");
+    }
+    shortest_period = std::min(shortest_period, period);
+  }
   for (const double dt : options.dts) {
-    if (dt < target.control_period - 1e-9) {
-      throw UsageError("tune: --dts: " + std::to_string(dt) + " s is shorter than the control period of target " +
-                       target.name + " (" + std::to_string(target.control_period) +
+    if (dt < shortest_period - 1e-9) {
+      throw UsageError("tune: --dts: " + std::to_string(dt) + " s is shorter than the " +
+                       (options.periods.empty() ? "" : "shortest tried ") + "control period of target " +
+                       target.name + " (" + std::to_string(shortest_period) +
                        " s): a cycle must not skip a prediction step");
     }
   }
@@ -141,6 +164,13 @@ int tune_by_quality_command(const TuneArguments& a) {
               "(%.2f ms here), %zu candidates on %zu scenarios\n",
               controller.name.c_str(), target.name.c_str(), 1e3 * target.solve_budget, 1e3 * target.control_period,
               target.cpu_slowdown, 1e3 * target.solve_budget / target.cpu_slowdown, candidates, scenarios.size());
+  for (const double period : options.periods) {
+    if (std::abs(period - target.control_period) < 1e-9) continue;
+    std::printf("also at a %.0f ms cycle with %.1f ms (%.2f ms here); every wear ratio is against the baseline at "
+                "%.0f ms, the tracking against the better of the baseline there and at the candidate's cycle\n",
+                1e3 * period, 1e3 * *target.budget_at(period), 1e3 * *target.budget_at(period) / target.cpu_slowdown,
+                1e3 * target.control_period);
+  }
   if (!options.seeds.empty()) std::printf("each on %zu seeds: medians per scenario\n", options.seeds.size());
   if (work_clock) std::printf("%s\n", work_clock_notice(a.work_clock).c_str());
   std::fflush(stdout);
@@ -153,12 +183,13 @@ int tune_by_quality_command(const TuneArguments& a) {
         std::fflush(stderr);
       });
   // One row per candidate: per scenario wear ratio and RMSE ratio, then the summary.
-  std::printf("%7s %7s %6s %5s %6s", "backend", "horizon", "dt", "knots", "margin");
+  std::printf("%7s %7s %6s %6s %5s %6s", "backend", "horizon", "period", "dt", "knots", "margin");
   for (const ScenarioConfig& s : scenarios) std::printf("  %-22.22s", s.name.c_str());
   std::printf(" %10s %8s %6s %14s\n", "geo. wear", "misses", "once", "unacceptable");
   for (std::size_t i = 0; i < result.candidates.size(); ++i) {
     const CandidateScore& c = result.candidates[i];
-    std::printf("%7s %7d %6g %5s %6.2f", c.candidate.backend.c_str(), c.candidate.horizon, c.candidate.step_at(target.control_period),
+    std::printf("%7s %7d %6g %6g %5s %6.2f", c.candidate.backend.c_str(), c.candidate.horizon,
+                c.candidate.period_at(target.control_period), c.candidate.step_at(target.control_period),
                 c.candidate.backend == "sa" ? std::to_string(c.candidate.knots).c_str() : "-",
                 c.candidate.deadline_margin);
     int misses = 0;
@@ -174,12 +205,17 @@ int tune_by_quality_command(const TuneArguments& a) {
         std::printf("  %-22s", "-");
       }
     }
-    std::printf(" %10.3f %8d %6d %14d%s%s\n", c.geomean_wear_ratio, misses, once, c.unacceptable,
+    const bool own = static_cast<int>(i) == result.incumbent;
+    std::printf(" %10.3f %8d %6d %14d%s%s%s\n", c.geomean_wear_ratio, misses, once, c.unacceptable,
+                !own && no_worse_on_every_scenario(c, result.candidates[static_cast<std::size_t>(result.incumbent)])
+                    ? "   >= own"
+                    : "",
                 static_cast<int>(i) == result.best ? "   <- best" : "",
-                static_cast<int>(i) == result.incumbent ? "   (the controller file's own)" : "");
+                own ? "   (the controller file's own)" : "");
   }
   std::printf("per scenario: wear / RMSE, each as a ratio to the kinematic baseline's; (no): outside the bounds; "
-              "once: misses that did not recur when their run was repeated (the machine's stalls; not counted)\n");
+              "once: misses that did not recur when their run was repeated (the machine's stalls; not counted); "
+              ">= own: no more wear and no higher position RMSE than the controller file's own on every scenario\n");
   std::printf("rule: %s\n", QualityTuningResult::rule());
   if (!a.out_dir.empty()) {
     std::ofstream(a.out_dir + "/tune.json") << to_json(result, target).dump(2) << "\n";
@@ -188,11 +224,12 @@ int tune_by_quality_command(const TuneArguments& a) {
   // The chosen candidate's YAML, headed by how it was chosen and what it scored.
   const auto write = [&](const CandidateScore& chosen, const std::string& how) {
     std::ostringstream header;
+    const double period = chosen.candidate.period_at(target.control_period);
     header << "# Tuned by `swerve-mpc tune` for target " << target.name << " (" << target.description
            << ") from " << a.controller_file << ":\n# backend " << describe(chosen.candidate) << ", control period "
-           << target.control_period << " s, deadline margin "
-           << chosen.candidate.deadline_margin << ", solve budget " << target.solve_budget
-           << " s; geometric-mean wear " << chosen.geomean_wear_ratio << " of the kinematic baseline's on";
+           << period << " s, deadline margin " << chosen.candidate.deadline_margin << ", solve budget "
+           << target.budget_at(period).value_or(target.solve_budget) << " s; geometric-mean wear "
+           << chosen.geomean_wear_ratio << " of the kinematic baseline's (at " << target.control_period << " s) on";
     for (const ScenarioScore& s : chosen.scenarios) header << " " << s.scenario;
     if (!a.seeds.empty()) {
       header << " (medians over simulator seeds";
@@ -246,7 +283,8 @@ int tune_by_quality_command(const TuneArguments& a) {
   std::printf(
       "best: %s (%.2f s of lookahead at %.0f ms), deadline margin %.2f: geometric-mean "
       "wear %.3f of the baseline's\n",
-      describe(best.candidate).c_str(), best.candidate.horizon * best.candidate.step_at(target.control_period), 1e3 * target.control_period,
+      describe(best.candidate).c_str(), best.candidate.horizon * best.candidate.step_at(target.control_period),
+      1e3 * best.candidate.period_at(target.control_period),
       best.candidate.deadline_margin, best.geomean_wear_ratio);
   if (!a.write_file.empty()) write(best, QualityTuningResult::rule());
   return kExitOk;
@@ -321,6 +359,10 @@ Command make_tune_command() {
                            "Candidate prediction steps dt in s (quality; each at least the target's control "
                            "period: a longer one looks as far with fewer steps), comma-separated [the control "
                            "period]")
+                ->delimiter(',');
+            app.add_option("--periods", a->periods,
+                           "Candidate control periods in s (quality; each the target's control_period or one of "
+                           "its other_periods, at that period's budget), comma-separated [the target's]")
                 ->delimiter(',');
             app.add_option("--seeds", a->seeds,
                            "Simulator seeds each candidate runs every scenario with (quality; medians over them), "

@@ -4,12 +4,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 #include "support/fake_clocks.hpp"
+#include "swerve/app/scenario_runner.hpp"
 #include "swerve/app/vehicle_config.hpp"
 
 namespace swerve {
@@ -243,6 +246,92 @@ TEST(TuneByQuality, RunsACandidateWithALongerStepAtTheTargetsPeriodAndRejectsASh
   }
 }
 
+// Issue 19's "control period where the target allows a choice": each period with each step at
+// least as long, the target's own carried as 0, the file's own at the target's period.
+TEST(TuneByQuality, ListsEachAllowedPeriodWithEveryStepAtLeastAsLongAndTheOwnSettingAtTheTargetsPeriod) {
+  QualityFixture f;
+  f.options.horizons = {5};
+  f.options.knots = {3};
+  f.options.periods = {0.05, 0.02};
+  f.options.dts = {0.02, 0.05};
+  const QualityCandidates listed = quality_candidates(f.controller, f.options, 0.05);
+  ASSERT_EQ(listed.candidates.size(), 4u);  // 0.05: dt 0.05 (0.02 skipped); 0.02: dt 0.02 and 0.05; the own
+  EXPECT_DOUBLE_EQ(listed.candidates[0].control_period, 0.0);
+  EXPECT_DOUBLE_EQ(listed.candidates[0].dt, 0.05);
+  EXPECT_DOUBLE_EQ(listed.candidates[1].control_period, 0.02);
+  EXPECT_DOUBLE_EQ(listed.candidates[1].dt, 0.02);
+  EXPECT_DOUBLE_EQ(listed.candidates[2].control_period, 0.02);
+  EXPECT_DOUBLE_EQ(listed.candidates[2].dt, 0.05);
+  EXPECT_DOUBLE_EQ(listed.candidates[2].period_at(0.05), 0.02);
+  EXPECT_EQ(listed.incumbent, 3);
+  EXPECT_DOUBLE_EQ(listed.candidates[3].control_period, 0.0);
+  EXPECT_DOUBLE_EQ(listed.candidates[3].period_at(0.05), 0.05);
+  EXPECT_EQ(listed.candidates[3].horizon, f.controller.mpc.horizon);
+  // Without dts: each period's own step.
+  f.options.dts.clear();
+  const QualityCandidates own_steps = quality_candidates(f.controller, f.options, 0.05);
+  ASSERT_EQ(own_steps.candidates.size(), 3u);
+  EXPECT_DOUBLE_EQ(own_steps.candidates[1].step_at(0.05), 0.02);
+}
+
+// A candidate at another of the target's periods runs there at that period's budget; its wear is
+// against the baseline at the target's period (one yardstick for all), its tracking against the
+// better of the baseline there and at its own period.
+TEST(TuneByQuality, RunsACandidateAtAnotherAllowedPeriodAtItsBudgetAgainstTheTighterBaseline) {
+  QualityFixture f;
+  f.target.other_periods = {{0.025, 0.002}};
+  f.options.horizons = {5};
+  f.options.periods = {0.025};
+  f.options.dts = {0.05};
+  const ScenarioConfig& scenario = f.scenarios.front();
+  const QualityTuningResult result = tune_by_quality(f.controller, f.target, {scenario}, f.options);
+  ASSERT_EQ(result.candidates.size(), 2u);  // (5, 0.05 s, every 25 ms) and the file's own
+  ASSERT_DOUBLE_EQ(result.candidates[0].candidate.control_period, 0.025);
+  const ScenarioScore& score = result.candidates[0].scenarios.front();
+  // The same runs, by hand.
+  const auto run_at = [&](const ScenarioController& entry, double period) {
+    ScenarioConfig copy = scenario;
+    copy.simulator.control_period = period;
+    return run_controller(copy, entry, {}, 0, &f.clock).metrics;
+  };
+  ScenarioController baseline{"kinematic_baseline", "",
+                              load_controller_config_file(config_file("controllers/kinematic_baseline.yaml"))};
+  for (const ScenarioController& c : scenario.controllers) {
+    if (c.config.kind == ControllerKind::kKinematicBaseline) baseline = c;
+  }
+  baseline.config.set_sampling(baseline.config.baseline.horizon, 0.05);
+  const RunMetrics at_target = run_at(baseline, 0.05);
+  baseline.config.set_sampling(baseline.config.baseline.horizon, 0.025);
+  const RunMetrics at_own = run_at(baseline, 0.025);
+  ScenarioController candidate{"wear_mpc", "", f.controller};
+  candidate.config.set_sampling(5, 0.05);
+  candidate.config.mpc.control_period = 0.025;
+  candidate.config.mpc.solve_budget = 0.001;  // 2 ms on a target twice as slow
+  const RunMetrics own = run_at(candidate, 0.025);
+  EXPECT_NE(at_target.tracking_rmse_m, at_own.tracking_rmse_m);  // else the test shows nothing
+  EXPECT_DOUBLE_EQ(score.rmse_m, own.tracking_rmse_m);
+  EXPECT_DOUBLE_EQ(score.wear_ratio, own.wear_total / at_target.wear_total);
+  EXPECT_DOUBLE_EQ(score.baseline_rmse_m, std::min(at_target.tracking_rmse_m, at_own.tracking_rmse_m));
+  EXPECT_DOUBLE_EQ(score.baseline_heading_rmse_rad, std::min(at_target.heading_rmse_rad, at_own.heading_rmse_rad));
+  // A period the target does not allow, and a step shorter than every period tried, are named.
+  f.options.periods = {0.03};
+  try {
+    tune_by_quality(f.controller, f.target, {scenario}, f.options);
+    FAIL() << "accepted a period the target does not allow";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("periods[] = 0.03"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("0.05, 0.025"), std::string::npos) << error.what();
+  }
+  f.options.periods = {0.025};
+  f.options.dts = {0.02};
+  try {
+    tune_by_quality(f.controller, f.target, {scenario}, f.options);
+    FAIL() << "accepted a step shorter than every period tried";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("dts[] = 0.02"), std::string::npos) << error.what();
+  }
+}
+
 TEST(TuneByQuality, ChoosesTheLeastWearAmongFinalistsAcceptableOnEveryScenario) {
   QualityFixture f;
   const QualityTuningResult result = tune_by_quality(f.controller, f.target, f.scenarios, f.options);
@@ -257,6 +346,56 @@ TEST(TuneByQuality, ChoosesTheLeastWearAmongFinalistsAcceptableOnEveryScenario) 
     EXPECT_TRUE(best.finalist);
     EXPECT_EQ(best.unacceptable, 0);
   }
+}
+
+// Scores on two scenarios, as a finalist: wear ratio and position RMSE per scenario (the baseline
+// 0.1 m, so every RMSE below 0.12 m is within the bounds).
+CandidateScore scored(double wear_a, double rmse_a, double wear_b, double rmse_b) {
+  CandidateScore c;
+  for (const auto& [name, wear, rmse] : {std::tuple{"a", wear_a, rmse_a}, std::tuple{"b", wear_b, rmse_b}}) {
+    ScenarioScore s;
+    s.scenario = name;
+    s.completed = true;
+    s.wear_ratio = wear;
+    s.rmse_m = rmse;
+    s.baseline_rmse_m = 0.1;
+    c.scenarios.push_back(s);
+  }
+  c.geomean_wear_ratio = std::sqrt(wear_a * wear_b);
+  c.finalist = true;
+  return c;
+}
+
+// Issue 19: a tuned file no worse than the hand-set one on every scenario, where one exists; else
+// the least wear within the bounds.
+TEST(TuneByQuality, PrefersACandidateNoWorseThanTheFilesOwnOnEveryScenarioThenTheLeastWear) {
+  const CandidateScore own = scored(0.5, 0.10, 0.5, 0.10);
+  const CandidateScore less_wear_worse_tracking = scored(0.3, 0.11, 0.3, 0.09);  // geo 0.30
+  const CandidateScore no_worse = scored(0.45, 0.10, 0.4, 0.08);                // geo 0.42
+  const CandidateScore no_worse_more_wear = scored(0.5, 0.09, 0.5, 0.09);       // geo 0.50
+  EXPECT_TRUE(no_worse_on_every_scenario(no_worse, own));
+  EXPECT_TRUE(no_worse_on_every_scenario(own, own));
+  EXPECT_FALSE(no_worse_on_every_scenario(less_wear_worse_tracking, own));
+  EXPECT_FALSE(no_worse_on_every_scenario(scored(0.51, 0.05, 0.1, 0.05), own));  // more wear on one
+  // Not the same scenarios: no comparison.
+  CandidateScore other_scenarios = no_worse;
+  other_scenarios.scenarios.back().scenario = "c";
+  EXPECT_FALSE(no_worse_on_every_scenario(other_scenarios, own));
+  other_scenarios.scenarios.pop_back();
+  EXPECT_FALSE(no_worse_on_every_scenario(other_scenarios, own));
+
+  // The no-worse one with the least wear, ahead of one with less wear that tracks worse somewhere.
+  EXPECT_EQ(best_candidate({own, less_wear_worse_tracking, no_worse_more_wear, no_worse}, 0), 3);
+  // None no worse: the least wear, the file's own included.
+  EXPECT_EQ(best_candidate({own, less_wear_worse_tracking}, 0), 1);
+  EXPECT_EQ(best_candidate({scored(0.2, 0.11, 0.2, 0.11), own}, 1), 0);
+  // Only finalists acceptable on every scenario count, however little they wear.
+  CandidateScore outside = scored(0.1, 0.2, 0.1, 0.05);  // 0.2 m against a 0.12 m bound
+  outside.unacceptable = 1;
+  CandidateScore round_one = no_worse;
+  round_one.finalist = false;
+  EXPECT_EQ(best_candidate({own, outside, round_one}, 0), 0);
+  EXPECT_EQ(best_candidate({outside}, -1), -1);
 }
 
 // With seeds, a candidate's score on a scenario is the median over them (two seeds: the mean) and
@@ -493,6 +632,31 @@ TEST(TuneByQuality, WritesALongerStepWithTheTargetsControlPeriodAndDropsItAtTheP
   std::remove(path.c_str());
 }
 
+TEST(TuneByQuality, WritesACandidateAtAnotherAllowedPeriodWithThatPeriodAndItsBudget) {
+  const std::string base = config_file("controllers/default.yaml");
+  const std::string path = ::testing::TempDir() + "tuned_other_period.yaml";
+  TargetConfig target;
+  target.name = "test";
+  target.control_period = 0.05;
+  target.solve_budget = 0.02;
+  target.other_periods = {{0.02, 0.008}};
+  TuningCandidate candidate{10, 3, 0.3, "sa", 0.05, 0.02};
+  write_tuned_controller(base, candidate, target, "# tuned for a test\n", path);
+  const ControllerConfig tuned = load_controller_config_file(path);
+  EXPECT_DOUBLE_EQ(tuned.mpc.dt, 0.05);
+  EXPECT_DOUBLE_EQ(tuned.period(), 0.02);
+  EXPECT_DOUBLE_EQ(tuned.mpc.solve_budget, 0.008);
+  // A period the target does not allow has no budget to write.
+  candidate.control_period = 0.025;
+  try {
+    write_tuned_controller(base, candidate, target, "# tuned for a test\n", path);
+    FAIL() << "wrote a period the target does not allow";
+  } catch (const ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("0.05, 0.02"), std::string::npos) << error.what();
+  }
+  std::remove(path.c_str());
+}
+
 TEST(TuneByQuality, WritesAnotherBackendsWinnerWithItsBackendAndLeavesTheSaKnotsAlone) {
   const std::string base = config_file("controllers/default.yaml");
   const std::string path = ::testing::TempDir() + "tuned_nlopt_controller.yaml";
@@ -574,6 +738,25 @@ TEST(MeasureRealTime, ReportsStepTimesInTheTargetsMillisecondsAgainstItsBudget) 
     EXPECT_EQ(row.deadline_misses, 0);
     EXPECT_TRUE(row.passes());
   }
+}
+
+// A file tuned for another of the target's periods is measured there, at that period's budget; a
+// period the target does not allow is run at the target's.
+TEST(MeasureRealTime, RunsAFileAtItsOwnPeriodWhenTheTargetAllowsItElseAtTheTargets) {
+  QualityFixture f;
+  f.target.other_periods = {{0.025, 0.002}};
+  ControllerConfig controller = f.controller;
+  controller.mpc.control_period = 0.025;  // dt 0.05: a step of two periods
+  const std::vector<RealTimeRow> own = measure_real_time(controller, f.target, {f.scenarios.front()}, &f.clock);
+  ASSERT_EQ(own.size(), 1u);
+  EXPECT_DOUBLE_EQ(own.front().period_ms, 25.0);
+  EXPECT_DOUBLE_EQ(own.front().budget_ms, 2.0);
+  EXPECT_LE(own.front().step_p99_ms, 2.0);
+  EXPECT_TRUE(own.front().completed);
+  f.target.other_periods.clear();
+  const std::vector<RealTimeRow> at_target = measure_real_time(controller, f.target, {f.scenarios.front()}, &f.clock);
+  EXPECT_DOUBLE_EQ(at_target.front().period_ms, 50.0);
+  EXPECT_DOUBLE_EQ(at_target.front().budget_ms, 4.0);
 }
 
 TEST(MeasureRealTime, PassesOnlyWithAP99WithinTheBudgetNoMissAndACompletedRun) {

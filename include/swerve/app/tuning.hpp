@@ -4,7 +4,7 @@
 // time alone says nothing. Quality (tune_by_quality): candidates (backend, horizon, SA knots,
 // deadline margin) run the given scenarios in closed loop at that budget against the kinematic
 // baseline, and the winner is the least wear that keeps the baseline's tracking and misses no
-// deadline (issue 19).
+// deadline, a candidate no worse than the controller file's own on every scenario first (issue 19).
 #pragma once
 
 #include <cstdint>
@@ -56,8 +56,11 @@ struct TuningCandidate {
   int knots = 3;                 // SA move-blocking knots (backend sa); 0 for the other backends
   double deadline_margin = 0.15; // share of the budget kept free for the OS and the step's own variation
   std::string backend = "sa";    // controller.solver.backend
-  double dt = 0.0;               // s, the prediction's step: the target's control period or longer; 0: the period
-  double step_at(double control_period) const noexcept { return dt > 0.0 ? dt : control_period; }
+  double dt = 0.0;               // s, the prediction's step: the candidate's control period or longer; 0: the period
+  // s, the loop's period: the target's control_period or one of its other_periods; 0: the target's.
+  double control_period = 0.0;
+  double period_at(double target_period) const noexcept { return control_period > 0.0 ? control_period : target_period; }
+  double step_at(double target_period) const noexcept { return dt > 0.0 ? dt : period_at(target_period); }
 };
 
 struct QualityTuningOptions {
@@ -66,6 +69,10 @@ struct QualityTuningOptions {
   // Prediction steps dt (s), each at least the target's control period (a longer one looks as far
   // with fewer steps; ControllerOptions::control_period); empty: the control period only.
   std::vector<double> dts;
+  // Control periods (s), each the target's control_period or one of its other_periods (where the
+  // target allows a choice of loop rate), each at that period's budget; empty: the target's own.
+  // A dt shorter than a period is not tried at that period.
+  std::vector<double> periods;
   std::vector<double> deadline_margins;  // empty: the controller's own only
   // Backends to try, each a built one (built_backends()); empty: the controller's own only. The
   // sa backend is tried at every knot count, the others once per horizon and margin.
@@ -75,11 +82,14 @@ struct QualityTuningOptions {
   void validate() const;         // ConfigError naming the field and value
 };
 
-// One candidate on one scenario, against the scenario's kinematic baseline at the same period and
-// seeds: medians over the seeds, misses and fallbacks summed.
+// One candidate on one scenario, against the scenario's kinematic baseline at the same seeds:
+// medians over the seeds, misses and fallbacks summed. The baseline runs at the target's control
+// period and, for a candidate at another of the target's periods, at that one too: the wear ratio
+// is against the former (one yardstick for every candidate, so ratios rank like absolute wear),
+// the tracking against the better-tracking of the two (a faster loop must not lower the bar).
 struct ScenarioScore {
   std::string scenario;
-  double wear_ratio = 0.0;                 // wear / the baseline's
+  double wear_ratio = 0.0;                 // wear / the baseline's at the target's control period
   double rmse_m = 0.0, baseline_rmse_m = 0.0;
   double heading_rmse_rad = 0.0, baseline_heading_rmse_rad = 0.0;
   double step_p99_ms = 0.0;                // on this machine, the largest over the seeds
@@ -107,9 +117,9 @@ struct CandidateScore {
 };
 
 struct QualityTuningResult {
-  double budget_here_s = 0.0;            // the target's budget / cpu_slowdown
+  double budget_here_s = 0.0;            // the target's budget / cpu_slowdown, at its control_period
   std::vector<CandidateScore> candidates;
-  int best = -1;                         // index into candidates; -1 when no finalist is acceptable everywhere
+  int best = -1;                         // best_candidate(); -1 when no finalist is acceptable everywhere
   int incumbent = -1;                    // the controller's own horizon and knots (always a finalist)
   // Only when best < 0: closest_candidate(), the candidate that misses no deadline and tracks
   // closest to the bounds (the tracking-first choice for a target too slow for the bounds); -1
@@ -119,6 +129,16 @@ struct QualityTuningResult {
   static const char* closest_rule();     // closest's rule, as printed
 };
 
+// Whether `candidate` is at least as good as `own` on every scenario `own` ran: no higher wear ratio
+// and no higher position RMSE on each (medians; the two must have run the same scenarios, in
+// order). Issue 19: a tuned file should be no worse than the hand-set one anywhere.
+bool no_worse_on_every_scenario(const CandidateScore& candidate, const CandidateScore& own);
+
+// QualityTuningResult::rule(): among the finalists acceptable on every scenario, those no worse
+// than the incumbent on every scenario (no_worse_on_every_scenario; the incumbent itself does not
+// count) first, then the least geometric-mean wear. -1 if no finalist is acceptable everywhere.
+int best_candidate(const std::vector<CandidateScore>& candidates, int incumbent);
+
 // Among the candidates that ran all `scenario_count` scenarios, each to the end without a deadline
 // miss: the one whose worst scenario is least outside the tracking bounds
 // (ScenarioScore::tracking_excess), ties broken by the least geometric-mean wear. -1 if none.
@@ -127,10 +147,11 @@ int closest_candidate(const std::vector<CandidateScore>& candidates, std::size_t
 // (candidates done, candidates in this round, round) after each candidate's round.
 using TuningProgress = std::function<void(int, int, int)>;
 
-// The candidates tune_by_quality runs at a target's `control_period`, in its order: per backend
-// (the options' or the controller's own), dt (the options' or the control period), horizon, knot
-// count (the sa backend's alone; the others carry 0, once) and margin, without repeats, and the
-// controller's own setting (`incumbent`: its index, appended unless present; its dt the control
+// The candidates tune_by_quality runs for a target whose `control_period` is given, in its order:
+// per backend (the options' or the controller's own), period (the options'; the target's own
+// carried as 0), dt (the options' at least that period, or the period), horizon, knot count (the sa
+// backend's alone; the others carry 0, once) and margin, without repeats, and the controller's own
+// setting (`incumbent`: its index, appended unless present; at the target's period, its dt that
 // period, or its own dt when its file steps its prediction longer than its period).
 struct QualityCandidates {
   std::vector<TuningCandidate> candidates;
@@ -140,17 +161,18 @@ QualityCandidates quality_candidates(const ControllerConfig& controller, const Q
                                      double control_period);
 
 // Every scenario needs a kinematic_baseline controller; `controller` is the wear_mpc config whose
-// backend, horizon, step (the target's control period), budget (translated), SA knots and deadline
-// margin are varied; its own backend, horizon, knots and margin are a candidate too (the incumbent). Round 1 runs every candidate on the first
-// scenario; round 2 runs the better half (fewest unacceptable runs, then least wear) and the
-// incumbent on all; only if none of those is acceptable everywhere, round 3 runs the rest on all,
-// in round 1's order, until one is. Scenarios run at the target's control period.
+// backend, control period (the target's or, with options.periods, another it allows), step,
+// budget (that period's, translated), SA knots and deadline margin are varied; its own backend,
+// horizon, knots and margin at the target's period are a candidate too (the incumbent). Round 1
+// runs every candidate on the first scenario; round 2 runs the better half (fewest unacceptable
+// runs, then least wear) and the incumbent on all; only if none of those is acceptable everywhere,
+// round 3 runs the rest on all, in round 1's order, until one is. The winner: best_candidate().
 QualityTuningResult tune_by_quality(const ControllerConfig& controller, const TargetConfig& target,
                                     const std::vector<ScenarioConfig>& scenarios, const QualityTuningOptions& options,
                                     const TuningProgress& progress = {});
 
 // Writes `base_file` (a controller YAML) with the candidate's backend, horizon, dt, control period
-// (the target's; written only when it differs from dt), solve budget (the target's), SA knots
+// (written only when it differs from dt), that period's solve budget (the target's), SA knots
 // (backend sa) and deadline margin to `path`,
 // headed by `header` (comment lines),
 // and loads it back to check it. Throws ConfigError / std::runtime_error naming the file.
@@ -163,7 +185,8 @@ void write_tuned_controller(const std::string& base_file, const TuningCandidate&
 // target's (this machine's x cpu_slowdown).
 struct RealTimeRow {
   std::string scenario;
-  double budget_ms = 0.0;                  // the target's solve budget
+  double period_ms = 0.0;                  // the control period it ran at
+  double budget_ms = 0.0;                  // the target's solve budget at that period
   double step_p50_ms = 0.0, step_p99_ms = 0.0, step_max_ms = 0.0;
   double proposals_median = 0.0;           // optimiser proposals (SA) or iterations per solve
   int deadline_misses = 0, fallbacks = 0;
@@ -171,8 +194,10 @@ struct RealTimeRow {
   bool passes() const;                     // completed, p99 step <= budget, no deadline miss
 };
 
-// Runs `controller` (a wear_mpc config) on each scenario at the target's control period with the
-// target's budget translated to this machine (`clock`: as in tune_by_quality).
+// Runs `controller` (a wear_mpc config) on each scenario with the target's budget translated to
+// this machine (`clock`: as in tune_by_quality): at the controller's own period when the target
+// allows it (one of TargetConfig::periods(), at that period's budget), else at the target's
+// control period, the prediction step in the same ratio to it as in the file.
 std::vector<RealTimeRow> measure_real_time(const ControllerConfig& controller, const TargetConfig& target,
                                            const std::vector<ScenarioConfig>& scenarios, const Clock* clock = nullptr);
 
