@@ -159,29 +159,32 @@ bool no_worse_on_every_scenario(const CandidateScore& candidate, const Candidate
   return true;
 }
 
-int best_candidate(const std::vector<CandidateScore>& candidates, int incumbent) {
-  const CandidateScore* own =
-      incumbent >= 0 && static_cast<std::size_t>(incumbent) < candidates.size() ? &candidates[static_cast<std::size_t>(incumbent)] : nullptr;
+std::vector<int> rank_candidates(const std::vector<CandidateScore>& candidates, int incumbent) {
+  const CandidateScore* own = incumbent >= 0 && static_cast<std::size_t>(incumbent) < candidates.size()
+                                  ? &candidates[static_cast<std::size_t>(incumbent)]
+                                  : nullptr;
   const auto ahead_of_own = [&](int i) {
     return own != nullptr && i != incumbent && no_worse_on_every_scenario(candidates[static_cast<std::size_t>(i)], *own);
   };
-  int best = -1;
-  for (int i = 0; i < static_cast<int>(candidates.size()); ++i) {
+  std::vector<int> order(candidates.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    const CandidateScore& x = candidates[static_cast<std::size_t>(a)];
+    const CandidateScore& y = candidates[static_cast<std::size_t>(b)];
+    if (x.unacceptable != y.unacceptable) return x.unacceptable < y.unacceptable;
+    const bool x_ahead = ahead_of_own(a);
+    if (x_ahead != ahead_of_own(b)) return x_ahead;
+    return x.geomean_wear_ratio < y.geomean_wear_ratio;
+  });
+  return order;
+}
+
+int best_candidate(const std::vector<CandidateScore>& candidates, int incumbent) {
+  for (const int i : rank_candidates(candidates, incumbent)) {
     const CandidateScore& score = candidates[static_cast<std::size_t>(i)];
-    if (!score.finalist || score.unacceptable > 0) continue;
-    if (best < 0) {
-      best = i;
-      continue;
-    }
-    const bool ahead = ahead_of_own(i);
-    const bool best_ahead = ahead_of_own(best);
-    if (ahead != best_ahead) {
-      if (ahead) best = i;
-    } else if (score.geomean_wear_ratio < candidates[static_cast<std::size_t>(best)].geomean_wear_ratio) {
-      best = i;
-    }
+    if (score.finalist && score.unacceptable == 0) return i;
   }
-  return best;
+  return -1;
 }
 
 const char* QualityTuningResult::closest_rule() {
@@ -242,10 +245,6 @@ void summarise(CandidateScore* score) {
   score->geomean_wear_ratio = score->scenarios.empty() ? 0.0 : std::exp(log_sum / static_cast<double>(score->scenarios.size()));
 }
 
-bool better(const CandidateScore& a, const CandidateScore& b) {
-  if (a.unacceptable != b.unacceptable) return a.unacceptable < b.unacceptable;
-  return a.geomean_wear_ratio < b.geomean_wear_ratio;
-}
 
 }  // namespace
 
@@ -383,7 +382,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     ScenarioScore s;
     s.scenario = scenarios[index].name;
     s.completed = true;
-    std::vector<double> wear, rmse, baseline_rmse, heading, baseline_heading, step_p99;
+    std::vector<double> wear, rmse, baseline_rmse, heading, baseline_heading, step_p99, target_period_rmse;
     for (std::size_t k = 0; k < runs[index].size(); ++k) {
       const ScenarioConfig scenario = at_period(runs[index][k], candidate_period);
       const ControllerRun run = run_controller(scenario, entry, {}, 0, options.clock);
@@ -400,6 +399,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
       wear.push_back(b.wear_total > 0.0 ? run.metrics.wear_total / b.wear_total : 1.0);
       rmse.push_back(run.metrics.tracking_rmse_m);
       baseline_rmse.push_back(std::min(b.tracking_rmse_m, b_own.tracking_rmse_m));
+      target_period_rmse.push_back(b.tracking_rmse_m);
       heading.push_back(run.metrics.heading_rmse_rad);
       baseline_heading.push_back(std::min(b.heading_rmse_rad, b_own.heading_rmse_rad));
       step_p99.push_back(run.metrics.step_time_p99_ms);
@@ -409,6 +409,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     s.wear_ratio = median(wear);
     s.rmse_m = median(rmse);
     s.baseline_rmse_m = median(baseline_rmse);
+    s.target_period_baseline_rmse_m = median(target_period_rmse);
     s.heading_rmse_rad = median(heading);
     s.baseline_heading_rmse_rad = median(baseline_heading);
     s.step_p99_ms = *std::max_element(step_p99.begin(), step_p99.end());
@@ -430,12 +431,8 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     summarise(&score);
     if (progress) progress(i + 1, total, 1);
   }
-  // Round 2: the better half on every scenario.
-  std::vector<int> order(static_cast<std::size_t>(total));
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return better(result.candidates[static_cast<std::size_t>(a)], result.candidates[static_cast<std::size_t>(b)]);
-  });
+  // Ranked by the rule on the first scenario (every candidate and the incumbent ran it alone).
+  const std::vector<int> order = rank_candidates(result.candidates, result.incumbent);
   // Round 2: the better half, and the controller's own setting (the comparison), on every scenario.
   std::vector<int> finalists(order.begin(), order.begin() + std::max(1, (total + 1) / 2));
   if (std::find(finalists.begin(), finalists.end(), result.incumbent) == finalists.end()) {

@@ -84,7 +84,9 @@ nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& ta
     nlohmann::json scenarios = nlohmann::json::array();
     for (const ScenarioScore& s : c.scenarios) {
       scenarios.push_back({{"scenario", s.scenario}, {"wear_ratio", s.wear_ratio}, {"rmse_m", s.rmse_m},
-                           {"baseline_rmse_m", s.baseline_rmse_m}, {"heading_rmse_rad", s.heading_rmse_rad},
+                           {"baseline_rmse_m", s.baseline_rmse_m},
+                           {"target_period_baseline_rmse_m", s.target_period_baseline_rmse_m},
+                           {"heading_rmse_rad", s.heading_rmse_rad},
                            {"baseline_heading_rmse_rad", s.baseline_heading_rmse_rad},
                            {"step_p99_target_ms", s.step_p99_ms * target.cpu_slowdown},
                            {"deadline_misses", s.deadline_misses},
@@ -199,7 +201,8 @@ int tune_by_quality_command(const TuneArguments& a) {
         const ScenarioScore& s = c.scenarios[k];
         misses += s.deadline_misses;
         once += s.unconfirmed_misses;
-        std::printf("  %6.3f / %5.2f%-9s", s.wear_ratio, s.baseline_rmse_m > 0.0 ? s.rmse_m / s.baseline_rmse_m : 0.0,
+        std::printf("  %6.3f / %5.2f%-9s", s.wear_ratio,
+                    s.target_period_baseline_rmse_m > 0.0 ? s.rmse_m / s.target_period_baseline_rmse_m : 0.0,
                     s.acceptable() ? "" : " (no)");
       } else {
         std::printf("  %-22s", "-");
@@ -213,7 +216,8 @@ int tune_by_quality_command(const TuneArguments& a) {
                 static_cast<int>(i) == result.best ? "   <- best" : "",
                 own ? "   (the controller file's own)" : "");
   }
-  std::printf("per scenario: wear / RMSE, each as a ratio to the kinematic baseline's; (no): outside the bounds; "
+  std::printf("per scenario: wear / position RMSE, each as a ratio to the kinematic baseline's at the target's "
+              "period; (no): outside the bounds; "
               "once: misses that did not recur when their run was repeated (the machine's stalls; not counted); "
               ">= own: no more wear and no higher position RMSE than the controller file's own on every scenario\n");
   std::printf("rule: %s\n", QualityTuningResult::rule());

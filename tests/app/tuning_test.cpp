@@ -313,6 +313,9 @@ TEST(TuneByQuality, RunsACandidateAtAnotherAllowedPeriodAtItsBudgetAgainstTheTig
   EXPECT_DOUBLE_EQ(score.wear_ratio, own.wear_total / at_target.wear_total);
   EXPECT_DOUBLE_EQ(score.baseline_rmse_m, std::min(at_target.tracking_rmse_m, at_own.tracking_rmse_m));
   EXPECT_DOUBLE_EQ(score.baseline_heading_rmse_rad, std::min(at_target.heading_rmse_rad, at_own.heading_rmse_rad));
+  EXPECT_DOUBLE_EQ(score.target_period_baseline_rmse_m, at_target.tracking_rmse_m);  // the tables' yardstick
+  const ScenarioScore& own_setting = result.candidates[1].scenarios.front();
+  EXPECT_DOUBLE_EQ(own_setting.target_period_baseline_rmse_m, own_setting.baseline_rmse_m);
   // A period the target does not allow, and a step shorter than every period tried, are named.
   f.options.periods = {0.03};
   try {
@@ -396,6 +399,29 @@ TEST(TuneByQuality, PrefersACandidateNoWorseThanTheFilesOwnOnEveryScenarioThenTh
   round_one.finalist = false;
   EXPECT_EQ(best_candidate({own, outside, round_one}, 0), 0);
   EXPECT_EQ(best_candidate({outside}, -1), -1);
+}
+
+// Round 1 halves by the same order on the first scenario: one no worse than the file's own there
+// goes on ahead of one that wears less and tracks worse, so the rule's preference is not cut early.
+TEST(TuneByQuality, RanksByTheBoundsThenNoWorseThanTheFilesOwnThenTheLeastWear) {
+  const auto on_first = [](double wear, double rmse, int unacceptable = 0) {
+    CandidateScore c = scored(wear, rmse, wear, rmse);
+    c.scenarios.pop_back();
+    c.geomean_wear_ratio = wear;
+    c.unacceptable = unacceptable;
+    c.finalist = false;
+    return c;
+  };
+  const std::vector<CandidateScore> round_one{
+      on_first(0.5, 0.10),          // 0: the file's own
+      on_first(0.3, 0.11),          // 1: less wear, worse tracking
+      on_first(0.45, 0.09),         // 2: no worse than the own
+      on_first(0.2, 0.2, 1),        // 3: outside the bounds
+      on_first(0.48, 0.10),         // 4: no worse, more wear than 2
+  };
+  EXPECT_EQ(rank_candidates(round_one, 0), (std::vector<int>{2, 4, 1, 0, 3}));
+  // Without an incumbent: the bounds, then the wear.
+  EXPECT_EQ(rank_candidates(round_one, -1), (std::vector<int>{1, 2, 4, 0, 3}));
 }
 
 // With seeds, a candidate's score on a scenario is the median over them (two seeds: the mean) and

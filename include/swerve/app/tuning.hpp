@@ -90,8 +90,11 @@ struct QualityTuningOptions {
 struct ScenarioScore {
   std::string scenario;
   double wear_ratio = 0.0;                 // wear / the baseline's at the target's control period
-  double rmse_m = 0.0, baseline_rmse_m = 0.0;
+  double rmse_m = 0.0, baseline_rmse_m = 0.0;  // baseline: the bounds' (the better-tracking one)
   double heading_rmse_rad = 0.0, baseline_heading_rmse_rad = 0.0;
+  // The baseline's position RMSE at the target's control period: the one yardstick for every
+  // candidate's RMSE ratio in a table, as for wear (equal to baseline_rmse_m at that period).
+  double target_period_baseline_rmse_m = 0.0;
   double step_p99_ms = 0.0;                // on this machine, the largest over the seeds
   // Misses that recurred: a run with a miss is run again (same seed), and the fewer of the two runs'
   // miss counts is counted (a count, not matched step by step; the first run's other figures are
@@ -134,9 +137,14 @@ struct QualityTuningResult {
 // order). Issue 19: a tuned file should be no worse than the hand-set one anywhere.
 bool no_worse_on_every_scenario(const CandidateScore& candidate, const CandidateScore& own);
 
-// QualityTuningResult::rule(): among the finalists acceptable on every scenario, those no worse
-// than the incumbent on every scenario (no_worse_on_every_scenario; the incumbent itself does not
-// count) first, then the least geometric-mean wear. -1 if no finalist is acceptable everywhere.
+// The rule's order over the scenarios each candidate ran (indices into `candidates`): fewest
+// scenarios outside the bounds, then those no worse than the incumbent on every scenario
+// (no_worse_on_every_scenario; the incumbent itself does not count), then the least geometric-mean
+// wear; ties keep their order. Round 1 halves by it, on the first scenario.
+std::vector<int> rank_candidates(const std::vector<CandidateScore>& candidates, int incumbent);
+
+// QualityTuningResult::rule(): the first of rank_candidates() that is a finalist acceptable on
+// every scenario; -1 if none is.
 int best_candidate(const std::vector<CandidateScore>& candidates, int incumbent);
 
 // Among the candidates that ran all `scenario_count` scenarios, each to the end without a deadline
@@ -164,8 +172,8 @@ QualityCandidates quality_candidates(const ControllerConfig& controller, const Q
 // backend, control period (the target's or, with options.periods, another it allows), step,
 // budget (that period's, translated), SA knots and deadline margin are varied; its own backend,
 // horizon, knots and margin at the target's period are a candidate too (the incumbent). Round 1
-// runs every candidate on the first scenario; round 2 runs the better half (fewest unacceptable
-// runs, then least wear) and the incumbent on all; only if none of those is acceptable everywhere,
+// runs every candidate on the first scenario; round 2 runs the better half (rank_candidates) and
+// the incumbent on all; only if none of those is acceptable everywhere,
 // round 3 runs the rest on all, in round 1's order, until one is. The winner: best_candidate().
 QualityTuningResult tune_by_quality(const ControllerConfig& controller, const TargetConfig& target,
                                     const std::vector<ScenarioConfig>& scenarios, const QualityTuningOptions& options,
