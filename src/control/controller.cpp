@@ -88,6 +88,9 @@ ControllerOptions validated(ControllerOptions options) {
 BaselineOptions aligned(BaselineOptions baseline, const ControllerOptions& options) {
   baseline.horizon = options.horizon;
   baseline.dt = options.dt;
+  // Its weights sit in the same file as the controller's and were set for the same step, unless
+  // its options name their own: at another dt they are rescaled as the controller's are.
+  if (baseline.weights_step == 0.0) baseline.weights_step = options.weights_step;
   return baseline;
 }
 

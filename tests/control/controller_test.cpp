@@ -1147,6 +1147,42 @@ TEST(Controller, WeightsSetForOneStepAreRescaledToAnotherSoTheCostPerSecondStays
   EXPECT_EQ(same.rate[0], 1.0);
 }
 
+// The internal baseline (guess and fallback) is set in the same file as the controller's weights:
+// without a weights_step of its own it takes the controller's, so at a longer dt its weights are
+// rescaled as the controller's are. Before, it ran them as written at any dt.
+TEST(Controller, ItsBaselineTakesTheControllersWeightsStepUnlessItsOwnOptionsSetOne) {
+  const auto fallback_commands = [](double baseline_weights_step) {
+    FakeScript script;
+    script.mode = FakeMode::kFail;  // every command is the baseline's
+    ControllerOptions options = fast_options();
+    options.dt = 0.1;
+    options.control_period = 0.05;
+    options.weights_step = 0.05;
+    BaselineOptions baseline;
+    baseline.weights_step = baseline_weights_step;
+    Controller controller(small_robot(), testing::line_reference(0.5), options,
+                          [&script](const OcpProblem& p) { return std::make_unique<FakeSolver>(p, &script); },
+                          baseline);
+    controller.set_clock(script.clock);
+    Eigen::VectorXd state = at_rest();
+    state[1] = 0.05;  // 5 cm off the line, moving along it: the baseline's feedback at work
+    state[3] = 0.5;
+    std::vector<double> commands;
+    for (int k = 0; k < 3; ++k) {
+      const ControlOutput& out = controller.step(state, k * options.period());
+      EXPECT_EQ(out.source, CommandSource::kBaseline) << to_string(out.source);
+      for (int i = 0; i < 4; ++i) {
+        commands.push_back(out.modules[i].wheel_speed);
+        commands.push_back(out.modules[i].steering_rate);
+      }
+    }
+    return commands;
+  };
+  const std::vector<double> inherited = fallback_commands(0.0);
+  EXPECT_EQ(inherited, fallback_commands(0.05));  // as if its own options said 0.05
+  EXPECT_NE(inherited, fallback_commands(0.1));   // its own, where set, is kept
+}
+
 // Tracking-tolerance mode (issue 15): the reference held at its start (t < 0), so the baseline holds
 // still and its tube is the tolerance; the fake plan creeps forward 0.105 m over the horizon.
 TEST(Controller, APlanThatLeavesTheTrackingToleranceSendsTheBaselineCommandsAndSaysSo) {

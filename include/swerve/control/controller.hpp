@@ -131,7 +131,8 @@ class Controller final : public TrackingController {
   using SolverFactory = std::function<std::unique_ptr<Solver>(const OcpProblem&)>;
 
   // Throws ConfigError for invalid options or parameters. The baseline options' horizon and dt
-  // are overridden by the controller's so both plan over the same window.
+  // are overridden by the controller's so both plan over the same window, and their weights_step,
+  // when 0, is the controller's (both sets of weights were set for the same step).
   Controller(const VehicleParams& vehicle, std::shared_ptr<const Reference> reference, ControllerOptions options,
              const SolverFactory& make_solver, BaselineOptions baseline_options = BaselineOptions{},
              std::string name = "wear_mpc");
