@@ -519,6 +519,24 @@ TEST(TuneByQuality, AMissThatRecursWhenItsRunIsRepeatedCounts) {
   EXPECT_FALSE(stalled.acceptable());
 }
 
+// The real-time report counts misses as the tuner does: one stall inside a run (a miss at a 2 ms
+// budget) that its repeat does not have is the machine's; a stall in every run is the controller's.
+TEST(MeasureRealTime, CountsOnlyTheMissesThatRecurWhenTheRunIsRepeated) {
+  QualityFixture f;
+  StallingClock once(0.03, 50, /*once=*/true);
+  once.arm();
+  const std::vector<RealTimeRow> stalled_once = measure_real_time(f.controller, f.target, {f.scenarios.front()}, &once);
+  ASSERT_EQ(once.stalls(), 1);
+  EXPECT_EQ(stalled_once.front().deadline_misses, 0);
+  EXPECT_GE(stalled_once.front().unconfirmed_misses, 1);
+  EXPECT_GT(stalled_once.front().step_max_ms, 4.0);  // the first run's times are kept, the stall in them
+  StallingClock always(0.03, 2000, /*once=*/false);
+  always.arm();
+  const std::vector<RealTimeRow> stalled = measure_real_time(f.controller, f.target, {f.scenarios.front()}, &always);
+  EXPECT_GE(stalled.front().deadline_misses, 1);
+  EXPECT_FALSE(stalled.front().passes());
+}
+
 TEST(TuneByQuality, AcceptsARunWithinTheBaselinesTrackingBoundsAndWithoutMisses) {
   ScenarioScore s;
   s.completed = true;
