@@ -245,7 +245,6 @@ void summarise(CandidateScore* score) {
   score->geomean_wear_ratio = score->scenarios.empty() ? 0.0 : std::exp(log_sum / static_cast<double>(score->scenarios.size()));
 }
 
-
 }  // namespace
 
 QualityCandidates quality_candidates(const ControllerConfig& controller, const QualityTuningOptions& options,
