@@ -220,11 +220,33 @@ int closest_candidate(const std::vector<CandidateScore>& candidates, std::size_t
 
 namespace {
 
-// The scenario at the target's control period.
+// The scenario at a control period.
 ScenarioConfig at_period(const ScenarioConfig& scenario, double period) {
   ScenarioConfig copy = scenario;
   copy.simulator.control_period = period;
   return copy;
+}
+
+// One run, and the misses that count: a run with a miss is run again (same seed), and the fewer of
+// the two runs' miss counts count (a count, not matched step by step; the first run is kept). A
+// scheduling stall of the machine misses at random and seldom in both runs; a controller too slow
+// for its budget misses in both. The tuner and the real-time report count them alike.
+struct CountedRun {
+  ControllerRun run;
+  int misses = 0;       // those that recurred
+  int unconfirmed = 0;  // the first run's others
+};
+CountedRun run_counting_recurring_misses(const ScenarioConfig& scenario, const ScenarioController& entry,
+                                         const Clock* clock) {
+  CountedRun counted{run_controller(scenario, entry, {}, 0, clock)};
+  counted.misses = counted.run.metrics.deadline_misses;
+  if (counted.misses > 0) {
+    const ControllerRun again = run_controller(scenario, entry, {}, 0, clock);
+    const int recurring = std::min(counted.misses, again.metrics.deadline_misses);
+    counted.unconfirmed = counted.misses - recurring;
+    counted.misses = recurring;
+  }
+  return counted;
 }
 
 const ScenarioController& baseline_of(const ScenarioConfig& scenario) {
@@ -383,15 +405,10 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     s.completed = true;
     std::vector<double> wear, rmse, baseline_rmse, heading, baseline_heading, step_p99, target_period_rmse;
     for (std::size_t k = 0; k < runs[index].size(); ++k) {
-      const ScenarioConfig scenario = at_period(runs[index][k], candidate_period);
-      const ControllerRun run = run_controller(scenario, entry, {}, 0, options.clock);
-      int misses = run.metrics.deadline_misses;
-      if (misses > 0) {
-        const ControllerRun again = run_controller(scenario, entry, {}, 0, options.clock);
-        const int recurring = std::min(misses, again.metrics.deadline_misses);
-        s.unconfirmed_misses += misses - recurring;
-        misses = recurring;
-      }
+      const CountedRun counted =
+          run_counting_recurring_misses(at_period(runs[index][k], candidate_period), entry, options.clock);
+      const ControllerRun& run = counted.run;
+      s.unconfirmed_misses += counted.unconfirmed;
       const RunMetrics& b = baselines[0][index][k];           // the target's period: the wear yardstick
       const RunMetrics& b_own = baselines[own][index][k];     // the candidate's period
       s.completed = s.completed && run.completed;
@@ -402,7 +419,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
       heading.push_back(run.metrics.heading_rmse_rad);
       baseline_heading.push_back(std::min(b.heading_rmse_rad, b_own.heading_rmse_rad));
       step_p99.push_back(run.metrics.step_time_p99_ms);
-      s.deadline_misses += misses;
+      s.deadline_misses += counted.misses;
       s.fallbacks += run.metrics.fallbacks;
     }
     s.wear_ratio = median(wear);
@@ -534,16 +551,8 @@ std::vector<RealTimeRow> measure_real_time(const ControllerConfig& controller, c
                               longer_step ? controller.mpc.dt * (period / controller.mpc.period()) : period);
     entry.config.mpc.control_period = period;
     entry.config.mpc.solve_budget = budget / target.cpu_slowdown;
-    const ScenarioConfig at_its_period = at_period(scenario, period);
-    const ControllerRun run = run_controller(at_its_period, entry, {}, 0, clock);
-    int misses = run.metrics.deadline_misses;
-    int unconfirmed = 0;
-    if (misses > 0) {
-      const ControllerRun again = run_controller(at_its_period, entry, {}, 0, clock);
-      const int recurring = std::min(misses, again.metrics.deadline_misses);
-      unconfirmed = misses - recurring;
-      misses = recurring;
-    }
+    const CountedRun counted = run_counting_recurring_misses(at_period(scenario, period), entry, clock);
+    const ControllerRun& run = counted.run;
     std::vector<double> steps_ms, proposals;
     for (const StepRecord& record : run.log) {
       if (record.step_time_s >= 0.0) steps_ms.push_back(1e3 * record.step_time_s * target.cpu_slowdown);
@@ -557,8 +566,8 @@ std::vector<RealTimeRow> measure_real_time(const ControllerConfig& controller, c
     row.step_p99_ms = percentile(steps_ms, 99.0);
     row.step_max_ms = steps_ms.empty() ? 0.0 : *std::max_element(steps_ms.begin(), steps_ms.end());
     row.proposals_median = percentile(proposals, 50.0);
-    row.deadline_misses = misses;
-    row.unconfirmed_misses = unconfirmed;
+    row.deadline_misses = counted.misses;
+    row.unconfirmed_misses = counted.unconfirmed;
     row.fallbacks = run.metrics.fallbacks;
     row.completed = run.completed;
     rows.push_back(row);
