@@ -18,10 +18,12 @@ for scenario in curve offset60; do
   echo
 done
 # The whole shipped set (issue 15's goals): the planner-like variants of the paper pair, the
-# figure-eight and the layouts set with both references, wear_mpc against kinematic_baseline only.
+# figure-eight, the noisy crab, the straight line and the layouts set with both references, wear_mpc
+# against kinematic_baseline only.
 set_dirs=("$out_dir/curve" "$out_dir/offset60")
 for scenario in configs/scenarios/curve_smooth.yaml configs/scenarios/offset60_smooth.yaml \
-                configs/scenarios/figure8.yaml configs/scenarios/layouts/*.yaml; do
+                configs/scenarios/figure8.yaml configs/scenarios/crab90_noisy.yaml configs/scenarios/straight_line.yaml \
+                configs/scenarios/layouts/*.yaml; do
   name=$(basename "$scenario" .yaml)
   case "$scenario" in */layouts/*) name="layouts_$name" ;; esac
   "$cli" run "$scenario" --controllers wear_mpc,kinematic_baseline --out "$out_dir/set/$name" --quiet > /dev/null

@@ -4,9 +4,9 @@ against kinematic_baseline, and a one-line verdict for the whole set.
 
 Usage: scripts/goal_table.py OUT_DIR [OUT_DIR ...]   (each OUT_DIR written by `swerve-mpc run`)
 
-A row meets the goals when wear <= the baseline's, position RMSE <= max(1.1 x, + 0.02 m) and
-heading RMSE <= max(1.1 x, + 0.5 deg) of the baseline's, with zero deadline misses. The set also
-asks for a geometric-mean wear ratio <= 0.6.
+A row meets the goals when wear <= the baseline's, position RMSE <= max(1.1 x, + 0.02 m),
+heading RMSE <= max(1.1 x, + 0.5 deg) and steering effort <= max(1.5 x, + 0.5 rad^2/s) of the
+baseline's, with zero deadline misses. The set also asks for a geometric-mean wear ratio <= 0.6.
 """
 import json
 import math
@@ -30,6 +30,8 @@ def row(out_dir):
         "wear": w["wear_total"] <= b["wear_total"],
         "rmse": w["tracking_rmse_m"] <= max(1.1 * b["tracking_rmse_m"], b["tracking_rmse_m"] + 0.02),
         "heading": w["heading_rmse_rad"] <= max(1.1 * b["heading_rmse_rad"], b["heading_rmse_rad"] + 0.5 / deg),
+        "smoothness": w["steering_effort_rad2_s"] <= max(1.5 * b["steering_effort_rad2_s"],
+                                                         b["steering_effort_rad2_s"] + 0.5),
         "misses": w["deadline_misses"] == 0,
     }
     return {
@@ -38,6 +40,7 @@ def row(out_dir):
         "rmse_ratio": rmse_ratio,
         "rmse_mm": (1e3 * w["tracking_rmse_m"], 1e3 * b["tracking_rmse_m"]),
         "heading_deg": (deg * w["heading_rmse_rad"], deg * b["heading_rmse_rad"]),
+        "effort": (w["steering_effort_rad2_s"], b["steering_effort_rad2_s"]),
         "misses": w["deadline_misses"],
         "failed": [name for name, ok in checks.items() if not ok],
     }
@@ -49,12 +52,13 @@ def main(dirs):
         print("no run with both wear_mpc and kinematic_baseline")
         return 1
     print(f"{'scenario':<34}{'wear ratio':>11}{'RMSE ratio':>11}{'RMSE mpc/base [mm]':>20}"
-          f"{'heading RMS mpc/base [deg]':>28}{'misses':>8}  goals")
+          f"{'heading RMS mpc/base [deg]':>28}{'steering effort mpc/base':>26}{'misses':>8}  goals")
     for r in rows:
         verdict = "met" if not r["failed"] else "missed: " + ", ".join(r["failed"])
         print(f"{r['scenario']:<34}{r['wear_ratio']:>11.3f}{r['rmse_ratio']:>11.2f}"
               f"{r['rmse_mm'][0]:>11.1f} / {r['rmse_mm'][1]:<6.1f}"
-              f"{r['heading_deg'][0]:>16.3f} / {r['heading_deg'][1]:<9.3f}{r['misses']:>8}  {verdict}")
+              f"{r['heading_deg'][0]:>16.3f} / {r['heading_deg'][1]:<9.3f}"
+              f"{r['effort'][0]:>14.2f} / {r['effort'][1]:<9.2f}{r['misses']:>8}  {verdict}")
     ratios = [r["wear_ratio"] for r in rows if r["wear_ratio"] > 0 and math.isfinite(r["wear_ratio"])]
     geomean = math.exp(sum(math.log(x) for x in ratios) / len(ratios)) if ratios else float("nan")
     met = sum(1 for r in rows if not r["failed"])

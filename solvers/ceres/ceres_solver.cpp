@@ -37,7 +37,10 @@ using JacobianBlock = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dy
 // cost 1/2 |r|^2 is then OcpProblem's cost, with the wear as the residual sqrt(2 lambda W).
 constexpr int kWearRow = OcpProblem::kTrackingResiduals;
 constexpr int kEffortRow = kWearRow + 1;
-int stage_residual_count(int nu) { return kEffortRow + 3 * nu; }
+// Then one row per weighted state (OcpProblem::state_effort_index).
+int stage_residual_count(const OcpProblem& shape) {
+  return kEffortRow + 3 * shape.input_size() + static_cast<int>(shape.state_effort_index().size());
+}
 
 // The OCP as one Ceres cost function over N parameter blocks of nu inputs: a single-shooting
 // rollout that writes every stage's residuals (layout in the header) and, when Ceres asks for
@@ -46,7 +49,7 @@ class ShootingResiduals final : public ceres::CostFunction {
  public:
   ShootingResiduals(const OcpProblem& shape, double step_penalty_weight)
       : nx_(shape.state_size()), nu_(shape.input_size()), horizon_(shape.horizon()),
-        stage_rows_(stage_residual_count(shape.input_size())), penalty_root_(std::sqrt(2.0 * step_penalty_weight)),
+        stage_rows_(stage_residual_count(shape)), penalty_root_(std::sqrt(2.0 * step_penalty_weight)),
         derivatives_(shape) {
     set_num_residuals(horizon_ * stage_rows_);
     mutable_parameter_block_sizes()->assign(static_cast<std::size_t>(horizon_), nu_);
@@ -113,6 +116,12 @@ class ShootingResiduals final : public ceres::CostFunction {
         r[row + kEffortRow + nu_ + i] = rate_root[i] * change;
         r[row + kEffortRow + 2 * nu_ + i] = excess > 0.0 ? penalty_root_ * excess : 0.0;
       }
+      const Eigen::VectorXi& weighted_states = problem.state_effort_index();
+      const Eigen::VectorXd& state_root = problem.state_effort_root();
+      const int state_row = row + kEffortRow + 3 * nu_;
+      for (Eigen::Index j = 0; j < weighted_states.size(); ++j) {
+        r[state_row + j] = state_root[j] * states_(weighted_states[j], k + 1);
+      }
       if (jacobians == nullptr) continue;
 
       // sensitivity_ = dx_k/du, next_sensitivity_ = dx_{k+1}/du; both zero for blocks j > k.
@@ -127,6 +136,10 @@ class ShootingResiduals final : public ceres::CostFunction {
             tracking_jacobian_ * next_sensitivity_.block(0, column, OcpProblem::kTrackedStates, nu_);
         block.row(row + kWearRow).noalias() =
             (wear_factor * wear_gradient.head(nx_)).transpose() * sensitivity_.middleCols(column, nu_);
+        for (Eigen::Index s = 0; s < weighted_states.size(); ++s) {
+          block.row(state_row + s).noalias() =
+              state_root[s] * next_sensitivity_.block(weighted_states[s], column, 1, nu_);
+        }
       }
       for (int i = 0; i < nu_; ++i) {
         const double change = inputs_(i, k) - (k == 0 ? problem.previous_input()[i] : inputs_(i, k - 1));

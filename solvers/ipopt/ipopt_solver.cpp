@@ -489,6 +489,12 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
       }
       diagonal.block(nu_, nu_, tracked, tracked) =
           0.5 * obj_factor * (tracking_hessian_ + tracking_hessian_.transpose());
+      // The state effort 1/2 |x_{k+1}|^2_W: W on its states' diagonal.
+      for (Eigen::Index j = 0; j < problem_->state_effort_index().size(); ++j) {
+        const int state = problem_->state_effort_index()[j];
+        const double root = problem_->state_effort_root()[j];
+        diagonal(nu_ + state, nu_ + state) += obj_factor * root * root;
+      }
       // Effort and rate: R + S on u_k, and S again from stage k + 1's rate term.
       for (int i = 0; i < nu_; ++i) {
         const double rate_weight = problem_->rate_root()[i] * problem_->rate_root()[i];

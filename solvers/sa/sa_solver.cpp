@@ -410,16 +410,25 @@ bool SimulatedAnnealingSolver::lbfgs_direction(const Eigen::MatrixXd& gradient, 
   return false;
 }
 
-void SimulatedAnnealingSolver::remember_pair(const Eigen::Ref<const Eigen::VectorXd>& s,
-                                             const Eigen::Ref<const Eigen::VectorXd>& y, int* stored,
+void SimulatedAnnealingSolver::remember_pair(const Eigen::Ref<const Eigen::VectorXd>& x_new,
+                                             const Eigen::Ref<const Eigen::VectorXd>& x_old,
+                                             const Eigen::Ref<const Eigen::VectorXd>& g_new,
+                                             const Eigen::Ref<const Eigen::VectorXd>& g_old, int* stored,
                                              int* newest) noexcept {
-  // A pair enters the memory only with positive curvature (else H would not stay positive definite).
+  // The differences go straight into the next slot: an expression bound to a Ref<const VectorXd>
+  // is evaluated into a heap temporary, and the polish then allocated on every step it took.
+  const int slot = (*newest + 1) % kPolishMemory;
+  const Eigen::Index n = x_new.size();
+  auto s = memory_s_.col(slot).head(n);
+  auto y = memory_y_.col(slot).head(n);
+  s = x_new - x_old;
+  y = g_new - g_old;
+  // A pair enters the memory only with positive curvature (else H would not stay positive definite);
+  // otherwise the slot is scratch and the memory is unchanged.
   const double curvature = s.dot(y);
   if (!(curvature > 1e-12 * s.norm() * y.norm())) return;
-  *newest = (*newest + 1) % kPolishMemory;
-  memory_s_.col(*newest).head(s.size()) = s;
-  memory_y_.col(*newest).head(y.size()) = y;
-  memory_rho_[*newest] = 1.0 / curvature;
+  *newest = slot;
+  memory_rho_[slot] = 1.0 / curvature;
   *stored = std::min(*stored + 1, kPolishMemory);
 }
 
@@ -487,7 +496,7 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     record_gradient_time(gradient_start);
     ++*rollouts;
     if (!std::isfinite(new_cost)) break;
-    remember_pair(flat(candidate_inputs_) - flat(inputs_), flat(candidate_gradient_) - flat(gradient_), &stored, &newest);
+    remember_pair(flat(candidate_inputs_), flat(inputs_), flat(candidate_gradient_), flat(gradient_), &stored, &newest);
     std::swap(inputs_, candidate_inputs_);
     std::swap(states_, candidate_states_);
     std::swap(gradient_, candidate_gradient_);
@@ -604,7 +613,7 @@ int SimulatedAnnealingSolver::knot_polish(const OcpProblem& problem, Deadline de
     knots_ = candidate_knots_;
     if (deadline.now() + gradient_time() >= stop) break;
     if (!timed_gradient(cost, &candidate_knot_gradient_)) break;
-    remember_pair(flat(knots_) - flat(previous_knots_), flat(candidate_knot_gradient_) - flat(knot_gradient_), &stored,
+    remember_pair(flat(knots_), flat(previous_knots_), flat(candidate_knot_gradient_), flat(knot_gradient_), &stored,
                   &newest);
     std::swap(knot_gradient_, candidate_knot_gradient_);
   }

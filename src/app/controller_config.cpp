@@ -135,7 +135,8 @@ std::unique_ptr<TrackingController> make_controller(const ControllerConfig& conf
                                                     std::shared_ptr<const Reference> reference) {
   config.validate();
   if (config.kind == ControllerKind::kKinematicBaseline) {
-    return std::make_unique<KinematicBaseline>(vehicle.layout, std::move(reference), config.baseline);
+    return std::make_unique<KinematicBaseline>(vehicle.layout, std::move(reference), config.baseline,
+                                               ActuatorLags::of(vehicle));
   }
   const SolverConfig solver = config.solver;
   return std::make_unique<Controller>(

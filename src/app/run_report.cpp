@@ -109,6 +109,7 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
         {"wear_imbalance", m.wear_imbalance},
         {"frictional_energy_J", m.frictional_energy_J},
         {"steering_effort_rad2_s", m.steering_effort},
+        {"steering_command_jerk_rad_s2", m.steering_command_jerk},
         {"solve_budget_ms", 1e3 * run.solve_budget},
         {"solve_time_mean_ms", m.solve_time_mean_ms},
         {"solve_time_p50_ms", m.solve_time_p50_ms},

@@ -15,6 +15,7 @@ const std::vector<Command>& all_commands() {
       make_sweep_command(),
       make_tune_command(),
       make_bench_targets_command(),
+      make_envelope_command(),
       make_check_config_command(),
   };
   return commands;

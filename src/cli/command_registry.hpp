@@ -53,5 +53,6 @@ Command make_run_command();
 Command make_sweep_command();
 Command make_tune_command();
 Command make_bench_targets_command();
+Command make_envelope_command();
 
 }  // namespace swerve::cli

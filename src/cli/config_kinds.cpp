@@ -109,6 +109,7 @@ nlohmann::json controller_json(const ControllerConfig& c) {
                   {"steering_rate_smoothness", o.steering_rate_smoothness},
                   {"wheel_speed_smoothness", o.wheel_speed_smoothness},
                   {"twist_smoothness", o.twist_smoothness},
+                  {"steering_effort", o.steering_effort},
                   {"heading_from_geometry", o.heading_weight_from_geometry},
                   {"heading_lever", o.heading_lever}};
   j["prediction"] = {{"method", to_string(o.prediction.method)},

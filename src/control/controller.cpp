@@ -1,6 +1,7 @@
 #include "swerve/control/controller.hpp"
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "swerve/core/config_error.hpp"
@@ -18,7 +19,9 @@ double outermost_module_radius(const ModuleLayout& layout) {
   return radius;
 }
 
-CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout, double vehicle_mass) {
+// `steering_rate_states`: how many steering rates the prediction carries, as its last states.
+CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout, double vehicle_mass, int state_size,
+                         int steering_rate_states) {
   const int modules = layout.size();
   CostWeights w;
   // ControllerOptions::weights_step: stage weights by dt / weights_step, weights on a change per
@@ -36,6 +39,12 @@ CostWeights cost_weights(const ControllerOptions& o, const ModuleLayout& layout,
   w.pose_huber_width = o.pose_huber_width;
   w.wear = o.effective_wear_weight(vehicle_mass);
   w.tube_penalty = stage * o.tracking_tolerance.penalty;
+  // The steering effort on the mean over modules of the squared predicted steering rate, so one
+  // weight means the same on 2 modules and on 10 (see ControllerOptions::steering_effort).
+  w.state_effort = Eigen::VectorXd::Zero(state_size);
+  if (steering_rate_states > 0) {
+    w.state_effort.tail(steering_rate_states).setConstant(stage * o.steering_effort / steering_rate_states);
+  }
   if (o.parameterization == InputParameterization::kBodyTwist) {
     w.effort = Eigen::VectorXd::Zero(3);
     w.rate = Eigen::VectorXd::Constant(3, per_change * o.twist_smoothness);
@@ -146,6 +155,8 @@ const OptionFields<ControllerOptions>& ControllerOptions::weight_fields() {
       {"steering_rate_smoothness", &ControllerOptions::steering_rate_smoothness, Bound::non_negative()},
       {"wheel_speed_smoothness", &ControllerOptions::wheel_speed_smoothness, Bound::non_negative()},
       {"twist_smoothness", &ControllerOptions::twist_smoothness, Bound::non_negative()},
+      {"steering_effort", &ControllerOptions::steering_effort, Bound::non_negative(), {}, nullptr,
+       "(per (rad/s)^2 of the modules' mean squared predicted steering rate)"},
       {"heading_weight_from_geometry", &ControllerOptions::heading_weight_from_geometry, Bound::any(), {},
        "heading_from_geometry"},
       {"heading_lever", &ControllerOptions::heading_lever, Bound::positive()},
@@ -172,7 +183,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
                        std::string name)
     : name_(std::move(name)), options_(validated(options)), layout_(vehicle.layout), reference_(std::move(reference)),
       baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()),
-      monitor_(6 + vehicle.layout.size(), options_.stale_measurement), latency_(vehicle.layout, options_.period(), options_.measurement_filter) {
+      monitor_(6 + vehicle.layout.size(), options_.stale_measurement, options_.period()), latency_(vehicle.layout, options_.period(), options_.measurement_filter,
+               ActuatorLags::of(vehicle)) {
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
@@ -187,7 +199,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
     module_model = vehicle_model.get();
     model_ = std::move(vehicle_model);
   }
-  problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, layout_, vehicle.mass),
+  problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, layout_, vehicle.mass, model_->state_size(),
+                                                                       module_model->steering_rate_states()),
                                           twist ? twist_bounds(layout_, options_.dt) : input_bounds(layout_, options_.dt));
   solver_ = make_solver(*problem_);
   if (!solver_) throw ConfigError("Controller.solver: the solver factory returned nothing");
@@ -233,6 +246,7 @@ void Controller::reset() noexcept {
   baseline_.reset();
   monitor_.reset();
   latency_.reset();
+  motion_commanded_since_ = std::numeric_limits<double>::infinity();
   for (int i = 0; i < modules_; ++i) output_.modules[i] = ModuleCommand{};
 }
 
@@ -420,6 +434,12 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
 
 const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   latency_.record(output_.modules);
+  // The frozen-measurement check asks since when motion has been commanded without a break.
+  if (!motion_commanded()) {
+    motion_commanded_since_ = std::numeric_limits<double>::infinity();
+  } else if (!std::isfinite(motion_commanded_since_) && std::isfinite(step_t_)) {
+    motion_commanded_since_ = step_t_;
+  }
   if (wheel_speeds_.size() > 0 || steering_rates_.size() > 0) {
     for (Eigen::Index i = 0; i < wheel_speeds_.size(); ++i) {
       sent_wheel_speeds_[i] = output_.modules[static_cast<int>(i)].wheel_speed;
@@ -455,6 +475,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
                                       double measured_at) noexcept {
   // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
   const TimePoint step_start = clock().now();
+  step_t_ = t;
   const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
   const Deadline deadline(step_deadline - solve_margin(), clock());
   solved_ = false;
@@ -473,7 +494,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     fall_back(measured, false, output_.solve.reason);
     return finish(step_start);
   }
-  if (const char* stale = monitor_.check(measured, t, measured_at, motion_commanded())) {
+  if (const char* stale = monitor_.check(measured, t, measured_at, motion_commanded_since_)) {
     // A stale measurement says nothing about where the vehicle is now: neither an old plan nor the
     // baseline can be trusted on it, so stop safely until fresh measurements return.
     output_.measurement_stale = true;

@@ -59,10 +59,10 @@ void BaselineOptions::validate() const {
 }
 
 KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference,
-                                     BaselineOptions options)
+                                     BaselineOptions options, ActuatorLags lags)
     : options_(validated(options)), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
       horizon_(options_.horizon), heading_memory_(layout.size()), planned_memory_(layout.size()),
-      latency_(layout, options_.dt, options_.measurement_filter) {
+      latency_(layout, options_.dt, options_.measurement_filter, lags) {
   if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
   twists_ = Eigen::MatrixXd::Zero(3, horizon_);
   reference_poses_ = reference_twists_ = Eigen::MatrixXd::Zero(3, horizon_);
@@ -315,8 +315,12 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
       const double signed_speed = j == k ? signs_[i] * planned_speeds_(i, k)
                                          : planned_speeds_(i, k) * std::cos(planned_angles_(i, k) - angle);
       inputs(2 * i, k) = rate;
-      inputs(2 * i + 1, k) = drive_wheel_speed<double>(signed_speed, turn - dt * rate, options_.cosine_scaling, limits,
-                                                       radius, LimitShape::kHard);
+      // The paper's baseline drives at the planned speed while it steers; but a module left more
+      // than a quarter turn from its direction of travel (a swing between end stops) would push the
+      // vehicle backwards against the others, so it waits (the cosine scaling's zero beyond 90 deg).
+      const double turn_left = turn - dt * rate;
+      const bool align = options_.cosine_scaling || std::abs(turn_left) > kPi / 2;
+      inputs(2 * i + 1, k) = drive_wheel_speed<double>(signed_speed, turn_left, align, limits, radius, LimitShape::kHard);
       angles_[i] = angle;
     }
     if (k == 0) {

@@ -17,10 +17,47 @@ const OptionFields<MeasurementFilterOptions>& MeasurementFilterOptions::fields()
 
 void MeasurementFilterOptions::validate() const { check_fields("MeasurementFilterOptions", *this, fields()); }
 
-LatencyCompensator::LatencyCompensator(const ModuleLayout& layout, double dt, MeasurementFilterOptions filter)
-    : kinematics_(layout), dt_(dt), modules_(layout.size()), states_(layout.size()), filter_(filter) {
+ActuatorLags ActuatorLags::of(const VehicleParams& vehicle) noexcept {
+  ActuatorLags lags;
+  if (vehicle.plant.actuator_lag) {
+    lags.steering = vehicle.actuators.steering_time_constant;
+    lags.drive = vehicle.actuators.drive_time_constant;
+  }
+  return lags;
+}
+
+namespace {
+
+// A first-order lag of time constant tau over a period dt, its state moving from x toward a command
+// c: x(dt) = c + (x - c) e^{-dt/tau}, and its mean over the period c + (x - c) tau (1 - e^{-dt/tau}) / dt.
+// `reached` = 1 - e^{-dt/tau}, `mean` = 1 - tau (1 - e^{-dt/tau}) / dt: the shares of the change
+// carried out at the end and on average.
+void lag_shares(double tau, double dt, double* reached, double* mean) {
+  if (!(tau > 0.0)) {
+    *reached = *mean = 1.0;
+    return;
+  }
+  const double decay = std::exp(-dt / tau);
+  *reached = 1.0 - decay;
+  *mean = 1.0 - tau * (1.0 - decay) / dt;
+}
+
+}  // namespace
+
+LatencyCompensator::LatencyCompensator(const ModuleLayout& layout, double dt, MeasurementFilterOptions filter,
+                                       ActuatorLags lags)
+    : kinematics_(layout), dt_(dt), lags_(lags), modules_(layout.size()), states_(layout.size()), filter_(filter) {
   if (!std::isfinite(dt) || dt <= 0.0) throw_invalid_field("LatencyCompensator", "dt", dt, "must be finite and > 0");
+  if (!std::isfinite(lags.steering) || lags.steering < 0.0) {
+    throw_invalid_field("LatencyCompensator", "lags.steering", lags.steering, "must be finite and >= 0 (s)");
+  }
+  if (!std::isfinite(lags.drive) || lags.drive < 0.0) {
+    throw_invalid_field("LatencyCompensator", "lags.drive", lags.drive, "must be finite and >= 0 (s)");
+  }
   filter_.validate();
+  lag_shares(lags_.steering, dt_, &steering_reached_, &steering_mean_);
+  lag_shares(lags_.drive, dt_, &drive_reached_, &drive_mean_);
+  steering_rates_ = wheel_surface_speeds_ = Eigen::VectorXd::Zero(modules_);
   history_ = Eigen::MatrixXd::Zero(2 * modules_, kMaxSteps);
   filtered_ = predicted_ = Eigen::VectorXd::Zero(6 + modules_);
 }
@@ -43,10 +80,20 @@ int LatencyCompensator::latency_steps(double latency) const noexcept {
 void LatencyCompensator::advance(Eigen::Ref<Eigen::VectorXd> state, int column) noexcept {
   for (int i = 0; i < modules_; ++i) {
     const double angle = state[6 + i];
-    state[6 + i] = wrap_angle(angle + dt_ * history_(2 * i, column));
+    const double rate_command = history_(2 * i, column);
+    const double speed_command = history_(2 * i + 1, column);
+    // Through the lags: the angle moves by the mean steering rate over the period.
+    const double mean_rate =
+        lags_.steering > 0.0 ? steering_rates_[i] + steering_mean_ * (rate_command - steering_rates_[i]) : rate_command;
+    const double mean_speed =
+        lags_.drive > 0.0 ? wheel_surface_speeds_[i] + drive_mean_ * (speed_command - wheel_surface_speeds_[i])
+                          : speed_command;
+    steering_rates_[i] += steering_reached_ * (rate_command - steering_rates_[i]);
+    wheel_surface_speeds_[i] += drive_reached_ * (speed_command - wheel_surface_speeds_[i]);
+    state[6 + i] = wrap_angle(angle + dt_ * mean_rate);
     // The module drives along its mean angle over the period (midpoint rule).
-    states_[i].angle = wrap_angle(angle + 0.5 * dt_ * history_(2 * i, column));
-    states_[i].speed = history_(2 * i + 1, column);
+    states_[i].angle = wrap_angle(angle + 0.5 * dt_ * mean_rate);
+    states_[i].speed = mean_speed;
   }
   Eigen::Vector3d twist_body = Eigen::Vector3d::Zero();
   if (kinematics_.forward(states_, &twist_body) != KinematicsStatus::kOk) twist_body.setZero();
@@ -55,8 +102,32 @@ void LatencyCompensator::advance(Eigen::Ref<Eigen::VectorXd> state, int column) 
   state[0] += dt_ * (c * twist_body.x() - s * twist_body.y());
   state[1] += dt_ * (s * twist_body.x() + c * twist_body.y());
   state[2] += dt_ * twist_body.z();  // headings stay continuous, as measured
-  // The twist the drives are being told is a better guess than a delayed one.
+  // The twist the drives reach at the period's end is a better guess than a delayed one (without
+  // lags, the commanded one).
   state.segment<3>(3) = twist_body;
+  if (!(lags_.steering > 0.0) && !(lags_.drive > 0.0)) return;
+  for (int i = 0; i < modules_; ++i) {
+    states_[i].angle = wrap_angle(state[6 + i]);
+    states_[i].speed = wheel_surface_speeds_[i];
+  }
+  if (kinematics_.forward(states_, &twist_body) == KinematicsStatus::kOk) state.segment<3>(3) = twist_body;
+}
+
+void LatencyCompensator::start_drives(const Eigen::Ref<const Eigen::VectorXd>& measured, int latency) noexcept {
+  // Steering rates: from rest at the oldest recorded command, through those sent before the
+  // measurement was taken (each lag forgets its start within a few periods).
+  steering_rates_.setZero();
+  for (int back = recorded_ - 1; back >= latency; --back) {
+    const int column = (newest_ - back + kMaxSteps) % kMaxSteps;
+    for (int i = 0; i < modules_; ++i) steering_rates_[i] += steering_reached_ * (history_(2 * i, column) - steering_rates_[i]);
+  }
+  // Wheels: rolling with the measured twist at their measured angles (the measurement knows them).
+  const Eigen::Vector3d twist_body = measured.segment<3>(3);
+  for (int i = 0; i < modules_; ++i) {
+    const Eigen::Vector2d& r = kinematics_.layout().position_body(i);
+    const double vx = twist_body.x() - twist_body.z() * r.y(), vy = twist_body.y() + twist_body.z() * r.x();
+    wheel_surface_speeds_[i] = std::cos(measured[6 + i]) * vx + std::sin(measured[6 + i]) * vy;
+  }
 }
 
 int LatencyCompensator::compensate(const Eigen::Ref<const Eigen::VectorXd>& measured, double latency,
@@ -64,6 +135,7 @@ int LatencyCompensator::compensate(const Eigen::Ref<const Eigen::VectorXd>& meas
   now = measured;
   if (measured.size() != 6 + modules_ || now.size() != measured.size()) return 0;
   const int steps = latency_steps(latency);
+  start_drives(measured, steps);
   // The commands sent since the measurement, oldest first: the measured state saw none of them.
   for (int back = steps - 1; back >= 0; --back) advance(now, (newest_ - back + kMaxSteps) % kMaxSteps);
   return steps;
@@ -79,6 +151,7 @@ bool LatencyCompensator::update_filter(const Eigen::Ref<const Eigen::VectorXd>& 
   if (periods < 0 || latency + periods > std::min(recorded_, kMaxSteps)) return false;
   // The estimate, predicted by the commands that acted from its time to the measurement's.
   predicted_ = filtered_;
+  start_drives(filtered_, latency + periods);
   for (int back = latency + periods - 1; back >= latency; --back) {
     advance(predicted_, (newest_ - back + kMaxSteps) % kMaxSteps);
   }

@@ -77,6 +77,21 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
     require_non_negative("weights.effort[" + std::to_string(i) + "]", weights_.effort[i]);
     require_non_negative("weights.rate[" + std::to_string(i) + "]", weights_.rate[i]);
   }
+  if (weights_.state_effort.size() != 0 && weights_.state_effort.size() != nx_) {
+    reject("weights.state_effort.size()", weights_.state_effort.size(), "must equal the state size " + std::to_string(nx_));
+  }
+  int weighted_states = 0;
+  for (Eigen::Index j = 0; j < weights_.state_effort.size(); ++j) {
+    require_non_negative("weights.state_effort[" + std::to_string(j) + "]", weights_.state_effort[j]);
+    if (weights_.state_effort[j] > 0.0) ++weighted_states;
+  }
+  state_effort_index_ = Eigen::VectorXi::Zero(weighted_states);
+  state_effort_root_ = Eigen::VectorXd::Zero(weighted_states);
+  for (Eigen::Index j = 0, m = 0; j < weights_.state_effort.size(); ++j) {
+    if (!(weights_.state_effort[j] > 0.0)) continue;
+    state_effort_index_[m] = static_cast<int>(j);
+    state_effort_root_[m++] = std::sqrt(2.0 * weights_.state_effort[j]);
+  }
   bounds_.lower = expand(bounds_.lower, nu_, -kInfinity, "bounds.lower");
   bounds_.upper = expand(bounds_.upper, nu_, kInfinity, "bounds.upper");
   bounds_.max_step = expand(bounds_.max_step, nu_, kInfinity, "bounds.max_step");
@@ -240,7 +255,7 @@ double OcpProblem::stage_cost(int k, const Eigen::Ref<const Eigen::VectorXd>& x_
   tracking_residuals(k, x_next, &r);
   const double tracking = 0.5 * r.squaredNorm();
   const double wear_cost = weights_.wear * wear;
-  const double effort = 0.5 * effort_root_.cwiseProduct(u).squaredNorm();
+  const double effort = 0.5 * effort_root_.cwiseProduct(u).squaredNorm() + state_effort(x_next);
   const double rate = 0.5 * rate_root_.cwiseProduct(u - u_before).squaredNorm();
   if (parts != nullptr) {
     parts->tracking += tracking;
@@ -262,10 +277,24 @@ double OcpProblem::stage_cost_without_wear(int k, const Eigen::Ref<const Eigen::
   tracking_residuals(k, x_next, &r, &jacobian);
   d_x_next.setZero();
   d_x_next.head<kTrackedStates>().noalias() = jacobian.transpose() * r;
+  for (Eigen::Index j = 0; j < state_effort_index_.size(); ++j) {
+    const double root = state_effort_root_[j];
+    d_x_next[state_effort_index_[j]] += root * root * x_next[state_effort_index_[j]];
+  }
   const auto rate_residual = rate_root_.cwiseProduct(u - u_before);
   d_u = effort_root_.cwiseProduct(effort_root_.cwiseProduct(u)) + rate_root_.cwiseProduct(rate_residual);
   d_u_before = -rate_root_.cwiseProduct(rate_residual);
-  return 0.5 * (r.squaredNorm() + effort_root_.cwiseProduct(u).squaredNorm() + rate_residual.squaredNorm());
+  return 0.5 * (r.squaredNorm() + effort_root_.cwiseProduct(u).squaredNorm() + rate_residual.squaredNorm()) +
+         state_effort(x_next);
+}
+
+double OcpProblem::state_effort(const Eigen::Ref<const Eigen::VectorXd>& x_next) const noexcept {
+  double sum = 0.0;
+  for (Eigen::Index j = 0; j < state_effort_index_.size(); ++j) {
+    const double r = state_effort_root_[j] * x_next[state_effort_index_[j]];
+    sum += r * r;
+  }
+  return 0.5 * sum;
 }
 
 double OcpProblem::rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,

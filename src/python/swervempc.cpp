@@ -148,6 +148,7 @@ py::dict metrics_dict(const RunMetrics& m) {
   d["wear_imbalance"] = m.wear_imbalance;
   d["frictional_energy_J"] = m.frictional_energy_J;
   d["steering_effort"] = m.steering_effort;
+  d["steering_command_jerk"] = m.steering_command_jerk;
   d["solve_time_mean_ms"] = m.solve_time_mean_ms;
   d["solve_time_p50_ms"] = m.solve_time_p50_ms;
   d["solve_time_p99_ms"] = m.solve_time_p99_ms;

@@ -26,6 +26,9 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
   solve_ms.reserve(log.size());
   std::vector<double> step_ms;
   step_ms.reserve(log.size());
+  double steering_change_sq = 0.0;
+  long steering_changes = 0;
+  const StepRecord* previous = nullptr;
   for (const StepRecord& record : log) {
     const double e_position = record.position_error();
     const double e_heading = std::abs(record.heading_error());
@@ -36,6 +39,14 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
     for (const ModuleCommand& command : record.commands) {
       m.steering_effort += control_period * command.steering_rate * command.steering_rate;
     }
+    if (previous != nullptr && previous->commands.size() == record.commands.size() && control_period > 0.0) {
+      for (std::size_t i = 0; i < record.commands.size(); ++i) {
+        const double change = (record.commands[i].steering_rate - previous->commands[i].steering_rate) / control_period;
+        steering_change_sq += change * change;
+        ++steering_changes;
+      }
+    }
+    previous = &record;
     if (record.solve_time_s >= 0.0) {
       solve_ms.push_back(1e3 * record.solve_time_s);
       iterations_sum += std::max(0, record.solve_iterations);
@@ -53,6 +64,7 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
     m.tracking_rmse_m = std::sqrt(position_sq / static_cast<double>(log.size()));
     m.heading_rmse_rad = std::sqrt(heading_sq / static_cast<double>(log.size()));
   }
+  if (steering_changes > 0) m.steering_command_jerk = std::sqrt(steering_change_sq / static_cast<double>(steering_changes));
   m.wear_per_module = wear_per_module;
   m.wear_total = std::accumulate(wear_per_module.begin(), wear_per_module.end(), 0.0);
   if (!wear_per_module.empty() && m.wear_total > 0.0) {

@@ -50,7 +50,7 @@ TEST(ControllerConfig, RejectsBadStaleMeasurementLimitsNamingTheKeyPath) {
   const struct {
     const char* block;
     const char* key;
-  } cases[] = {{"  stale_measurement: {max_age: 0}\n", "controller.stale_measurement.max_age"},
+  } cases[] = {{"  stale_measurement: {max_age: -0.1}\n", "controller.stale_measurement.max_age"},
                {"  stale_measurement: {max_age: .nan}\n", "controller.stale_measurement.max_age"},
                {"  stale_measurement: {frozen_cycles: 1}\n", "controller.stale_measurement.frozen_cycles"},
                {"  stale_measurement: {moving_speed: -1}\n", "controller.stale_measurement.moving_speed"},

@@ -35,6 +35,67 @@ std::string file_text(const std::string& path) {
   return text.str();
 }
 
+// The widest angle between two modules' directions of travel (the steering angle, turned round
+// when the wheel runs backwards) over a run, among modules commanded at 0.5 rad/s or more, and when.
+// A pure translation keeps it near zero; modules driving against each other show it near 180 deg.
+struct TravelSpread {
+  double angle = 0.0, t = 0.0;
+};
+
+TravelSpread widest_travel_spread(const ControllerRun& run) {
+  TravelSpread widest;
+  for (const StepRecord& r : run.log) {
+    for (std::size_t a = 0; a < r.commands.size(); ++a) {
+      for (std::size_t b = 0; b < a; ++b) {
+        if (std::abs(r.commands[a].wheel_speed) < 0.5 || std::abs(r.commands[b].wheel_speed) < 0.5) continue;
+        const double travel_a = r.modules[a].steering_angle + (r.commands[a].wheel_speed < 0.0 ? kPi : 0.0);
+        const double travel_b = r.modules[b].steering_angle + (r.commands[b].wheel_speed < 0.0 ? kPi : 0.0);
+        const double apart = std::abs(wrap_angle(travel_a - travel_b));
+        if (apart > widest.angle) widest = {apart, r.t};
+      }
+    }
+  }
+  return widest;
+}
+
+// Every shipped vehicle whose steering stops at +-90 deg, crabbing at 90 deg under sensor noise:
+// the heading each module needs sits at a stop, on either side of it by the noise. The modules keep
+// one side together (hysteresis across the stop), so no two of them ever drive more than 60 deg
+// apart. Before, they split between the stops and drove against each other.
+TEST(ScenarioRunner, TheBaselineCrabsAt90DegreesOnEveryVehicleWithEndStopsThereWithoutModulesFighting) {
+  const std::string source = file_text(data_file("crab90_end_stops_baseline.yaml"));
+  int vehicles = 0;
+  for (const char* vehicle : {"carrier_6module", "carrier_8module", "paper_ms_agv"}) {
+    SCOPED_TRACE(vehicle);
+    std::string text = source;
+    const std::string from = "carrier_6module.yaml";
+    text.replace(text.find(from), from.size(), std::string(vehicle) + ".yaml");
+    const std::string path = data_file(std::string("crab90_end_stops_") + vehicle + ".generated.yaml");
+    std::ofstream(path) << text;
+    const ScenarioConfig scenario = load_scenario_config_file(path);
+    std::filesystem::remove(path);
+    const ModuleLimits& limits = scenario.vehicle.layout.limits();
+    ASSERT_TRUE(limits.has_steering_end_stops());
+    ASSERT_NEAR(limits.max_steering_angle, kPi / 2, 1e-9);
+    ++vehicles;
+    const std::vector<ControllerRun> runs = run_scenario(scenario);
+    ASSERT_EQ(runs.size(), 1u);
+    const ControllerRun& run = runs[0];
+    ASSERT_TRUE(run.completed) << run.failure;
+    const TravelSpread spread = widest_travel_spread(run);
+    EXPECT_LT(spread.angle, kPi / 3) << "modules drove " << spread.angle * 180.0 / kPi << " deg apart at t = " << spread.t
+                                     << " s";
+    // The heading holds (before: 1.7 deg RMS on the carriers). The position does not track well:
+    // the paper's baseline drives at the inverse-kinematics speed while its modules turn the first
+    // 90 deg, and the 0.2-0.3 m it drifts sideways then can only be corrected by a quarter turn.
+    EXPECT_LT(run.metrics.heading_rmse_rad, 1.5 * kPi / 180.0);
+    EXPECT_LT(run.metrics.tracking_rmse_m, 1.0);
+    std::printf("[          ] %s: RMSE %.1f mm, heading %.2f deg, wear %.1f J\n", vehicle,
+                1e3 * run.metrics.tracking_rmse_m, run.metrics.heading_rmse_rad * 180.0 / kPi, run.metrics.wear_total);
+  }
+  EXPECT_EQ(vehicles, 3);
+}
+
 TEST(ScenarioRunner, ShortPaperScenarioRunsEveryControllerWithFiniteMetrics) {
   const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
   const std::vector<ControllerRun> runs = run_scenario(scenario);
@@ -375,23 +436,9 @@ TEST(ScenarioRunner, UnderSensorNoiseTheBaselinesModulesNeverDriveAgainstEachOth
     scenario.simulator.seed = seed;
     const ControllerRun run = run_controller(scenario, scenario.controllers[0]);
     ASSERT_TRUE(run.completed) << run.failure;
-    double worst = 0.0, worst_t = 0.0;
-    for (const StepRecord& r : run.log) {
-      for (std::size_t a = 0; a < r.commands.size(); ++a) {
-        for (std::size_t b = 0; b < a; ++b) {
-          if (std::abs(r.commands[a].wheel_speed) < 0.5 || std::abs(r.commands[b].wheel_speed) < 0.5) continue;
-          // Direction of travel: the steering angle, turned round when the wheel runs backwards.
-          const double travel_a = r.modules[a].steering_angle + (r.commands[a].wheel_speed < 0.0 ? kPi : 0.0);
-          const double travel_b = r.modules[b].steering_angle + (r.commands[b].wheel_speed < 0.0 ? kPi : 0.0);
-          const double apart = std::abs(wrap_angle(travel_a - travel_b));
-          if (apart > worst) {
-            worst = apart;
-            worst_t = r.t;
-          }
-        }
-      }
-    }
-    EXPECT_LT(worst, kPi / 3) << "modules drove " << worst * 180.0 / kPi << " deg apart at t = " << worst_t << " s";
+    const TravelSpread spread = widest_travel_spread(run);
+    EXPECT_LT(spread.angle, kPi / 3) << "modules drove " << spread.angle * 180.0 / kPi << " deg apart at t = " << spread.t
+                                     << " s";
   }
 }
 

@@ -732,7 +732,7 @@ TEST(Controller, ARepeatedMeasurementAtRestWithNoMotionCommandedIsNotStale) {
 TEST(Controller, AnOldOrFutureTimestampIsStaleAtOnce) {
   FakeScript script;
   Controller controller = make_fake_controller(&script);
-  const double max_age = fast_options().stale_measurement.max_age;
+  const double max_age = fast_options().stale_measurement.max_age_at(fast_options().period());
   const ControlOutput& old = controller.step(cruising(), 1.0, 1.0 - max_age - 0.01);
   EXPECT_TRUE(old.measurement_stale);
   EXPECT_EQ(old.source, CommandSource::kSafeStop);
@@ -744,6 +744,84 @@ TEST(Controller, AnOldOrFutureTimestampIsStaleAtOnce) {
   const ControlOutput& fresh = controller.step(cruising(), 1.1, 1.1 - 0.5 * max_age);
   EXPECT_FALSE(fresh.measurement_stale);
   EXPECT_NE(fresh.source, CommandSource::kSafeStop) << reason_of(fresh);
+}
+
+// A sensor `delay_steps` periods late on the small robot following the 0.5 m/s line, closed
+// through the model plant; between `gap_from` and `gap_to` (s) the sensor stalls, handing over its
+// last measurement with that measurement's timestamp. Counts the safe-stop cycles before, during
+// and after the gap, and when (s after the gap) the controller last safe-stopped.
+struct LateStream {
+  int safe_stops_before = 0, safe_stops_after = 0, gap_cycles = 0;
+  double last_stop_after_gap = -1.0;
+  double error_two_seconds_after_gap = -1.0;  // m, position error 2 s after the gap ended
+  double final_position_error = 0.0;
+};
+
+LateStream run_late_stream(int delay_steps, double gap_from, double gap_to, double duration) {
+  const VehicleParams params = small_robot();
+  const auto reference = testing::line_reference(0.5);
+  ControllerOptions options = closed_loop_options(1.0, InputParameterization::kBodyTwist);
+  options.stale_measurement = StalenessOptions{};  // the defaults under test
+  Controller controller(params, reference, options, sa_factory(7));
+  const testing::WorkClock clock(kClockTick);
+  controller.set_clock(clock);
+  testing::ModelPlant plant(params, options.dt);
+  std::vector<Eigen::VectorXd> history;  // the plant's state at every cycle
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(10);
+  LateStream result;
+  int held = -1;  // the cycle of the measurement a stalled sensor keeps handing over
+  const int cycles = static_cast<int>(std::lround(duration / options.dt));
+  for (int k = 0; k < cycles; ++k) {
+    const double t = k * options.dt;
+    history.push_back(state);
+    const bool stalled = t >= gap_from && t < gap_to;
+    int taken = std::max(0, k - delay_steps);
+    if (stalled) {
+      if (held < 0) held = taken;
+      taken = held;
+    } else {
+      held = -1;
+    }
+    const ControlOutput& out = controller.step(history[static_cast<std::size_t>(taken)], t, taken * options.dt);
+    if (out.source == CommandSource::kSafeStop) {
+      if (t < gap_from) ++result.safe_stops_before;
+      if (t >= gap_to) {
+        ++result.safe_stops_after;
+        result.last_stop_after_gap = t - gap_to;
+      }
+    }
+    if (stalled) ++result.gap_cycles;
+    if (std::abs(t - (gap_to + 2.0)) < 0.5 * options.dt) {
+      result.error_two_seconds_after_gap = (state.head<2>() - reference->sample(t).pose_world.head<2>()).norm();
+    }
+    EXPECT_TRUE(plant.step(out.modules, &state, nullptr)) << "t = " << t;
+  }
+  result.final_position_error = (state.head<2>() - reference->sample(duration).pose_world.head<2>()).norm();
+  return result;
+}
+
+TEST(Controller, AStreamUpToThreePeriodsLateNeverStopsTheVehicle) {
+  for (int delay = 0; delay <= 3; ++delay) {
+    SCOPED_TRACE("delay " + std::to_string(delay) + " periods");
+    const LateStream run = run_late_stream(delay, 1e9, 1e9, 4.0);
+    EXPECT_EQ(run.safe_stops_before, 0);
+    EXPECT_LT(run.final_position_error, 0.05);
+  }
+}
+
+TEST(Controller, AfterASensorGapOfOneSecondItResumesAndTracksAgainWithinTwoSeconds) {
+  // Two periods late throughout. The gap ends in a safe stop (the measurement grows older than the
+  // latency compensation reaches); then the stream is back, still late, and the vehicle it stopped
+  // stands still, so the first fresh measurements repeat exactly: that is no frozen sensor. Before,
+  // it read as one, and the vehicle never moved again.
+  const LateStream run = run_late_stream(2, 2.0, 3.0, 8.0);
+  EXPECT_EQ(run.safe_stops_before, 0);
+  EXPECT_GT(run.gap_cycles, 0);
+  EXPECT_EQ(run.safe_stops_after, 0) << "the last " << run.last_stop_after_gap << " s after the gap";
+  // The reference ran on during the stop (0.5 m); 2 s after the gap the vehicle is back on it.
+  EXPECT_GE(run.error_two_seconds_after_gap, 0.0);
+  EXPECT_LT(run.error_two_seconds_after_gap, 0.05);
+  EXPECT_LT(run.final_position_error, 0.02);
 }
 
 TEST(Controller, AModuleStartingReversedByPiRecoversTheTracking) {

@@ -98,6 +98,38 @@ TEST(ChooseDriveDirection, NeverTurnsPastAnEndStopWhileTheOtherWayRoundIsReachab
   EXPECT_EQ(choose_drive_direction<double>(kPi - 0.2, 1.5, 1, FlipPolicy::kNearest, 0.1, ModuleLimits{}).sign, 1);
 }
 
+TEST(ChooseDriveDirection, HysteresisHoldsAModuleAtItsEndStopWhileItsHeadingWandersJustPastIt) {
+  // Crabbing at 90 deg on +-90 deg steering: the heading sits at the stop, on either side of it by
+  // the measurement's noise and the tracking's corrections. A module driving forward at the +90 deg
+  // stop stays there (its turn to the stop is what is left) for headings up to kEndStopHold past
+  // it, instead of swinging half a turn to the -90 deg stop; only beyond does the other way round
+  // take over.
+  const ModuleLimits limits = limits_with_end_stops(kPi / 2);
+  const double band = 0.1;
+  for (const double past : {1e-9, 0.01, 0.05, 0.3, kEndStopHold - 0.01}) {
+    SCOPED_TRACE(past);
+    const auto held = choose_drive_direction<double>(kPi / 2 + past, kPi / 2, 1, FlipPolicy::kHysteresis, band, limits);
+    EXPECT_EQ(held.sign, 1);
+    EXPECT_NEAR(held.turn, 0.0, 1e-15);
+    const auto reversed =
+        choose_drive_direction<double>(-kPi / 2 - past + kPi, -kPi / 2, -1, FlipPolicy::kHysteresis, band, limits);
+    EXPECT_EQ(reversed.sign, -1);  // the same hold at the -90 deg stop, driving reversed
+    EXPECT_NEAR(reversed.turn, 0.0, 1e-15);
+  }
+  // From straight ahead, a heading just past the stop is still steered to the stop the module's way
+  // round keeps, and stays open to the coordination of modules in the band.
+  const auto start = choose_drive_direction<double>(kPi / 2 + 0.01, 0.0, 1, FlipPolicy::kHysteresis, band, limits);
+  EXPECT_EQ(start.sign, 1);
+  EXPECT_NEAR(start.turn, kPi / 2, 1e-15);
+  EXPECT_TRUE(start.in_band);
+  // Beyond the hold the other way round takes over, as before.
+  const auto beyond =
+      choose_drive_direction<double>(kPi / 2 + kEndStopHold + 0.05, kPi / 2, 1, FlipPolicy::kHysteresis, band, limits);
+  EXPECT_EQ(beyond.sign, -1);
+  // kNearest (the prediction's map) keeps its strict rule: never a heading past the stop.
+  EXPECT_EQ(choose_drive_direction<double>(kPi / 2 + 0.01, kPi / 2, 1, FlipPolicy::kNearest, band, limits).sign, -1);
+}
+
 TEST(ChooseDriveDirection, WithWideEndStopsTakesTheShorterTurnEvenBeyondAQuarterTurn) {
   // Stops at +-3 rad: from -2.5 rad, a heading of -0.5 rad is 2.0 rad away; its reverse (2.64 rad)
   // is reachable too, but 5.14 rad away the other way round (no turning through +-pi). Both turns

@@ -104,6 +104,14 @@ struct ControllerOptions {
   PredictionOptions prediction;
   InputParameterization parameterization = InputParameterization::kBodyTwist;
   double twist_smoothness = 1.0;     // S on the change of the body twist per step (kBodyTwist)
+  // A price on the steering rates the prediction carries (PredictionOptions::steering_lag, on a
+  // vehicle whose steering lags): the modules' mean squared predicted steering rate per step, times
+  // this. Body-twist inputs do not show the steering rates they command, and a steering swing that
+  // the lag turns back within a period moves the predicted pose by almost nothing: without a
+  // price the optimiser traded such swings for the last micro-metre of tracking, and in closed
+  // loop they became a period-2 limit cycle (docs/decisions/steering-effort.md). 0: no price, and
+  // none either without steering-rate states.
+  double steering_effort = 0.0;
   // Also start the solver from the kinematic baseline's plan: as planned, and with body-twist
   // inputs also run as a policy through the prediction (see close_baseline_loop).
   bool baseline_guess = true;
@@ -219,6 +227,9 @@ class Controller final : public TrackingController {
   double overshoot_s_ = 0.0;         // decaying maximum of step end - solver deadline (s)
   TimePoint solve_deadline_{};       // this step's, when a solve ran
   bool solved_ = false;              // whether this step ran the solver
+  double step_t_ = 0.0;              // s: this step's t
+  // s: the t from which every command sent asked some module to move (+inf: the last did not).
+  double motion_commanded_since_ = std::numeric_limits<double>::infinity();
   ControlOutput output_;
 };
 

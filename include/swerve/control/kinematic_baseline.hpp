@@ -51,7 +51,9 @@ struct BaselineOptions {
 
 class KinematicBaseline final : public TrackingController {
  public:
-  KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference, BaselineOptions options);
+  // `lags`: the vehicle's drive lags, which its latency compensation rolls commands through.
+  KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference, BaselineOptions options,
+                    ActuatorLags lags = {});
   const char* name() const noexcept override { return "kinematic_baseline"; }
   using TrackingController::step;
   // The baseline trusts its measurement (the paper's controller); the staleness checks are the

@@ -10,6 +10,7 @@
 
 #include "swerve/core/option_fields.hpp"
 #include "swerve/kinematics/kinematics.hpp"
+#include "swerve/models/vehicle_params.hpp"
 #include "swerve/control/tracking_controller.hpp"
 
 namespace swerve {
@@ -30,13 +31,29 @@ struct MeasurementFilterOptions {
   void validate() const;  // gains in (0, 1]; throws ConfigError naming the field and value
 };
 
+// The first-order lags (s) through which the drives follow their commands: the steering rate and
+// the wheel speed. 0: a drive that reaches its command at once.
+struct ActuatorLags {
+  double steering = 0.0;
+  double drive = 0.0;
+  // The vehicle's own (ActuatorParams), or none when its drives follow at once (plant.actuator_lag off).
+  static ActuatorLags of(const VehicleParams& vehicle) noexcept;
+};
+
 class LatencyCompensator {
  public:
   // Longest latency rolled forward, in control periods; an older measurement is rolled forward by
   // this many (the wear-aware controller rejects one older than its staleness bound first).
   static constexpr int kMaxSteps = 8;
 
-  LatencyCompensator(const ModuleLayout& layout, double dt, MeasurementFilterOptions filter = {});
+  // With `lags`, the commands are rolled forward through the drives' lags, from the steering rates
+  // and wheel speeds they had when the measurement was taken (estimated from the commands before
+  // it, and from the measured twist): a steering command that the lag has not yet carried out does
+  // not move the estimated angle. Without them, a 0.8 rad/s command moved the estimated angle by
+  // 0.04 rad in a period where the 30 ms lag moved the wheel by 0.007 rad, and the controller
+  // answered the difference it had made up with the opposite command: a period-2 limit cycle.
+  LatencyCompensator(const ModuleLayout& layout, double dt, MeasurementFilterOptions filter = {},
+                     ActuatorLags lags = {});
 
   // Remembers the commands sent this cycle (call once per step, after deciding them).
   void record(const ModuleArray<ModuleCommand>& commands) noexcept;
@@ -63,14 +80,26 @@ class LatencyCompensator {
                Eigen::Ref<Eigen::VectorXd> now) noexcept;
 
  private:
-  // Advances `state` (6 + n) by one period of the recorded command in history column `column`.
+  // Advances `state` (6 + n) by one period of the recorded command in history column `column`,
+  // through the lags from the drives' state in steering_rates_ and wheel_surface_speeds_ (which it
+  // advances too).
   void advance(Eigen::Ref<Eigen::VectorXd> state, int column) noexcept;
+  // Sets steering_rates_ and wheel_surface_speeds_ to their estimate when `measured` was taken,
+  // `latency` periods of recorded commands ago: the steering rates through the commands before
+  // then (from rest at the oldest recorded), the wheels rolling with the measured twist.
+  void start_drives(const Eigen::Ref<const Eigen::VectorXd>& measured, int latency) noexcept;
   int latency_steps(double latency) const noexcept;
   // The observer's update; false when the estimate must restart from the measurement.
   bool update_filter(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at, int latency) noexcept;
 
   Kinematics kinematics_;
   double dt_;
+  ActuatorLags lags_;
+  // Per period, the share of a command change a lag has carried out at its end (1 - e^{-dt/tau}),
+  // and the share of the period's integral of the change (1 - tau (1 - e^{-dt/tau}) / dt); 1 and 1
+  // without a lag.
+  double steering_reached_ = 1.0, steering_mean_ = 1.0, drive_reached_ = 1.0, drive_mean_ = 1.0;
+  Eigen::VectorXd steering_rates_, wheel_surface_speeds_;  // n: the drives' estimated state
   int modules_;
   Eigen::MatrixXd history_;  // 2n x kMaxSteps ring: steering rate, wheel surface speed per module
   int newest_ = -1, recorded_ = 0;

@@ -57,6 +57,11 @@ struct DriveDirection {
   bool in_band = false;
 };
 
+// rad: how far past an end stop a kept heading is held at the stop (hysteresis policy). At 45 deg
+// the module still moves its contact point at cos 45 deg = 71 % of the wanted velocity along it;
+// beyond, the swing to the other stop pays for itself. See docs/decisions/end-stop-hysteresis.md.
+inline constexpr double kEndStopHold = kPi / 4;
+
 // The way round for a module steered at `angle` whose contact velocity points along `heading`.
 // `previous_sign` is the way round kept by kHysteresis (0: none yet, then the nearest); the band
 // is `band` + `widening` above 90 deg and `band` below it. With end stops (limits not [-pi, pi])
@@ -86,6 +91,17 @@ DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int p
   // can exceed 90 deg both ways round.
   int sign = std::abs(scalar_value(turn_reverse)) < std::abs(scalar_value(turn_forward)) ? -1 : 1;
   bool in_band = false;
+  // Hysteresis across an end stop: a kept heading up to kEndStopHold past a stop is steered to the
+  // stop rather than swung half a turn to the other one. A heading that sits at a stop (crabbing at
+  // 90 deg on +-90 deg steering) is on either side of it by the noise of a measurement, and a
+  // tracking correction pushes it further; without the hold, modules split between the two stops,
+  // or all swung across together with their wheels driving, for seconds.
+  bool held_at_stop = false;
+  const double hold = std::max(band, kEndStopHold);
+  const auto within_band_past_stop = [&](const T& target) {
+    const double value = scalar_value(target);
+    return end_stops && value >= limits.min_steering_angle - hold && value <= limits.max_steering_angle + hold;
+  };
   if (policy == FlipPolicy::kHysteresis && previous_sign != 0) {
     sign = previous_sign > 0 ? 1 : -1;
     const double kept = std::abs(scalar_value(turn_of(sign)));
@@ -94,12 +110,21 @@ DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int p
     } else {
       in_band = kept >= kPi / 2 - band && reachable(target_of(-sign));
     }
+    held_at_stop = !reachable(target_of(sign)) && within_band_past_stop(target_of(sign));
   }
-  if (!reachable(target_of(sign)) && reachable(target_of(-sign))) {
+  if (!held_at_stop && !reachable(target_of(sign)) && reachable(target_of(-sign))) {
     sign = -sign;
     in_band = false;
   }
   DriveDirection<T> out;
+  if (held_at_stop) {
+    const double stop = scalar_value(target_of(sign)) > 0.0 ? limits.max_steering_angle : limits.min_steering_angle;
+    out.turn = T(stop) - angle;
+    out.other_turn = turn_of(-sign);
+    out.sign = sign;
+    out.in_band = in_band;
+    return out;
+  }
   out.turn = turn_of(sign);
   out.other_turn = turn_of(-sign);
   out.sign = sign;

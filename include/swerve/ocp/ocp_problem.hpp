@@ -8,6 +8,7 @@
 //        + |twist(x_{k+1}) - twist_ref,k+1|^2_Qv
 //        + lambda * wear_k                      (tire wear accumulated over step k)
 //        + |u_k|^2_R + |u_k - u_{k-1}|^2_S      (u_{-1}: the input applied last cycle)
+//        + |x_{k+1}|^2_W                        (W diagonal: a price on states such as the steering rates)
 //        + mu (max(0, |e_xy,k+1| - b_k)^2 + max(0, |e_psi,k+1| - c_k)^2)   (the tracking tube)
 // Every term but the wear is defined once, as weighted residuals (tracking_residuals,
 // effort_root, rate_root): stage k costs 1/2 |r_k|^2 + lambda wear_k. The cost's value, its
@@ -35,6 +36,9 @@ struct CostWeights {
   double wear = 0.0;                      // lambda
   Eigen::VectorXd effort;                 // R, one per input (empty: zeros)
   Eigen::VectorXd rate;                   // S, one per input (empty: zeros)
+  // W, one per state (empty: zeros): an effort on predicted states, e.g. the steering rates a
+  // prediction with steering lag carries, which the inputs (body twists) do not show.
+  Eigen::VectorXd state_effort;
   double tube_penalty = 1e5;              // mu, per m^2 and per rad^2 of error beyond the tube
   // Pseudo-Huber width d of the pose cost (m; 0: quadratic, the default). Beyond d the position cost
   // grows linearly, at the slope the quadratic has at d (Hartley & Zisserman, Multiple View
@@ -126,6 +130,10 @@ class OcpProblem {
   // The input residuals, per input i: effort effort_root[i] * u_k[i] and rate
   // rate_root[i] * (u_k[i] - u_{k-1}[i]), with effort_root = sqrt(2 R) and rate_root = sqrt(2 S).
   const Eigen::VectorXd& effort_root() const noexcept { return effort_root_; }
+  // The state-effort residuals: state_effort_root()[j] * x_{k+1}[state_effort_index()[j]], one per
+  // state with a weight > 0 (sqrt(2 W)).
+  const Eigen::VectorXi& state_effort_index() const noexcept { return state_effort_index_; }
+  const Eigen::VectorXd& state_effort_root() const noexcept { return state_effort_root_; }
   const Eigen::VectorXd& rate_root() const noexcept { return rate_root_; }
 
   // Cost of stage k without its wear term: tracking at x_{k+1}, effort on u_k and rate on
@@ -150,6 +158,8 @@ class OcpProblem {
  private:
   // u_{k-1}: the previous cycle's input for k = 0.
   Eigen::Ref<const Eigen::VectorXd> input_before(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int k) const noexcept;
+  // 1/2 |x_{k+1}|^2_W, the state effort (counted with the effort in CostBreakdown).
+  double state_effort(const Eigen::Ref<const Eigen::VectorXd>& x_next) const noexcept;
   double stage_cost(int k, const Eigen::Ref<const Eigen::VectorXd>& x_next, const Eigen::Ref<const Eigen::VectorXd>& u,
                     const Eigen::Ref<const Eigen::VectorXd>& u_before, double wear, CostBreakdown* parts) const noexcept;
 
@@ -169,6 +179,8 @@ class OcpProblem {
   // Pseudo-Huber widths of the position (m) and heading (rad) errors; 0: quadratic.
   double position_huber_width_ = 0.0, heading_huber_width_ = 0.0;
   Eigen::VectorXd effort_root_, rate_root_;  // nu
+  Eigen::VectorXi state_effort_index_;        // m: the states with a weight in state_effort
+  Eigen::VectorXd state_effort_root_;         // m: sqrt(2 W) of each
 };
 
 }  // namespace swerve

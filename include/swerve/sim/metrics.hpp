@@ -47,6 +47,10 @@ struct RunMetrics {
   double wear_imbalance = 0.0;     // max / mean over modules (1: perfectly even)
   double frictional_energy_J = 0.0;
   double steering_effort = 0.0;    // integral of sum_i steering_rate_i^2 dt (rad^2/s)
+  // RMS over periods and modules of the commanded steering rate's change per second (rad/s^2):
+  // how hard the steering commands jerk from one period to the next (a chattering command shows
+  // here even when its effort is small).
+  double steering_command_jerk = 0.0;
   double solve_time_mean_ms = 0.0, solve_time_p50_ms = 0.0, solve_time_p99_ms = 0.0, solve_time_max_ms = 0.0;
   double step_time_p99_ms = 0.0, step_time_max_ms = 0.0;  // the whole step (plan, update, solve)
   int deadline_misses = 0;         // steps (or, where unknown, solves) that took longer than the budget

@@ -87,8 +87,9 @@ class SimulatedAnnealingSolver final : public Solver {
   // g and the direction nu x columns; with no pair stored, a first step of 2 % of the largest input
   // range along -g. false when it is no descent direction (the memory is then forgotten).
   bool lbfgs_direction(const Eigen::MatrixXd& gradient, Eigen::MatrixXd* direction, int* stored, int newest) noexcept;
-  // Stores the pair (s, y) of flat size n when its curvature is positive.
-  void remember_pair(const Eigen::Ref<const Eigen::VectorXd>& s, const Eigen::Ref<const Eigen::VectorXd>& y,
+  // Stores the pair (s, y) = (x_new - x_old, g_new - g_old) when its curvature is positive.
+  void remember_pair(const Eigen::Ref<const Eigen::VectorXd>& x_new, const Eigen::Ref<const Eigen::VectorXd>& x_old,
+                     const Eigen::Ref<const Eigen::VectorXd>& g_new, const Eigen::Ref<const Eigen::VectorXd>& g_old,
                      int* stored, int* newest) noexcept;
   // Draws a proposal around the current plan (knots_, raw_, inputs_) into *knots, *raw and
   // *inputs (projected); returns the first step whose input changed (N: the projection undid it).
