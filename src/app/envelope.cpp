@@ -587,6 +587,8 @@ nlohmann::json run_json(const EnvelopeRun& run) {
   return j;
 }
 
+constexpr double kEffortRatioFloor = 0.1;  // rad^2/s: the smallest yardstick of the steering-effort ratio
+
 double safe_ratio(double value, double yardstick) {
   if (yardstick > 0.0) return value / yardstick;
   return value <= 0.0 ? 1.0 : std::numeric_limits<double>::infinity();
@@ -816,14 +818,21 @@ std::string controller_yaml(const std::string& source_text, const std::string& s
   return joined(lines);
 }
 
-std::string baseline_yaml(const std::string& source_text, const std::string& source_name, const Draw& draw) {
+std::string baseline_yaml(const std::string& source_text, const std::string& source_name, const Draw& draw,
+                          double lookahead_s) {
   std::vector<std::string> lines = lines_of(source_text);
   // The baseline steps every dt: it runs at the draw's period, its weights rescaled by
   // baseline.weights_step, as `swerve-mpc tune` runs it at a target's period.
-  set_controller_key(&lines, source_name, "dt", number(draw.conditions.control_period), "type");
+  // Its horizon grows so that it still looks as far ahead as the file's own (horizon x dt), as the
+  // wear-aware controller does at any period (its dt stays): a baseline planning 0.2 s ahead at a
+  // 10 ms period would be a baseline tuned down.
+  const double period = draw.conditions.control_period;
+  const int horizon = std::max(1, static_cast<int>(std::lround(lookahead_s / period)));
+  set_controller_key(&lines, source_name, "dt", number(period), "type");
+  set_controller_key(&lines, source_name, "horizon", std::to_string(horizon), "type");
   lines.insert(lines.begin(), "# Copied from " + source_name + " by swerve-mpc envelope (draw " +
                                   std::to_string(draw.index) + " of seed " + std::to_string(draw.seed) +
-                                  "): dt set to the draw's control period.");
+                                  "): dt set to the draw's control period, horizon to the file's look-ahead.");
   return joined(lines);
 }
 
@@ -842,7 +851,9 @@ std::string write_draw(const Draw& draw, const std::string& dir, const EnvelopeO
   write("vehicle.yaml", vehicle_yaml(draw));
   if (draw.reference.type == "csv") write("reference.csv", reference_csv(draw));
   write("wear_mpc.yaml", controller_yaml(controller_text, options.controller_file, draw));
-  write("kinematic_baseline.yaml", baseline_yaml(baseline_text, options.baseline_file, draw));
+  const ControllerConfig baseline = load_controller_config_file(options.baseline_file);
+  write("kinematic_baseline.yaml",
+        baseline_yaml(baseline_text, options.baseline_file, draw, baseline.baseline.horizon * baseline.baseline.dt));
   write("scenario.yaml", scenario_yaml(draw));
   return (fs::path(dir) / "scenario.yaml").string();
 }
@@ -863,7 +874,9 @@ EnvelopeGoals evaluate_goals(const EnvelopeRun& wear_mpc, const EnvelopeRun& bas
   const RunMetrics& m = wear_mpc.metrics;
   const RunMetrics& b = baseline.metrics;
   g.wear_ratio = safe_ratio(m.wear_total, b.wear_total);
-  g.steering_effort_ratio = safe_ratio(m.steering_effort, b.steering_effort);
+  // Against the baseline's effort, or 0.1 rad^2/s where it is smaller: a baseline that hardly
+  // steers (a straight line) would make any ratio astronomical and the distribution meaningless.
+  g.steering_effort_ratio = safe_ratio(m.steering_effort, std::max(b.steering_effort, kEffortRatioFloor));
   g.rmse_excess_m = m.tracking_rmse_m - b.tracking_rmse_m;
   g.wear = m.wear_total <= b.wear_total;
   g.position = m.tracking_rmse_m <= std::max(1.1 * b.tracking_rmse_m, b.tracking_rmse_m + 0.02);
@@ -1051,7 +1064,7 @@ std::string envelope_report(const EnvelopeResult& result) {
       << " (of " << total << ")\n";
   const Spread effort_spread = spread_of(result, &EnvelopeGoals::steering_effort_ratio);
   const Spread wear_spread = spread_of(result, &EnvelopeGoals::wear_ratio);
-  out << "steering-effort ratio (wear_mpc / baseline): median " << ratio_text(effort_spread.median)
+  out << "steering-effort ratio (wear_mpc / max(baseline, 0.1 rad^2/s)): median " << ratio_text(effort_spread.median)
       << ", p90 " << ratio_text(effort_spread.p90) << ", max " << ratio_text(effort_spread.max) << "\n";
   out << "wear ratio (wear_mpc / baseline):            median " << ratio_text(wear_spread.median) << ", p90 "
       << ratio_text(wear_spread.p90) << ", max " << ratio_text(wear_spread.max) << "  (over "
