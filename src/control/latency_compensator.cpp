@@ -4,6 +4,8 @@
 #include <cmath>
 
 #include "swerve/core/config_error.hpp"
+#include "swerve/kinematics/module_commands.hpp"
+#include "swerve/models/drive_response.hpp"
 
 namespace swerve {
 
@@ -26,24 +28,6 @@ ActuatorLags ActuatorLags::of(const VehicleParams& vehicle) noexcept {
   return lags;
 }
 
-namespace {
-
-// A first-order lag of time constant tau over a period dt, its state moving from x toward a command
-// c: x(dt) = c + (x - c) e^{-dt/tau}, and its mean over the period c + (x - c) tau (1 - e^{-dt/tau}) / dt.
-// `reached` = 1 - e^{-dt/tau}, `mean` = 1 - tau (1 - e^{-dt/tau}) / dt: the shares of the change
-// carried out at the end and on average.
-void lag_shares(double tau, double dt, double* reached, double* mean) {
-  if (!(tau > 0.0)) {
-    *reached = *mean = 1.0;
-    return;
-  }
-  const double decay = std::exp(-dt / tau);
-  *reached = 1.0 - decay;
-  *mean = 1.0 - tau * (1.0 - decay) / dt;
-}
-
-}  // namespace
-
 LatencyCompensator::LatencyCompensator(const ModuleLayout& layout, double dt, MeasurementFilterOptions filter,
                                        ActuatorLags lags)
     : kinematics_(layout), dt_(dt), lags_(lags), modules_(layout.size()), states_(layout.size()), filter_(filter) {
@@ -55,8 +39,6 @@ LatencyCompensator::LatencyCompensator(const ModuleLayout& layout, double dt, Me
     throw_invalid_field("LatencyCompensator", "lags.drive", lags.drive, "must be finite and >= 0 (s)");
   }
   filter_.validate();
-  lag_shares(lags_.steering, dt_, &steering_reached_, &steering_mean_);
-  lag_shares(lags_.drive, dt_, &drive_reached_, &drive_mean_);
   steering_rates_ = wheel_surface_speeds_ = Eigen::VectorXd::Zero(modules_);
   history_ = Eigen::MatrixXd::Zero(2 * modules_, kMaxSteps);
   filtered_ = predicted_ = Eigen::VectorXd::Zero(6 + modules_);
@@ -83,13 +65,9 @@ void LatencyCompensator::advance(Eigen::Ref<Eigen::VectorXd> state, int column) 
     const double rate_command = history_(2 * i, column);
     const double speed_command = history_(2 * i + 1, column);
     // Through the lags: the angle moves by the mean steering rate over the period.
-    const double mean_rate =
-        lags_.steering > 0.0 ? steering_rates_[i] + steering_mean_ * (rate_command - steering_rates_[i]) : rate_command;
-    const double mean_speed =
-        lags_.drive > 0.0 ? wheel_surface_speeds_[i] + drive_mean_ * (speed_command - wheel_surface_speeds_[i])
-                          : speed_command;
-    steering_rates_[i] += steering_reached_ * (rate_command - steering_rates_[i]);
-    wheel_surface_speeds_[i] += drive_reached_ * (speed_command - wheel_surface_speeds_[i]);
+    double mean_rate = rate_command, mean_speed = speed_command;
+    follow_lag(lags_.steering, rate_command, &steering_rates_[i], &mean_rate);
+    follow_lag(lags_.drive, speed_command, &wheel_surface_speeds_[i], &mean_speed);
     state[6 + i] = wrap_angle(angle + dt_ * mean_rate);
     // The module drives along its mean angle over the period (midpoint rule).
     states_[i].angle = wrap_angle(angle + 0.5 * dt_ * mean_rate);
@@ -113,20 +91,32 @@ void LatencyCompensator::advance(Eigen::Ref<Eigen::VectorXd> state, int column) 
   if (kinematics_.forward(states_, &twist_body) == KinematicsStatus::kOk) state.segment<3>(3) = twist_body;
 }
 
+void LatencyCompensator::follow_lag(double time_constant, double command, double* state, double* mean) noexcept {
+  if (!(time_constant > 0.0)) {  // a drive that reaches its command at once
+    *state = *mean = command;
+    return;
+  }
+  DriveLag lag;
+  lag.time_constant = time_constant;
+  double end = 0.0;
+  drive_response<double>(*state, command, lag, dt_, &end, mean);
+  *state = end;
+}
+
 void LatencyCompensator::start_drives(const Eigen::Ref<const Eigen::VectorXd>& measured, int latency) noexcept {
   // Steering rates: from rest at the oldest recorded command, through those sent before the
   // measurement was taken (each lag forgets its start within a few periods).
   steering_rates_.setZero();
   for (int back = recorded_ - 1; back >= latency; --back) {
     const int column = (newest_ - back + kMaxSteps) % kMaxSteps;
-    for (int i = 0; i < modules_; ++i) steering_rates_[i] += steering_reached_ * (history_(2 * i, column) - steering_rates_[i]);
+    double mean = 0.0;
+    for (int i = 0; i < modules_; ++i) follow_lag(lags_.steering, history_(2 * i, column), &steering_rates_[i], &mean);
   }
   // Wheels: rolling with the measured twist at their measured angles (the measurement knows them).
   const Eigen::Vector3d twist_body = measured.segment<3>(3);
   for (int i = 0; i < modules_; ++i) {
-    const Eigen::Vector2d& r = kinematics_.layout().position_body(i);
-    const double vx = twist_body.x() - twist_body.z() * r.y(), vy = twist_body.y() + twist_body.z() * r.x();
-    wheel_surface_speeds_[i] = std::cos(measured[6 + i]) * vx + std::sin(measured[6 + i]) * vy;
+    const Eigen::Vector2d v_contact = point_velocity<double>(twist_body, kinematics_.layout().position_body(i));
+    wheel_surface_speeds_[i] = rolling_speed<double>(v_contact, measured[6 + i]);
   }
 }
 

@@ -88,6 +88,10 @@ class LatencyCompensator {
   // `latency` periods of recorded commands ago: the steering rates through the commands before
   // then (from rest at the oldest recorded), the wheels rolling with the measured twist.
   void start_drives(const Eigen::Ref<const Eigen::VectorXd>& measured, int latency) noexcept;
+  // One period of a drive following `command` through a first-order lag of `time_constant` (0: at
+  // once), from *state: its state at the end in *state, its mean over the period in *mean
+  // (drive_response, the prediction's own law).
+  void follow_lag(double time_constant, double command, double* state, double* mean) noexcept;
   int latency_steps(double latency) const noexcept;
   // The observer's update; false when the estimate must restart from the measurement.
   bool update_filter(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at, int latency) noexcept;
@@ -95,10 +99,6 @@ class LatencyCompensator {
   Kinematics kinematics_;
   double dt_;
   ActuatorLags lags_;
-  // Per period, the share of a command change a lag has carried out at its end (1 - e^{-dt/tau}),
-  // and the share of the period's integral of the change (1 - tau (1 - e^{-dt/tau}) / dt); 1 and 1
-  // without a lag.
-  double steering_reached_ = 1.0, steering_mean_ = 1.0, drive_reached_ = 1.0, drive_mean_ = 1.0;
   Eigen::VectorXd steering_rates_, wheel_surface_speeds_;  // n: the drives' estimated state
   int modules_;
   Eigen::MatrixXd history_;  // 2n x kMaxSteps ring: steering rate, wheel surface speed per module
