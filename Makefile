@@ -62,7 +62,7 @@ $(FUZZ_DIR)/CMakeCache.txt: | fuzz-deps
 
 # Cross-built for aarch64 (the Raspberry Pi 4 and Jetson targets' architecture) with the test
 # build's settings: the core library, the SA and NLopt backends, the CLI and the test suites
-# (Ipopt's and Ceres' arm64 packages cannot be installed beside the host's; see the README).
+# (Ipopt's and Ceres' arm64 packages cannot be installed beside the host's; see docs/benchmarks.md).
 $(ARM64_DIR)/CMakeCache.txt: | cross-deps
 	$(CMAKE) -S . -B $(ARM64_DIR) -DCMAKE_TOOLCHAIN_FILE=$(CURDIR)/cmake/toolchains/aarch64-linux-gnu.cmake \
 	  -DSWERVE_ARM64_SYSROOT=$(ARM64_SYSROOT) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSWERVE_ENABLE_DCHECKS=ON \

@@ -122,7 +122,7 @@ Eigen::VectorXd VehicleModel<T>::complete_state(const Eigen::VectorXd& prefix) c
   return x;
 }
 
-// One module's contribution: wheel-frame slip (paper-notes assumption 3), Magic Formula forces,
+// One module's contribution: wheel-frame slip (docs/paper.md, assumption 3), Magic Formula forces,
 // rotation wheel -> body by delta_i, yaw moment about the CoM, wear (assumption 5), and the
 // module's own state derivatives (steering angle, actuator and transient-slip states).
 template <typename T>

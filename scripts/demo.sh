@@ -29,7 +29,7 @@ for scenario in configs/scenarios/curve_smooth.yaml configs/scenarios/offset60_s
   "$cli" run "$scenario" --controllers wear_mpc,kinematic_baseline --out "$out_dir/set/$name" --quiet > /dev/null
   set_dirs+=("$out_dir/set/$name")
 done
-echo "== the shipped set: wear_mpc against kinematic_baseline (goals: README, 'Keeping the tracking') =="
+echo "== the shipped set: wear_mpc against kinematic_baseline (goals: scripts/goal_table.py) =="
 python3 scripts/goal_table.py "${set_dirs[@]}"
 echo
 # Debian's matplotlib lives with the system interpreter (a pyenv or venv python3 may lack it).
@@ -37,4 +37,4 @@ python=/usr/bin/python3
 [ -x "$python" ] || python=python3
 "$python" scripts/plot_scenario.py "$out_dir/curve" "$out_dir/offset60"
 echo
-echo "Summaries: $out_dir/curve/summary.json, $out_dir/offset60/summary.json (keys: README, 'summary.json')"
+echo "Summaries: $out_dir/curve/summary.json, $out_dir/offset60/summary.json (keys: docs/cli.md, 'summary.json')"

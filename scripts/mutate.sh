@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Mutation testing: applies each mutant of a list to the source tree, one at a time, rebuilds the
 # test binaries that the mutant's tests live in, runs those tests, and reports whether a test failed
-# (killed) or all passed (survived). Outside CI; see README.md, "Mutation testing".
+# (killed) or all passed (survived). Outside CI; see docs/testing.md, "Mutation testing".
 #
 #   scripts/mutate.sh [-b BUILD_DIR] [-l LIST] [-o REPORT.md] [-t TIMEOUT_S] [NAME_REGEX]
 #

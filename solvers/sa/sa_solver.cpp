@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "swerve/core/config_error.hpp"
+#include "swerve/core/constants.hpp"
 #include "swerve/core/random.hpp"
 
 namespace swerve {
@@ -641,9 +642,9 @@ double SimulatedAnnealingSolver::gaussian() noexcept {
   const double u1 = 1.0 - uniform();  // (0, 1]: log is finite
   const double u2 = uniform();
   const double radius = std::sqrt(-2.0 * std::log(u1));
-  spare_gaussian_ = radius * std::sin(2.0 * 3.14159265358979323846 * u2);
+  spare_gaussian_ = radius * std::sin(2.0 * kPi * u2);
   has_spare_gaussian_ = true;
-  return radius * std::cos(2.0 * 3.14159265358979323846 * u2);
+  return radius * std::cos(2.0 * kPi * u2);
 }
 
 void SimulatedAnnealingSolver::interpolate(const Eigen::MatrixXd& knots, int first, int last,
@@ -796,7 +797,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
 
     bool accept = false;
     if (probes < kProbeMoves) {
-      // Calibration: greedy, recording uphill steps to set T0 (paper-notes assumption 8).
+      // Calibration: greedy, recording uphill steps to set T0 (docs/paper.md, assumption 8).
       accept = delta <= 0.0;
       if (delta > 0.0 && std::isfinite(delta)) {
         uphill_sum += delta;

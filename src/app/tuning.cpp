@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "swerve/app/scenario_runner.hpp"
+#include "swerve/core/constants.hpp"
 #include "swerve/solvers/solver_factory.hpp"
 
 namespace swerve {
@@ -122,12 +123,13 @@ void QualityTuningOptions::validate() const {
 
 namespace {
 
-// Issue 15's tracking bounds: max(1.1x, + 0.02 m) and max(1.1x, + 0.5 deg) of the baseline's.
+// The tracking bounds (no worse than the baseline): max(1.1x, + 0.02 m) and max(1.1x, + 0.5 deg) of
+// the baseline's.
 double position_bound(const ScenarioScore& s) {
   return std::max(1.1 * s.baseline_rmse_m, s.baseline_rmse_m + 0.02);
 }
 double heading_bound(const ScenarioScore& s) {
-  constexpr double kHalfDegree = 0.5 * 3.14159265358979323846 / 180.0;
+  constexpr double kHalfDegree = 0.5 * kPi / 180.0;
   return std::max(1.1 * s.baseline_heading_rmse_rad, s.baseline_heading_rmse_rad + kHalfDegree);
 }
 

@@ -1,4 +1,4 @@
-// `swerve-mpc bench-targets`: the real-time report per embedded target (issue 19). For every target
+// `swerve-mpc bench-targets`: the real-time report per embedded target. For every target
 // and its tuned controller (configs/controllers/tuned/<target>.yaml, else the default), the paper
 // pair in closed loop at the target's period and translated budget: step time p50/p99/max in the
 // target's milliseconds against its budget, proposals per solve, misses, and a pass/fail line.

@@ -318,9 +318,43 @@ void Controller::apply_decision(const Eigen::Ref<const Eigen::MatrixXd>& plan, i
   applied_decision_ = plan.col(column);
   if (twist_model_ != nullptr) {
     twist_model_->module_inputs(state, applied_decision_.head<3>(), options_.dt, applied_input_);
+    steer_slow_modules_ahead(plan, column, state);
     apply_module_inputs(applied_input_, state.segment(StateIndex::kFirstSteering, modules_));
   } else {
     apply_module_inputs(applied_decision_, state.segment(StateIndex::kFirstSteering, modules_));
+  }
+}
+
+void Controller::steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
+                                          const Eigen::Ref<const Eigen::VectorXd>& state) noexcept {
+  // A module the plan moves slower than the baseline's steer threshold this step: the direction of
+  // its contact velocity turns by dv / v per lateral dv, so at a few mm/s it is set by the last
+  // digits the optimiser resolved, and the map turned it at full rate after them (at the stops of
+  // stop-and-go references 2.5 (rad/s)^2 of steering while correcting a 4 mm overshoot). As the
+  // baseline does (BaselineOptions::steer_speed_threshold), it steers toward the first direction
+  // the plan drives it faster than that, or holds, and its wheel rolls with the velocity's component
+  // along its heading. See docs/decisions/low-speed-steering.md.
+  const double threshold = baseline_.options().steer_speed_threshold;
+  const ModuleLimits& limits = layout_.limits();
+  for (int i = 0; i < modules_; ++i) {
+    const Eigen::Vector2d r_body = layout_.position_body(i);
+    const Eigen::Vector2d v_now = point_velocity<double>(Eigen::Vector3d(plan.col(column).head<3>()), r_body);
+    if (v_now.norm() >= threshold) continue;
+    const double angle = state[StateIndex::steering(i)];
+    double rate = 0.0;
+    for (Eigen::Index k = column + 1; k < plan.cols(); ++k) {
+      const Eigen::Vector2d v_ahead = point_velocity<double>(Eigen::Vector3d(plan.col(k).head<3>()), r_body);
+      if (v_ahead.norm() < threshold) continue;
+      const DriveDirection<double> direction = choose_drive_direction<double>(
+          std::atan2(v_ahead.y(), v_ahead.x()), angle, 0, FlipPolicy::kNearest, 0.0, limits, 0.0, kDirectionTieBand);
+      // Aligned when the plan drives it that way, not before: the least steering rate that arrives.
+      rate = steering_rate_toward<double>(direction.turn, static_cast<double>(k - column) * options_.dt, limits,
+                                          LimitShape::kHard);
+      break;
+    }
+    applied_input_[InputIndex::steering_rate(i)] = rate;
+    applied_input_[InputIndex::wheel_speed(i)] = drive_wheel_speed<double>(
+        rolling_speed<double>(v_now, angle), 0.0, false, limits, layout_.wheel_radius(), LimitShape::kHard);
   }
 }
 

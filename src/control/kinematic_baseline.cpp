@@ -251,7 +251,7 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
   // steer_from_(i, k): the first step j >= k at which module i is planned faster than the threshold,
   // -1 if none. Below it, a module's planned direction is set by the feedback on the measured pose
   // (under sensor noise, by the noise): the steering aims at the next direction the plan really
-  // drives in, or holds when there is none (issue 14, item 7).
+  // drives in, or holds when there is none.
   for (int i = 0; i < modules_; ++i) {
     int next = -1;
     for (int k = horizon_ - 1; k >= 0; --k) {

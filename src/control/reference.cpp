@@ -5,12 +5,12 @@
 #include <sstream>
 
 #include "swerve/core/config_error.hpp"
+#include "swerve/core/constants.hpp"
 #include "swerve/core/text_file.hpp"
 
 namespace swerve {
 namespace {
 
-constexpr double kPiRef = 3.14159265358979323846;
 constexpr int kTableIntervals = 4000;  // Hermite interpolation error ~ h^4: far below 1e-9 m here
 
 [[noreturn]] void reject(const std::string& what) { throw ConfigError(what); }
@@ -41,7 +41,7 @@ class ArcCurve final : public PlanarCurve {
       : radius_(radius), turn_(sweep > 0 ? 1.0 : -1.0), sweep_(std::abs(sweep)) {
     const Eigen::Vector2d left_normal(-std::sin(direction), std::cos(direction));
     center_ = start + turn_ * radius * left_normal;
-    phase0_ = direction - turn_ * kPiRef / 2.0;
+    phase0_ = direction - turn_ * kPi / 2.0;
   }
   double parameter_end() const override { return sweep_; }
   Eigen::Vector2d point(double u) const override {
@@ -65,7 +65,7 @@ class ArcCurve final : public PlanarCurve {
 class SineCurve final : public PlanarCurve {
  public:
   SineCurve(double amplitude, double wavelength, double length_x)
-      : amplitude_(amplitude), wavenumber_(2.0 * kPiRef / wavelength), length_x_(length_x) {}
+      : amplitude_(amplitude), wavenumber_(2.0 * kPi / wavelength), length_x_(length_x) {}
   double parameter_end() const override { return length_x_; }
   Eigen::Vector2d point(double u) const override { return {u, amplitude_ * std::sin(wavenumber_ * u)}; }
   Eigen::Vector2d first_derivative(double u) const override {
@@ -83,7 +83,7 @@ class SineCurve final : public PlanarCurve {
 class FigureEightCurve final : public PlanarCurve {
  public:
   FigureEightCurve(double size, int loops) : size_(size), loops_(loops) {}
-  double parameter_end() const override { return 2.0 * kPiRef * loops_; }
+  double parameter_end() const override { return 2.0 * kPi * loops_; }
   Eigen::Vector2d point(double u) const override {
     return size_ * Eigen::Vector2d(std::sin(u), 0.5 * std::sin(2.0 * u));
   }

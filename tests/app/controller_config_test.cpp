@@ -317,7 +317,7 @@ TEST(BaselineOptions, ReadsTheStepItsWeightsAreSetForAndTheShippedBaselineSetsIt
   EXPECT_DOUBLE_EQ(load("").baseline.weights_step, 0.0);
   expect_rejected("  baseline: {weights_step: -0.05}\n", "controller.baseline.weights_step");
   // The shipped baseline's weights were tuned at its 50 ms step; a target's shorter period must
-  // rescale them rather than run them as written (README, "Tuned controller configs per target").
+  // rescale them rather than run them as written (docs/benchmarks.md, "Tuned controller configs per target").
   const ControllerConfig shipped =
       load_controller_config_file(std::string(SWERVE_SOURCE_DIR) + "/configs/controllers/kinematic_baseline.yaml");
   EXPECT_DOUBLE_EQ(shipped.baseline.weights_step, shipped.baseline.dt);

@@ -53,11 +53,15 @@ TEST(Sweep, BaselineRunIsTheSameRunAsOnItsOwn) {
 }
 
 TEST(Sweep, ReportsTheWearWeightAfterReferenceMassScaling) {
-  // The default controller gives its wear weight for an 800 kg vehicle (wear_reference_mass) and
-  // scales it by the mass ratio to the power 1.75 (wear_mass_exponent): on a vehicle of half that
-  // mass the cost uses 2^1.75 times the weight.
+  // A controller giving its wear weight for an 800 kg vehicle (wear_reference_mass) scales it by
+  // the mass ratio to the power wear_mass_exponent: at 1.75, on a vehicle of half that mass the
+  // cost uses 2^1.75 times the weight.
   ScenarioConfig scenario = short_scenario();
   scenario.vehicle.mass = 400.0;
+  for (ScenarioController& c : scenario.controllers) {
+    c.config.mpc.wear_reference_mass = 800.0;
+    c.config.mpc.wear_mass_exponent = 1.75;
+  }
   const SweepResult result = run_sweep(scenario, {}, {lambda(0.25)});
   EXPECT_DOUBLE_EQ(result.points[0].run.wear_weight, 0.25);
   EXPECT_NEAR(result.points[0].run.effective_wear_weight, 0.25 * std::pow(2.0, 1.75), 1e-12);

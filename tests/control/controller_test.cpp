@@ -13,6 +13,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "control/closed_loop.hpp"
@@ -1126,6 +1127,79 @@ TEST(Controller, BoundsTheOptimizerByTheDriveLimitsInEitherParameterization) {
                                        limits.max_drive_speed / max_radius));
     EXPECT_EQ(b.lower, -b.upper);
     EXPECT_EQ(b.max_step, Eigen::Vector3d(step, step, step / max_radius));
+  }
+}
+
+// A solver that returns a given plan (inputs), rolled out.
+class FixedPlanSolver final : public Solver {
+ public:
+  FixedPlanSolver(const OcpProblem& shape, Eigen::MatrixXd plan)
+      : Solver(shape), plan_(std::move(plan)), stage_costs_(Eigen::VectorXd::Zero(shape.horizon())) {}
+  const char* name() const noexcept override { return "fixed_plan"; }
+
+ private:
+  SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses&, Deadline, Solution* out,
+                       SolveSummary* summary) noexcept override {
+    out->inputs = plan_;
+    out->cost = problem.rollout(out->inputs, 0, out->states, stage_costs_);
+    summary->reason = "fixed plan";
+    return SolveStatus::kConverged;
+  }
+  Eigen::MatrixXd plan_;
+  Eigen::VectorXd stage_costs_;
+};
+
+// Body-twist plan: column 0 creeps sideways at 1 cm/s (below the baseline's 3 cm/s steer
+// threshold), then from column `fast_from` on drives straight ahead, faster each step.
+Eigen::MatrixXd creep_sideways_then_ahead(int horizon, int fast_from) {
+  Eigen::MatrixXd plan = Eigen::MatrixXd::Zero(3, horizon);
+  plan(1, 0) = 0.01;
+  for (int k = 1; k < horizon; ++k) plan(0, k) = k < fast_from ? 0.02 : 0.02 * k;
+  return plan;
+}
+
+TEST(Controller, AModuleThePlanMovesSlowerThanTheSteerThresholdSteersTowardThePlansNextFasterDirection) {
+  // A twist of 1 cm/s points wherever the optimiser's last digits put it: without the rule the
+  // module swung toward it at full rate (here a quarter turn, sideways). It aims instead at the
+  // direction the plan drives it in next, paced to arrive when the plan gets there, and its wheel
+  // rolls with the creep's component along its heading.
+  const ControllerOptions options = fast_options();
+  const int fast_from = 2;  // 0.04 m/s at column 2: over the 0.03 m/s threshold
+  for (const double measured_angle : {0.0, 0.3}) {
+    SCOPED_TRACE(measured_angle);
+    Controller controller(small_robot(), testing::line_reference(0.5), options, [&](const OcpProblem& p) {
+      return std::make_unique<FixedPlanSolver>(p, creep_sideways_then_ahead(options.horizon, fast_from));
+    });
+    testing::ManualClock clock;
+    controller.set_clock(clock);
+    Eigen::VectorXd state = at_rest();
+    for (int i = 0; i < 4; ++i) state[6 + i] = measured_angle;
+    const ControlOutput& out = controller.step(state, 0.0);
+    ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+    const double radius = small_robot().layout.wheel_radius();
+    for (int i = 0; i < 4; ++i) {
+      SCOPED_TRACE(i);
+      // Straight ahead from measured_angle over the two steps until column 2: -angle / (2 dt).
+      EXPECT_NEAR(out.modules[i].steering_rate, -measured_angle / (fast_from * options.dt), 1e-12);
+      // The sideways creep's component along the wheel: 0.01 sin(angle).
+      EXPECT_NEAR(out.modules[i].wheel_speed, 0.01 * std::sin(measured_angle) / radius, 1e-12);
+    }
+  }
+}
+
+TEST(Controller, AModuleThePlanNeverMovesFasterThanTheSteerThresholdHoldsItsAngle) {
+  const ControllerOptions options = fast_options();
+  Eigen::MatrixXd creeping = Eigen::MatrixXd::Zero(3, options.horizon);
+  creeping.row(1).setConstant(0.01);  // sideways at 1 cm/s over the whole horizon
+  Controller controller(small_robot(), testing::line_reference(0.5), options,
+                        [&](const OcpProblem& p) { return std::make_unique<FixedPlanSolver>(p, creeping); });
+  testing::ManualClock clock;
+  controller.set_clock(clock);
+  const ControlOutput& out = controller.step(at_rest(), 0.0);
+  ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(out.modules[i].steering_rate, 0.0) << i;
+    EXPECT_NEAR(out.modules[i].wheel_speed, 0.0, 1e-15) << i;  // sideways: no component along the wheel
   }
 }
 

@@ -8,6 +8,7 @@
 
 #include <ceres/jet.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "swerve/kinematics/kinematics.hpp"
@@ -58,6 +59,46 @@ TEST(ChooseDriveDirection, TheNearestWayRoundFlipsOnlyBeyondAQuarterTurn) {
   EXPECT_NEAR(across.turn, 2 * kPi - 6.0, 1e-14);
   // kNearest ignores the previous decision.
   EXPECT_EQ(choose_drive_direction<double>(0.2, 0.0, -1, FlipPolicy::kNearest, 0.1, free_turning).sign, 1);
+}
+
+constexpr double kTie = kDirectionTieBand;  // the prediction's tie band
+
+TEST(ChooseDriveDirection, ANearTieKeepsTheForwardWayRoundSoModulesOfOneVehicleChooseAlike) {
+  // A crab started with the wheels straight: every module's contact velocity points about 90 deg
+  // from its wheel, on either side of 90 deg by the twist's small yaw. Choosing by those digits,
+  // modules split and turned opposite ways with their wheels driving; inside kDirectionTieBand
+  // they all keep the forward way round.
+  const ModuleLimits free_turning;
+  for (const double off : {-0.05, -1e-9, 0.0, 1e-9, 0.05}) {
+    SCOPED_TRACE(off);
+    const auto d =
+        choose_drive_direction<double>(-kPi / 2 + off, 0.0, 0, FlipPolicy::kNearest, 0.0, free_turning, 0.0, kTie);
+    EXPECT_EQ(d.sign, 1);
+    EXPECT_NEAR(d.turn, -kPi / 2 + off, 1e-15);
+  }
+  // Past the band the nearer way round wins, as before.
+  EXPECT_EQ(choose_drive_direction<double>(-kPi / 2 - 0.2, 0.0, 0, FlipPolicy::kNearest, 0.0, free_turning, 0.0, kTie)
+                .sign,
+            -1);
+  // Without a tie band (hardware setpoints, WPILib's rule) 0.05 rad past 90 deg flips.
+  EXPECT_EQ(choose_drive_direction<double>(-kPi / 2 - 0.05, 0.0, 0, FlipPolicy::kNearest, 0.0, free_turning).sign, -1);
+}
+
+TEST(ChooseDriveDirection, AHeadingJustPastAnEndStopIsSteeredToTheStopNotFlipped) {
+  // +-90 deg steering, crabbing at -90 deg: a heading 0.05 rad past the -90 deg stop is taken at
+  // the stop, the way round a heading 0.05 rad inside it takes, so the two modules of a vehicle
+  // whose twist yaws a little do not split between the stops.
+  const ModuleLimits limits = limits_with_end_stops(kPi / 2);
+  for (const double off : {-0.05, 0.0, 0.05}) {
+    SCOPED_TRACE(off);
+    const auto d = choose_drive_direction<double>(-kPi / 2 + off, 0.0, 0, FlipPolicy::kNearest, 0.0, limits, 0.0, kTie);
+    EXPECT_EQ(d.sign, 1);
+    EXPECT_NEAR(d.turn, std::max(-kPi / 2 + off, -kPi / 2), 1e-15);
+  }
+  // Well past the stop (beyond the band) the module reverses to the reachable heading.
+  const auto far = choose_drive_direction<double>(-kPi / 2 - 0.3, 0.0, 0, FlipPolicy::kNearest, 0.0, limits, 0.0, kTie);
+  EXPECT_EQ(far.sign, -1);
+  EXPECT_NEAR(far.turn, kPi / 2 - 0.3, 1e-15);
 }
 
 TEST(ChooseDriveDirection, HysteresisKeepsThePreviousWayRoundInsideTheBand) {
@@ -126,8 +167,13 @@ TEST(ChooseDriveDirection, HysteresisHoldsAModuleAtItsEndStopWhileItsHeadingWand
   const auto beyond =
       choose_drive_direction<double>(kPi / 2 + kEndStopHold + 0.05, kPi / 2, 1, FlipPolicy::kHysteresis, band, limits);
   EXPECT_EQ(beyond.sign, -1);
-  // kNearest (the prediction's map) keeps its strict rule: never a heading past the stop.
+  // kNearest without a tie band keeps its strict rule: never a heading past the stop. With the
+  // prediction's tie band a heading that close past the stop is held at it.
   EXPECT_EQ(choose_drive_direction<double>(kPi / 2 + 0.01, kPi / 2, 1, FlipPolicy::kNearest, band, limits).sign, -1);
+  const auto tied = choose_drive_direction<double>(kPi / 2 + 0.01, kPi / 2, 1, FlipPolicy::kNearest, band, limits, 0.0,
+                                                   kDirectionTieBand);
+  EXPECT_EQ(tied.sign, 1);
+  EXPECT_NEAR(tied.turn, 0.0, 1e-15);
 }
 
 TEST(ChooseDriveDirection, WithWideEndStopsTakesTheShorterTurnEvenBeyondAQuarterTurn) {

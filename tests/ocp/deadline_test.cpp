@@ -1,8 +1,12 @@
 // The clocks deadlines are kept on: the work clock advances by its cost per read and by advance()
-// only, so a deadline on it passes after a known number of reads on every machine.
+// only, so a deadline on it passes after a known number of reads on every machine; threads that
+// share one (SA's workers) lose no read.
 #include "swerve/ocp/deadline.hpp"
 
 #include <gtest/gtest.h>
+
+#include <thread>
+#include <vector>
 
 namespace swerve {
 namespace {
@@ -31,6 +35,28 @@ TEST(WorkClock, WithoutACostTimeStandsStill) {
   const TimePoint start = clock.now();
   for (int i = 0; i < 100; ++i) EXPECT_EQ(clock.now(), start);
   EXPECT_FALSE(Deadline(start + to_duration(1e-9), clock).passed());
+}
+
+TEST(WorkClock, ThreadsReadingOneClockLoseNoReadAndNoAdvance) {
+  // SA's worker threads read the deadline's clock concurrently. With plain members the increments
+  // raced (undefined behaviour; on two cores reads and time were lost).
+  WorkClock clock(1e-6);
+  constexpr int kThreads = 4;
+  constexpr int kReadsEach = 100000;
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&clock] {
+      for (int i = 0; i < kReadsEach; ++i) {
+        clock.now();
+        clock.advance(to_duration(1e-6));
+      }
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  EXPECT_EQ(clock.reads(), static_cast<long>(kThreads) * kReadsEach);
+  // Every read and every advance moved it by one tick of 1 us; the final read adds one more.
+  const long ticks = 2L * kThreads * kReadsEach + 1;
+  EXPECT_EQ(clock.now().time_since_epoch(), ticks * to_duration(1e-6));
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
 // What a scenario run leaves behind: one per-step CSV log per controller and summary.json, the
-// machine-readable contract (keys documented in the README), written last and atomically so a
+// machine-readable contract (keys documented in docs/cli.md), written last and atomically so a
 // partial run never looks complete; plus the comparison table printed on the terminal.
 #pragma once
 
@@ -11,7 +11,7 @@
 namespace swerve {
 
 // Wear change of `controller` against `reference` as a reduction in percent:
-// 100 (W_ref - W_ctrl) / W_ref (paper-notes assumption 12 with the sign flipped, so the paper's
+// 100 (W_ref - W_ctrl) / W_ref (docs/paper.md, assumption 12, with the sign flipped, so the paper's
 // "-19.19 % wear" reads as a 19.19 % reduction). NaN when W_ref is 0.
 double wear_reduction_pct(const RunMetrics& controller, const RunMetrics& reference);
 

@@ -4,7 +4,7 @@
 // time alone says nothing. Quality (tune_by_quality): candidates (backend, horizon, SA knots,
 // deadline margin) run the given scenarios in closed loop at that budget against the kinematic
 // baseline, and the winner is the least wear that keeps the baseline's tracking and misses no
-// deadline, a candidate no worse than the controller file's own on every scenario first (issue 19).
+// deadline, a candidate no worse than the controller file's own on every scenario first.
 #pragma once
 
 #include <cstdint>
@@ -103,8 +103,8 @@ struct ScenarioScore {
   int deadline_misses = 0, fallbacks = 0;
   int unconfirmed_misses = 0;              // misses of a first run that its repeat did not have
   bool completed = false;
-  // Issue 15's bounds: position RMSE <= max(1.1 b, b + 0.02 m), heading RMSE <= max(1.1 b,
-  // b + 0.5 deg), no deadline miss, the run completed.
+  // The bounds of "no worse tracking than the baseline": position RMSE <= max(1.1 b, b + 0.02 m),
+  // heading RMSE <= max(1.1 b, b + 0.5 deg), no deadline miss, the run completed.
   bool acceptable() const;
   // How far outside those tracking bounds: the larger of position RMSE / its bound and heading
   // RMSE / its bound (<= 1: within both).
@@ -134,7 +134,7 @@ struct QualityTuningResult {
 
 // Whether `candidate` is at least as good as `own` on every scenario `own` ran: no higher wear ratio
 // and no higher position RMSE on each (medians; the two must have run the same scenarios, in
-// order). Issue 19: a tuned file should be no worse than the hand-set one anywhere.
+// order): a tuned file should be no worse than the hand-set one anywhere.
 bool no_worse_on_every_scenario(const CandidateScore& candidate, const CandidateScore& own);
 
 // The rule's order over the scenarios each candidate ran (indices into `candidates`): fewest

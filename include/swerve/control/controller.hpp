@@ -33,7 +33,7 @@ namespace swerve {
 enum class InputParameterization { kBodyTwist, kModuleRates };
 const char* to_string(InputParameterization parameterization) noexcept;  // "body_twist", "module_rates"
 
-// Tracking-tolerance mode (issue 15): the tracking error the user accepts. The controller then
+// Tracking-tolerance mode: the tracking error the user accepts. The controller then
 // minimises wear inside a tube around the reference whose half-width at each step of the horizon
 // is the tolerance, or the kinematic baseline's own predicted error there where that is larger (a
 // hard start the baseline cannot track either): never planned worse than the baseline, never
@@ -51,10 +51,10 @@ struct TrackingTolerance {
 };
 
 struct ControllerOptions {
-  int horizon = 20;                  // N (paper-notes assumption 7)
+  int horizon = 20;                  // N (docs/paper.md, assumption 7)
   double dt = 0.05;                  // s: the prediction's step
   // s between step() calls; 0: dt. A prediction step longer than the period looks as far ahead with
-  // fewer steps (cheaper rollouts, issue 19's dt axis); the previous plan then moves on by
+  // fewer steps (cheaper rollouts; the dt axis of the tuning search); the previous plan then moves on by
   // period / dt of a step each cycle (Solution::shift(double)). At most dt.
   double control_period = 0.0;
   double period() const noexcept { return control_period > 0.0 ? control_period : dt; }
@@ -68,9 +68,9 @@ struct ControllerOptions {
   Eigen::Vector3d pose_weight{10.0, 10.0, 5.0};
   // When true the heading weight is the position weight times (heading_lever R)^2, R the distance
   // of the outermost module from the body origin: a heading error then costs what the displacement
-  // it causes at heading_lever R costs, so one config serves a 2-module robot and a 5-axle carrier
-  // (issue 15). heading_lever 1 weighs it at the outermost module; the default config's 2 corrects
-  // heading as fast as the kinematic baseline does (see configs/controllers/default.yaml).
+  // it causes at heading_lever R costs, so one config serves a 2-module robot and a 5-axle carrier.
+  // heading_lever 1 weighs it at the outermost module; the default config's 2.5 corrects heading as fast
+  // as the kinematic baseline does (see configs/controllers/default.yaml).
   bool heading_weight_from_geometry = false;
   double heading_lever = 1.0;        // > 0; used only with heading_weight_from_geometry
   // Pseudo-Huber width of the pose cost (m; 0: quadratic). Errors beyond it are priced at the
@@ -92,7 +92,7 @@ struct ControllerOptions {
   // wear_weight * wear_reference_mass / mass on its own vehicle. Frictional-power wear of the same
   // motion grows with the mass (forces grow with m, and so does each tire's cornering and slip
   // stiffness, so the slips stay the same), while the tracking cost does not: one wear weight
-  // then buys the same tracking on a 50 kg robot and a 2 t carrier (issue 15). 0: off.
+  // then buys the same tracking on a 50 kg robot and a 2 t carrier. 0: off.
   double wear_reference_mass = 0.0;
   // The power of (wear_reference_mass / mass) the wear weight scales by: 1 is the argument above;
   // > 1 also weighs what the argument leaves out (see configs/controllers/default.yaml). > 0.
@@ -162,6 +162,10 @@ class Controller final : public TrackingController {
   // predicted state, read for its steering angles).
   void apply_decision(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
                       const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
+  // Twist decisions: modules the plan's column `column` moves slower than the baseline's steer
+  // threshold steer toward the plan's next faster direction for them, or hold (applied_input_).
+  void steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
+                                const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
   void assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   // rad/s: module `module`'s wheel rolling with the measured body twist at its measured angle.
   double rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept;

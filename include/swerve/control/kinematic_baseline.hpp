@@ -1,5 +1,5 @@
-// The paper's comparison controller (arXiv 2506.04752; paper-notes assumption 9): the same tracking
-// problem on the kinematic model, without tire dynamics and without wear. A body-twist MPC
+// The paper's comparison controller (arXiv 2506.04752; docs/paper.md, assumption 9): the same
+// tracking problem on the kinematic model, without tire dynamics and without wear. A body-twist MPC
 //   min sum_k |pose_k+1 - ref|^2_Q (terminal x terminal_scale) + |u_k - u_ref,k|^2_R + |u_k - u_k-1|^2_S
 //   (u_-1: the measured twist)
 //   pose_k+1 = pose_k + dt [R(psi_k) (vx, vy); r]

@@ -2,8 +2,8 @@
 // kinematic model): the steering angles advance by the steering rates commanded since the
 // measurement was taken, the pose by the body twist those commands make (forward kinematics).
 // Both controllers use it, so a measurement latency the timestamp reveals never meets a deadbeat
-// steering law that reacts to its own delayed effect (issue 14, item 7). Optionally it is also a
-// fixed-gain observer: the same prediction, blended with each new measurement, filters sensor noise.
+// steering law that reacts to its own delayed effect. Optionally it is also a fixed-gain observer: the
+// same prediction, blended with each new measurement, filters sensor noise.
 #pragma once
 
 #include <Eigen/Core>

@@ -89,7 +89,8 @@ std::shared_ptr<const PlanarCurve> make_line_curve(const Eigen::Vector2d& start_
 // `sweep` (> 0 CCW, < 0 CW).
 std::shared_ptr<const PlanarCurve> make_arc_curve(const Eigen::Vector2d& start_world, double direction,
                                                   double radius, double sweep);
-// The paper's curve (paper-notes assumption 10): y = amplitude sin(2 pi x / wavelength), x in [0, length_x].
+// The paper's curve (docs/paper.md, assumption 10): y = amplitude sin(2 pi x / wavelength),
+// x in [0, length_x].
 std::shared_ptr<const PlanarCurve> make_sine_curve(double amplitude, double wavelength, double length_x);
 // Figure-eight (lemniscate of Gerono) of half-width `size`, centred on the origin, started at the
 // centre heading up-right; `loops` full figure-eights.

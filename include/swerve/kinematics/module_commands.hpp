@@ -62,14 +62,26 @@ struct DriveDirection {
 // beyond, the swing to the other stop pays for itself. See docs/decisions/end-stop-hysteresis.md.
 inline constexpr double kEndStopHold = kPi / 4;
 
+// rad: the prediction's tie band (ModuleCommandRule::tie_band, choose_drive_direction's
+// `tie_band`): a flip must save more steering than this, and a heading at most this far past an end
+// stop is steered to the stop. A module whose contact velocity points about 90 deg from its wheel (a
+// crab started with the wheels straight, a heading at a +-90 deg stop) otherwise chooses by the last
+// digits of the twist: modules of one vehicle split, turn opposite ways with their wheels driving
+// and yaw the body, which at the stops cannot be corrected. 0.15 rad costs at most 1 - cos 0.15 =
+// 1.1 % of a wheel's speed. Hardware setpoints (Kinematics) keep WPILib's exact 90 deg (tie band 0).
+// See docs/decisions/end-stop-hysteresis.md.
+inline constexpr double kDirectionTieBand = 0.15;
+
 // The way round for a module steered at `angle` whose contact velocity points along `heading`.
 // `previous_sign` is the way round kept by kHysteresis (0: none yet, then the nearest); the band
 // is `band` + `widening` above 90 deg and `band` below it. With end stops (limits not [-pi, pi])
 // angles are absolute, turns are not wrapped, and a heading past a stop is never chosen while the
-// other is reachable.
+// other is reachable. `tie_band` (0: none): a near tie keeps the forward way round, and a heading that
+// close past a stop counts as at the stop (kDirectionTieBand).
 template <typename T>
 DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int previous_sign, FlipPolicy policy,
-                                         double band, const ModuleLimits& limits, double widening = 0.0) {
+                                         double band, const ModuleLimits& limits, double widening = 0.0,
+                                         double tie_band = 0.0) {
   const bool end_stops = limits.has_steering_end_stops();
   // The heading half a turn from a wrapped one, wrapped, without another remainder.
   const auto opposite_of = [](const T& wrapped) -> T {
@@ -80,16 +92,28 @@ DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int p
     return !end_stops || (value >= limits.min_steering_angle && value <= limits.max_steering_angle);
   };
   // Targets are needed for the end stops only; without them every turn is wrapped.
-  const T forward = end_stops ? wrap_angle_of<T>(heading) : heading;
-  const T reverse = end_stops ? opposite_of(forward) : heading;
+  // A target just past a stop is taken at the stop (tie_band).
+  const auto near_stop = [&](const T& target) -> T {
+    const double value = scalar_value(target);
+    if (value > limits.max_steering_angle && value <= limits.max_steering_angle + tie_band) {
+      return T(limits.max_steering_angle);
+    }
+    if (value < limits.min_steering_angle && value >= limits.min_steering_angle - tie_band) {
+      return T(limits.min_steering_angle);
+    }
+    return target;
+  };
+  const T forward = end_stops ? near_stop(wrap_angle_of<T>(heading)) : heading;
+  const T reverse = end_stops ? near_stop(opposite_of(wrap_angle_of<T>(heading))) : heading;
   const T turn_forward = end_stops ? T(forward - angle) : wrap_angle_of<T>(heading - angle);
   const T turn_reverse = end_stops ? T(reverse - angle) : opposite_of(turn_forward);
   const auto turn_of = [&](int s) -> const T& { return s > 0 ? turn_forward : turn_reverse; };
   const auto target_of = [&](int s) -> const T& { return s > 0 ? forward : reverse; };
-  // The way round of less steering; a tie keeps the forward one. Without end stops the two turns
-  // add up to half a turn, so this is "flip beyond 90 deg"; with wide end stops an unwrapped turn
-  // can exceed 90 deg both ways round.
-  int sign = std::abs(scalar_value(turn_reverse)) < std::abs(scalar_value(turn_forward)) ? -1 : 1;
+  // The way round of less steering; a near tie (within tie_band) keeps the forward one. Without
+  // end stops the two turns add up to half a turn, so this is "flip beyond 90 deg" (plus half the
+  // band); with wide end stops an unwrapped turn can exceed 90 deg both ways round.
+  int sign =
+      std::abs(scalar_value(turn_reverse)) + tie_band < std::abs(scalar_value(turn_forward)) ? -1 : 1;
   bool in_band = false;
   // Hysteresis across an end stop: a kept heading up to kEndStopHold past a stop is steered to the
   // stop rather than swung half a turn to the other one. A heading that sits at a stop (crabbing at
@@ -178,6 +202,7 @@ inline constexpr double kHoldSpeed = 1e-3;
 struct ModuleCommandRule {
   FlipPolicy flip = FlipPolicy::kNearest;
   double flip_hysteresis = 0.0;  // rad, kHysteresis only
+  double tie_band = 0.0;         // rad: choose_drive_direction's (the prediction: kDirectionTieBand)
   LimitShape shape = LimitShape::kHard;
   bool align_wheel = true;       // drive_wheel_speed's cosine scaling
   // m/s: below it the singularity hold (kHoldSpeed), and the wheel rolls with the velocity's
@@ -206,7 +231,8 @@ void module_commands(const ModuleLayout& layout, const Eigen::Matrix<T, 3, 1>& t
     if (std::hypot(scalar_value(velocity.x()), scalar_value(velocity.y())) >= rule.hold_speed) {
       const T speed = sqrt(velocity.squaredNorm());
       const DriveDirection<T> direction = choose_drive_direction<T>(atan2(velocity.y(), velocity.x()), angle, sign,
-                                                                    rule.flip, rule.flip_hysteresis, limits);
+                                                                    rule.flip, rule.flip_hysteresis, limits,
+                                                                    0.0, rule.tie_band);
       rate = steering_rate_toward<T>(direction.turn, dt, limits, rule.shape);
       // Drive only as fast as the wheel points the right way at the end of this step.
       wheel_speed = drive_wheel_speed<T>(static_cast<double>(direction.sign) * speed, direction.turn - rate * dt,

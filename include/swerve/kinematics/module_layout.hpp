@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
+#include "swerve/core/constants.hpp"
 #include "swerve/core/option_fields.hpp"
 #include "swerve/core/config_error.hpp"  // thrown by every validation in this layer
 
 namespace swerve {
 
-inline constexpr double kPi = 3.14159265358979323846;
 inline constexpr double kMinModuleSeparation = 1e-3;  // m; closer than this two modules are one point
 
 struct ModuleLimits {

@@ -14,9 +14,9 @@ namespace swerve {
 // How the longitudinal and lateral forces interact when the wheel drives/brakes and corners at once.
 enum class CombinedSlipMethod {
   // Pure slip: Fx from the slip ratio alone, Fy from the slip angle alone (the paper's model,
-  // paper-notes "Tires": no combined slip was seen). Forces may leave the friction ellipse.
+  // docs/paper.md, "Tires": no combined slip was seen). Forces may leave the friction ellipse.
   kNone,
-  // Friction-ellipse cap (paper-notes assumption 4, "optional friction-circle cap", generalised to
+  // Friction-ellipse cap (docs/paper.md, assumption 4, "optional friction-circle cap", generalised to
   // an ellipse with semi-axes Dx, Dy): the pure-slip forces are scaled by 1/max(1, rho) with
   // rho = sqrt((Fx0/Dx)^2 + (Fy0/Dy)^2). Published and simple, but has a kink at rho = 1, so it is
   // meant for the plant, not for gradient solvers.
@@ -52,7 +52,7 @@ struct MagicFormulaParams {
   MagicFormulaCoefficients longitudinal{10.0, 1.65, 0.0};  // x = slip ratio kappa (assumption 4)
   MagicFormulaCoefficients lateral{15.0, 1.3, 0.0};        // x = slip angle alpha, rad (assumption 4)
   CombinedSlipMethod combined_slip = CombinedSlipMethod::kNormalizedSlip;
-  // Slip regularisation speed eps (m/s, paper-notes assumption 3, eps = 0.05).
+  // Slip regularisation speed eps (m/s, docs/paper.md, assumption 3, eps = 0.05).
   double slip_speed_epsilon = 0.05;
   // true: the smooth regularisation of the slip denominators (see compute_wheel_slip); false: the
   // exact max() form of assumption 3 (kinks at |u| = eps and |V_r| = |u|).
@@ -109,7 +109,7 @@ WheelSlip<T> transient_sliding(const WheelSlip<T>& kinematic, const T& transient
 }
 
 // Slip of a wheel whose contact point moves at (u, v) in the wheel frame while its tread moves at
-// V_r = wheel_radius * wheel_speed (paper-notes assumption 3):
+// V_r = wheel_radius * wheel_speed (docs/paper.md, assumption 3):
 //   kappa = (V_r - u) / max(|V_r|, |u|, eps),   alpha = -atan2(v, max(|u|, eps)).
 // Smooth form (params.smooth_slip, the default; our regularisation of assumption 3):
 //   kappa = (V_r - u) / ((|u|_e + |V_r|_e) / 2),   alpha = -atan(v / |u|_e),   |z|_e = sqrt(z^2 + eps^2),

@@ -406,6 +406,7 @@ class SemiImplicitStep {
                   "module_commands interleaves (steering rate, wheel speed) per module");
     ModuleCommandRule rule;
     rule.flip = FlipPolicy::kNearest;
+    rule.tie_band = kDirectionTieBand;
     rule.shape = LimitShape::kSmooth;
     module_commands<T>(layout_, twist_body, x.segment(StateIndex::kFirstSteering, modules_), dt, rule,
                        inputs.head(2 * modules_));

@@ -1,5 +1,5 @@
 // Tire wear: the frictional power dissipated in each contact patch and the wear rate derived from
-// it (paper-notes assumption 5; the paper's "simplified tire wear model" is not published, so the
+// it (docs/paper.md, assumption 5; the paper's "simplified tire wear model" is not published, so the
 // frictional-power form is ours). Header-only templates, valid for double and ceres::Jet.
 #pragma once
 
@@ -21,7 +21,7 @@ const char* to_string(WearModelKind kind);  // "frictional_power", "archard"
 
 struct WearParams {
   WearModelKind model = WearModelKind::kFrictionalPower;
-  // k. 1.0 by default: the paper reports only wear ratios (paper-notes assumption 5), so with the
+  // k. 1.0 by default: the paper reports only wear ratios (docs/paper.md, assumption 5), so with the
   // frictional-power model the wear is the dissipated energy in joules.
   double coefficient = 1.0;
   // Smoothing of |.| for gradient solvers: |z| -> sqrt(z^2 + s^2) - s (zero at zero, smooth, within
@@ -45,7 +45,7 @@ T smooth_abs(const T& z, double smoothing) {
   return sqrt(z * z + T(smoothing * smoothing)) - T(smoothing);
 }
 
-// Power dissipated in the contact patch (W): |Fx (V_r - u)| + |Fy v| (paper-notes assumption 5),
+// Power dissipated in the contact patch (W): |Fx (V_r - u)| + |Fy v| (docs/paper.md, assumption 5),
 // with slip velocities as in WheelSlip (wheel frame).
 template <typename T>
 T frictional_power(const TireForces<T>& forces, const WheelSlip<T>& slip, double smoothing = 0.0) {

@@ -44,7 +44,7 @@ struct StateIndex {
   static constexpr int prefix_size(int modules) { return kFirstSteering + modules; }
 };
 
-// Input u (size 2n), the paper's hierarchical design (paper-notes "MPC inputs"):
+// Input u (size 2n), the paper's hierarchical design (docs/paper.md, "MPC inputs"):
 //   u[2i] = steering-rate command of module i (rad/s), u[2i+1] = wheel angular speed command (rad/s).
 struct InputIndex {
   static constexpr int steering_rate(int module) { return 2 * module; }

@@ -27,7 +27,7 @@ struct CasterParams {
 
 // First-order lag of the low-level drive loops (plant fidelity only).
 struct ActuatorParams {
-  double steering_time_constant = 0.05;  // s, steering-rate loop (paper-notes assumption 7)
+  double steering_time_constant = 0.05;  // s, steering-rate loop (docs/paper.md, assumption 7)
   double drive_time_constant = 0.05;     // s, wheel-speed loop
   static const OptionFields<ActuatorParams>& fields();  // the rules, read by the YAML loader too
 };
@@ -69,7 +69,7 @@ struct VehicleParams {
   // Static normal loads (N), modules first (layout order) then casters: the least-norm solution of
   // static equilibrium (sum Fz = m g, zero moment about the CoM), i.e. Fz = A^T (A A^T)^+ b with
   // rows A = [1; x_i - x_c; y_i - y_c], b = [m g; 0; 0]. Exact for statically determinate layouts
-  // (3 contacts, or 2 with the CoM on their line) and m g / n for symmetric ones (paper-notes
+  // (3 contacts, or 2 with the CoM on their line) and m g / n for symmetric ones (docs/paper.md,
   // assumption 2). Throws ConfigError as validate() does.
   std::vector<double> static_normal_loads() const;
 };

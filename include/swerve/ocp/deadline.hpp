@@ -3,6 +3,7 @@
 // (per model evaluation), so deadline logic is tested deterministically rather than by wall time.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 
 namespace swerve {
@@ -30,23 +31,26 @@ inline double to_seconds(Duration duration) noexcept { return std::chrono::durat
 // (the solvers read once per proposal or iteration, the controller a few times per step), plus
 // whatever advance() adds. A run on it does the same work on every machine, under any load and
 // under an emulator, so it is repeatable bit for bit and its instructions can be counted
-// (`swerve-mpc run --work-clock`, scripts/cpu_slowdown.py); deadline tests use it too. Not
-// thread-safe: one per controller.
+// (`swerve-mpc run --work-clock`, scripts/cpu_slowdown.py); deadline tests use it too. Reads and
+// advances are atomic, so a solver's worker threads may share one (their interleaving then decides
+// which read sees which time, so a multi-threaded run is safe but not bit-repeatable).
 class WorkClock final : public Clock {
  public:
-  explicit WorkClock(double per_read_s = 0.0) noexcept : per_read_(to_duration(per_read_s)) {}
+  explicit WorkClock(double per_read_s = 0.0) noexcept : per_read_(to_duration(per_read_s).count()) {}
+  WorkClock(const WorkClock& other) noexcept
+      : per_read_(other.per_read_), ticks_(other.ticks_.load()), reads_(other.reads_.load()) {}
+  WorkClock& operator=(const WorkClock&) = delete;
   TimePoint now() const noexcept override {
-    now_ += per_read_;
-    ++reads_;
-    return now_;
+    reads_.fetch_add(1, std::memory_order_relaxed);
+    return TimePoint(Duration(ticks_.fetch_add(per_read_, std::memory_order_relaxed) + per_read_));
   }
-  void advance(Duration by) noexcept { now_ += by; }
-  long reads() const noexcept { return reads_; }
+  void advance(Duration by) noexcept { ticks_.fetch_add(by.count(), std::memory_order_relaxed); }
+  long reads() const noexcept { return reads_.load(std::memory_order_relaxed); }
 
  private:
-  Duration per_read_;
-  mutable TimePoint now_{};
-  mutable long reads_ = 0;
+  Duration::rep per_read_;
+  mutable std::atomic<Duration::rep> ticks_{0};
+  mutable std::atomic<long> reads_{0};
 };
 
 // A point in time on a given clock. Built implicitly from a steady-clock time point, so

@@ -2,7 +2,7 @@
 // current state, reference window, cost weights and input bounds. Built once, updated in place
 // every cycle (no allocation), and consumed by every solver backend; it knows nothing of YAML.
 //
-// Cost (paper-notes assumption 6), for inputs u_0..u_{N-1} and predicted states x_1..x_N:
+// Cost (docs/paper.md, assumption 6), for inputs u_0..u_{N-1} and predicted states x_1..x_N:
 //   sum_k  |pose(x_{k+1}) - pose_ref,k+1|^2_Q  (Q_N = terminal_scale * Q at k+1 = N; pseudo-Huber
 //                                              beyond weights.pose_huber_width when it is > 0)
 //        + |twist(x_{k+1}) - twist_ref,k+1|^2_Qv
@@ -13,7 +13,7 @@
 // Every term but the wear is defined once, as weighted residuals (tracking_residuals,
 // effort_root, rate_root): stage k costs 1/2 |r_k|^2 + lambda wear_k. The cost's value, its
 // gradient (J^T r) and the Gauss-Newton model of the Ceres backend all derive from them.
-// Heading errors are wrapped to (-pi, pi]. The tube (issue 15's tracking tolerance) is an exterior
+// Heading errors are wrapped to (-pi, pi]. The tube (TrackingTolerance in the controller) is an exterior
 // penalty on the position and heading errors beyond per-stage bounds b_k, c_k (+inf: no tube,
 // the default); mu = weights.tube_penalty is stiff, so inside the tube the wear term rules and
 // outside it the tracking does.

@@ -38,8 +38,8 @@ struct SaOptions {
   // When the exact gradient does not fit the polish's share (or the model has none): polish in the
   // knot space instead, L-BFGS over the nu x knots offsets on forward-difference gradients (one
   // rollout per offset, each from its knot's first step on). false: no polish then. Off by default:
-  // on the shipped 10-module vehicle it left the closed-loop gap to the optimum where it was (see the
-  // README); it gives a model without Jacobians a polish.
+  // on the shipped 10-module vehicle it left the closed-loop gap to the optimum where it was
+  // (docs/benchmarks.md); it gives a model without Jacobians a polish.
   bool knot_polish = false;
   // Proposals drawn and rolled out together per annealing step, one per thread: the calling thread
   // and threads - 1 workers started with the solver, each rolling out on scratch of its own
