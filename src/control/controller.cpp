@@ -329,16 +329,16 @@ void Controller::steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd
                                           const Eigen::Ref<const Eigen::VectorXd>& state) noexcept {
   // A module the plan moves slower than the baseline's steer threshold this step: the direction of
   // its contact velocity turns by dv / v per lateral dv, so at a few mm/s it is set by the last
-  // digits the optimiser resolved, and the map turned it at full rate after them (at the stops of
-  // stop-and-go references 2.5 (rad/s)^2 of steering while correcting a 4 mm overshoot). As the
-  // baseline does (BaselineOptions::steer_speed_threshold), it steers toward the first direction
+  // digits the optimiser resolved, and the map turned it at full rate after them. As the baseline
+  // does (BaselineOptions::steer_speed_threshold), it steers toward the first direction
   // the plan drives it faster than that, or holds, and its wheel rolls with the velocity's component
   // along its heading. See docs/decisions/low-speed-steering.md.
   const double threshold = baseline_.options().steer_speed_threshold;
   const ModuleLimits& limits = layout_.limits();
+  const Eigen::Vector3d twist_now = plan.col(column).head<3>();
   for (int i = 0; i < modules_; ++i) {
     const Eigen::Vector2d r_body = layout_.position_body(i);
-    const Eigen::Vector2d v_now = point_velocity<double>(Eigen::Vector3d(plan.col(column).head<3>()), r_body);
+    const Eigen::Vector2d v_now = point_velocity<double>(twist_now, r_body);
     if (v_now.norm() >= threshold) continue;
     const double angle = state[StateIndex::steering(i)];
     double rate = 0.0;
