@@ -103,8 +103,11 @@ DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int p
     }
     return target;
   };
-  const T forward = end_stops ? near_stop(wrap_angle_of<T>(heading)) : heading;
-  const T reverse = end_stops ? near_stop(opposite_of(wrap_angle_of<T>(heading))) : heading;
+  // With a tie band the forward target may sit clamped at a stop, so the reverse one is taken
+  // from the wrapped heading, not from it.
+  const T wrapped = end_stops ? wrap_angle_of<T>(heading) : heading;
+  const T forward = end_stops ? near_stop(wrapped) : heading;
+  const T reverse = end_stops ? near_stop(opposite_of(wrapped)) : heading;
   const T turn_forward = end_stops ? T(forward - angle) : wrap_angle_of<T>(heading - angle);
   const T turn_reverse = end_stops ? T(reverse - angle) : opposite_of(turn_forward);
   const auto turn_of = [&](int s) -> const T& { return s > 0 ? turn_forward : turn_reverse; };
