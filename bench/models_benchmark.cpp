@@ -5,6 +5,8 @@
 // its Jacobian, the pair every gradient backend evaluates per stage.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+
 #include "swerve/models/dynamics_jacobian.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/semi_implicit_step_jacobian.hpp"
@@ -139,6 +141,7 @@ void BM_Models_PredictionStep(benchmark::State& state) {
   Eigen::VectorXd gradient(nx + 3);
   Eigen::VectorXd inputs(model.input_size());
   double wear = 0.0;
+  const long evaluations_before = SemiImplicitStep<double>::model_evaluations(data);
   for (auto _ : state) {
     if (with_jacobian) {
       benchmark::DoNotOptimize(jacobian.twist_step(jacobian_data, x, twist, 0.05, next, a, b, &wear, gradient));
@@ -149,6 +152,17 @@ void BM_Models_PredictionStep(benchmark::State& state) {
     benchmark::DoNotOptimize(next.data());
   }
   state.counters["directions"] = with_jacobian ? nx + 3 : 0;
+  // The work clock's units (WorkClock, VehiclePredictionModel::charge_work_to): module evaluations
+  // in double per step, or module Jet chunks per Jacobian. Time per unit is the rate to charge.
+  const double iterations = static_cast<double>(state.iterations());
+  const double units = with_jacobian
+                           ? modules * SemiImplicitStepJacobian::chunks(nx + 3)
+                           : modules * static_cast<double>(SemiImplicitStep<double>::model_evaluations(data) -
+                                                           evaluations_before) /
+                                 std::max(iterations, 1.0);
+  state.counters["work_units"] = units;
+  state.counters["s_per_unit"] = benchmark::Counter(units * iterations, benchmark::Counter::kIsRate |
+                                                                            benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_Models_PredictionStep)->ArgsProduct({{4, 8, 16}, {0, 1}})->ArgNames({"modules", "jacobian"});
 

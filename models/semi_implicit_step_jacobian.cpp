@@ -35,6 +35,10 @@ SemiImplicitStepJacobian::SemiImplicitStepJacobian(const VehicleParams& params, 
 
 SemiImplicitStepJacobian::~SemiImplicitStepJacobian() = default;
 
+int SemiImplicitStepJacobian::chunks(int directions) noexcept {
+  return (directions + kModelJetSize - 1) / kModelJetSize;
+}
+
 SemiImplicitStepJacobian::Data::Data(const SemiImplicitStepJacobian& jacobian)
     : impl_(std::make_unique<Impl>(jacobian, jacobian.twin_->step)) {}
 SemiImplicitStepJacobian::Data::~Data() = default;

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Clock parity: every shipped scenario run twice with the same seed, once on the wall clock and once
-# on a work clock (--work-clock, deadlines counted in solver reads), and one row each comparing the
+# on a work clock (--work-clock: deadlines counted in solver reads and the prediction model's module
+# evaluations, at the reference machine's rates by default), and one row each comparing the
 # wear-aware controller's wear and position RMSE between the two. An anytime controller must do the
 # same on both; a row passes within +-5 % (or 0.05 J / 1 mm where the figures are that small).
 # A measurement, not a test: run it on an otherwise idle machine (nothing building).
@@ -9,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${1:-build/release}
 out_dir=${2:-out/clock_parity}
-tick=${3:-8e-5}
+tick=${3:-8e-6}
 shift $(( $# < 3 ? $# : 3 ))
 scenarios=("$@")
 if [ ${#scenarios[@]} -eq 0 ]; then

@@ -686,6 +686,10 @@ void EnvelopeOptions::validate() const {
   if (!(work_clock >= 0.0 && work_clock <= 1.0)) {
     throw_invalid_field(kOwner, "work_clock", work_clock, "must be in [0, 1] s per read (0: the wall clock)");
   }
+  if (!(work_clock_evaluation >= 0.0 && work_clock_evaluation <= 1.0)) {
+    throw_invalid_field(kOwner, "work_clock_evaluation", work_clock_evaluation,
+                        "must be in [0, 1] s per module evaluation (0: reads only)");
+  }
 }
 
 // ---- Drawing ----------------------------------------------------------------------------------
@@ -912,7 +916,7 @@ DrawResult run_draw(const Draw& draw, const std::string& dir, const EnvelopeOpti
       EnvelopeRun& run = mpc ? result.wear_mpc : result.baseline;
       // Each run on its own clock from zero, so a run does not depend on the one before it.
       std::optional<WorkClock> clock;
-      if (options.work_clock > 0.0) clock.emplace(options.work_clock);
+      if (options.work_clock > 0.0) clock.emplace(options.work_clock, options.work_clock_evaluation);
       const ControllerRun controller_run =
           run_controller(scenario, controller, {}, 0, clock ? &*clock : nullptr);
       run.ran = true;
@@ -1020,8 +1024,9 @@ std::vector<const DrawResult*> worst_draws(const EnvelopeResult& result) {
 
 std::string clock_text(const EnvelopeOptions& o) {
   if (o.work_clock > 0.0) {
-    char text[96];
-    std::snprintf(text, sizeof text, "a work clock (%g s per read)", o.work_clock);
+    char text[128];
+    std::snprintf(text, sizeof text, "a work clock (%g s per read, %g s per module evaluation)", o.work_clock,
+                  o.work_clock_evaluation);
     return text;
   }
   return "the wall clock";
@@ -1153,7 +1158,8 @@ std::string envelope_json(const EnvelopeResult& result) {
       {"draws", static_cast<int>(result.draws.size())},
       {"families", families_text(o)},
       {"jobs", o.jobs},
-      {"clock", o.work_clock > 0.0 ? nlohmann::json({{"work_clock_s_per_read", o.work_clock}})
+      {"clock", o.work_clock > 0.0 ? nlohmann::json({{"work_clock_s_per_read", o.work_clock},
+                                                   {"work_clock_s_per_module_evaluation", o.work_clock_evaluation}})
                                    : nlohmann::json("wall")},
       {"controller_file", o.controller_file},
       {"baseline_file", o.baseline_file},

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "swerve/app/option_reader.hpp"
 #include "swerve/app/vehicle_config.hpp"
 
 namespace swerve {
@@ -147,16 +148,10 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
   }
 
   if (const auto sim = node.optional_child("simulator")) {
-    s.simulator.substeps = sim->get_int_or("substeps", 0, 0, 100000);
+    config::read_fields(*sim, SimulatorOptions::fields(), &s.simulator);
     s.simulator.seed = static_cast<std::uint64_t>(sim->get_int_or("seed", 1, 0));
-    s.simulator.measurement_delay_steps = sim->get_int_or("measurement_delay_steps", 0, 0, 100);
     if (const auto noise = sim->optional_child("noise")) {
-      MeasurementNoise& m = s.simulator.noise;
-      m.position = noise->get_double_or("position", 0.0, Bound::non_negative());
-      m.heading = noise->get_double_or("heading", 0.0, Bound::non_negative());
-      m.velocity = noise->get_double_or("velocity", 0.0, Bound::non_negative());
-      m.yaw_rate = noise->get_double_or("yaw_rate", 0.0, Bound::non_negative());
-      m.steering_angle = noise->get_double_or("steering_angle", 0.0, Bound::non_negative());
+      config::read_fields(*noise, MeasurementNoise::fields(), &s.simulator.noise);
     }
   }
 

@@ -26,7 +26,7 @@ struct BenchTargetsArguments {
   std::vector<std::string> scenario_files{"configs/scenarios/curve.yaml", "configs/scenarios/offset60.yaml"};
   std::string tuned_dir = "configs/controllers/tuned";
   std::string default_controller = "configs/controllers/default.yaml";
-  double work_clock = 0.0;
+  WorkClockRates work_clock;  // per_read_s 0: the steady clock
 };
 
 int bench_targets(const BenchTargetsArguments& a) {

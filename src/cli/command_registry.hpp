@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "swerve/ocp/deadline.hpp"
+#include "swerve/ocp/work_clock_rates.hpp"
 
 namespace CLI {
 class App;
@@ -27,15 +28,22 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// --work-clock SECONDS (run, tune, bench-targets): keep the controllers' deadlines on a clock that
-// advances this much per read instead of the wall clock, so the same work is done on every
-// machine. Rejects anything but a number in (0, 1] as a command-line error.
-void add_work_clock_option(CLI::App& app, double* seconds_per_read);
-// The clock that option's value asks for: a WorkClock from zero, or none for 0 (the steady clock).
-// Each controller run gets its own, so every run starts from the same time.
-std::optional<WorkClock> work_clock_for(double seconds_per_read);
+// --work-clock SECONDS (run, tune, bench-targets, envelope): keep the controllers' deadlines on a
+// clock that advances this much per read instead of the wall clock, plus
+// --work-clock-evaluation SECONDS per module evaluation the prediction model charges (default: the
+// reference machine's, kReferenceSecondsPerModuleEvaluation; 0: reads only), so the same work is
+// done on every machine. Rejects anything but a number in (0, 1] (the evaluation's: [0, 1]) as a
+// command-line error.
+struct WorkClockRates {
+  double per_read_s = 0.0;  // 0: not given, the steady clock
+  double per_module_evaluation_s = kReferenceSecondsPerModuleEvaluation;
+};
+void add_work_clock_option(CLI::App& app, WorkClockRates* rates);
+// The clock those options ask for: a WorkClock from zero, or none without --work-clock (the steady
+// clock). Each controller run gets its own, so every run starts from the same time.
+std::optional<WorkClock> work_clock_for(const WorkClockRates& rates);
 // The line a command prints when its deadlines and timings are on a work clock.
-std::string work_clock_notice(double seconds_per_read);
+std::string work_clock_notice(const WorkClockRates& rates);
 
 struct Command {
   std::string name;
@@ -49,6 +57,7 @@ const std::vector<Command>& all_commands();
 
 // Defined by each command's own file.
 Command make_check_config_command();
+Command make_config_reference_command();
 Command make_run_command();
 Command make_sweep_command();
 Command make_tune_command();

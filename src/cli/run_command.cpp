@@ -31,7 +31,7 @@ struct RunArguments {
   std::vector<std::string> controllers;
   std::string seed;  // checked by seed_value(); kept as text so no conversion can clamp or wrap it
   std::string backend;
-  double work_clock = 0.0;  // s per clock read; 0: the steady clock (run only)
+  WorkClockRates work_clock;  // per_read_s 0: the steady clock
   bool quiet = false;
 };
 
@@ -131,7 +131,7 @@ int run(const RunArguments& a) {
   }
   write_run_outputs(scenario, runs, out_dir);
   std::cout << comparison_table(scenario, runs);
-  if (a.work_clock > 0.0) std::cout << work_clock_notice(a.work_clock) << "\n";
+  if (a.work_clock.per_read_s > 0.0) std::cout << work_clock_notice(a.work_clock) << "\n";
   std::cout << "written: " << out_dir << "/summary.json and " << runs.size() << " per-step CSV logs\n";
   for (const ControllerRun& r : runs) {
     if (!r.completed) {

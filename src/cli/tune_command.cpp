@@ -39,7 +39,7 @@ struct TuneArguments {
   std::vector<std::uint64_t> seeds;         // simulator seeds (quality); empty: each scenario's own
   std::string write_file;                   // the winner's controller YAML
   std::string out_dir;                      // tune.json
-  double work_clock = 0.0;                  // s per read; 0: the steady clock
+  WorkClockRates work_clock;  // per_read_s 0: the steady clock
   bool horizons_given = false;
   bool quiet = false;
   bool accept_tracking_loss = false;  // --write the closest candidate when none keeps the bounds

@@ -509,6 +509,9 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
                                       double measured_at) noexcept {
   // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
   const TimePoint step_start = clock().now();
+  // The model charges its work to the clock set now (set_clock may have changed it since the last
+  // step): a work clock then prices a proposal by the modules and substeps it evaluates.
+  model_->charge_work_to(&clock());
   step_t_ = t;
   const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
   const Deadline deadline(step_deadline - solve_margin(), clock());

@@ -18,6 +18,23 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   state_size_ = values_->state_size();
   input_size_ = values_->model().input_size();
   data_.reset(static_cast<Data*>(create_data().release()));
+  module_jacobian_work_ =
+      modules_ * module_evaluations_per_jet_chunk() * SemiImplicitStepJacobian::chunks(state_size_ + input_size_);
+  twist_jacobian_work_ = modules_ * module_evaluations_per_jet_chunk() * SemiImplicitStepJacobian::chunks(state_size_ + 3);
+}
+
+double VehiclePredictionModel::module_evaluations_per_jet_chunk() noexcept { return 6.0; }
+
+bool VehiclePredictionModel::charged_step(Data::Impl& own, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                          const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+                                          Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
+  const long before = SemiImplicitStep<double>::model_evaluations(own.values);
+  const bool ok = values_->step(own.values, x, u, dt, x_next, stage_wear);
+  if (work_clock_ != nullptr) {
+    work_clock_->charge(static_cast<double>(modules_) *
+                        static_cast<double>(SemiImplicitStep<double>::model_evaluations(own.values) - before));
+  }
+  return ok;
 }
 
 VehiclePredictionModel::~VehiclePredictionModel() = default;
@@ -60,7 +77,7 @@ bool VehiclePredictionModel::step(PredictionData* data, const Eigen::Ref<const E
       !std::isfinite(dt) || !x.allFinite() || !u.allFinite()) {
     return false;
   }
-  return values_->step(scratch(data).values, x, u, dt, x_next, stage_wear);
+  return charged_step(scratch(data), x, u, dt, x_next, stage_wear);
 }
 
 void VehiclePredictionModel::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
@@ -83,7 +100,7 @@ bool VehiclePredictionModel::twist_step(PredictionData* data, const Eigen::Ref<c
   }
   Data::Impl& own = scratch(data);
   values_->module_inputs(x, twist_body, dt, own.inputs);
-  return values_->step(own.values, x, own.inputs, dt, x_next, stage_wear);
+  return charged_step(own, x, own.inputs, dt, x_next, stage_wear);
 }
 
 bool VehiclePredictionModel::step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x,
@@ -99,6 +116,7 @@ bool VehiclePredictionModel::step_jacobians(PredictionData* data, const Eigen::R
                                             Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                             Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                                             Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  if (work_clock_ != nullptr) work_clock_->charge(module_jacobian_work_);
   return jacobian_->module_step(scratch(data).jacobian, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
 }
 
@@ -115,6 +133,7 @@ bool VehiclePredictionModel::twist_step_jacobians(PredictionData* data, const Ei
                                                   Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                                   Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                                                   Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
+  if (work_clock_ != nullptr) work_clock_->charge(twist_jacobian_work_);
   return jacobian_->twist_step(scratch(data).jacobian, x, twist_body, dt, x_next, a, b, stage_wear, wear_gradient);
 }
 

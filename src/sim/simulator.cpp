@@ -16,15 +16,32 @@ template <typename Value>
 
 }  // namespace
 
+const OptionFields<MeasurementNoise>& MeasurementNoise::fields() {
+  static const OptionFields<MeasurementNoise> table = {
+      {"position", &MeasurementNoise::position, Bound::non_negative(), {}, nullptr, "(m)"},
+      {"heading", &MeasurementNoise::heading, Bound::non_negative(), {}, nullptr, "(rad)"},
+      {"velocity", &MeasurementNoise::velocity, Bound::non_negative(), {}, nullptr, "(m/s)"},
+      {"yaw_rate", &MeasurementNoise::yaw_rate, Bound::non_negative(), {}, nullptr, "(rad/s)"},
+      {"steering_angle", &MeasurementNoise::steering_angle, Bound::non_negative(), {}, nullptr, "(rad)"},
+  };
+  return table;
+}
+
+const OptionFields<SimulatorOptions>& SimulatorOptions::fields() {
+  static const OptionFields<SimulatorOptions> table = {
+      // 0: automatic (VehicleModel::recommended_substeps).
+      {"substeps", &SimulatorOptions::substeps, Bound::closed(0, 100000)},
+      // Periods of delay; the delay line holds this many measurements, so it is kept to a size a
+      // scenario means (100 periods: seconds at any control rate).
+      {"measurement_delay_steps", &SimulatorOptions::measurement_delay_steps, Bound::closed(0, 100)},
+  };
+  return table;
+}
+
 void SimulatorOptions::validate() const {
   if (!std::isfinite(control_period) || control_period <= 0.0) reject("control_period", control_period, "must be > 0");
-  if (substeps < 0) reject("substeps", substeps, "must be >= 0 (0: automatic)");
-  const double sigmas[] = {noise.position, noise.heading, noise.velocity, noise.yaw_rate, noise.steering_angle};
-  const char* names[] = {"noise.position", "noise.heading", "noise.velocity", "noise.yaw_rate", "noise.steering_angle"};
-  for (int i = 0; i < 5; ++i) {
-    if (!std::isfinite(sigmas[i]) || sigmas[i] < 0.0) reject(names[i], sigmas[i], "must be finite and >= 0");
-  }
-  if (measurement_delay_steps < 0) reject("measurement_delay_steps", measurement_delay_steps, "must be >= 0");
+  check_fields("SimulatorOptions", *this, fields());
+  check_fields("SimulatorOptions.noise", noise, MeasurementNoise::fields());
 }
 
 Simulator::Simulator(const VehicleParams& vehicle, SimulatorOptions options)

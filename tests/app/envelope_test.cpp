@@ -211,6 +211,9 @@ TEST(Envelope, OptionsRejectEachBadFieldNamingItAndItsValue) {
   o.work_clock = -1.0;
   EXPECT_NE(error_of(o).find("EnvelopeOptions.work_clock = -1"), std::string::npos) << error_of(o);
   o = good;
+  o.work_clock_evaluation = std::nan("");
+  EXPECT_NE(error_of(o).find("EnvelopeOptions.work_clock_evaluation = nan"), std::string::npos) << error_of(o);
+  o = good;
   o.out_dir = "";
   EXPECT_NE(error_of(o).find("EnvelopeOptions.out_dir"), std::string::npos) << error_of(o);
   o = good;

@@ -2,6 +2,7 @@
 // terminal table are known answers (wear reductions, the RMSE ratio and their signs), not just
 // "some number".
 #include "swerve/app/run_report.hpp"
+#include "support/test_data.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,10 +13,6 @@
 
 namespace swerve {
 namespace {
-
-std::string data_file(const std::string& name) {
-  return std::string(SWERVE_SOURCE_DIR) + "/tests/app/data/" + name;
-}
 
 ControllerRun hand_built_run(const std::string& name, ControllerKind kind, double wear_total, double rmse_m) {
   ControllerRun run;
@@ -53,7 +50,7 @@ TEST(RunReport, WearReductionIsThePercentageOfTheReferenceWearSaved) {
 }
 
 TEST(RunReport, SummaryComparisonHasTheHandComputedValues) {
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_offset60.yaml"));
   const nlohmann::json summary = nlohmann::json::parse(summary_json(scenario, hand_built_runs()));
   const nlohmann::json& comparison = summary.at("comparison");
   EXPECT_NEAR(comparison.at("wear_reduction_pct").get<double>(), 50.0, kArithmeticTolerance);
@@ -64,7 +61,7 @@ TEST(RunReport, SummaryComparisonHasTheHandComputedValues) {
 }
 
 TEST(RunReport, SummaryComparisonIsNullWhereItCannotBeComputed) {
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_offset60.yaml"));
   std::vector<ControllerRun> runs = hand_built_runs();
   runs[2].metrics.wear_total = 0.0;       // a baseline without wear: no reduction to speak of
   runs[2].metrics.tracking_rmse_m = 0.0;  // nor a ratio
@@ -80,7 +77,7 @@ TEST(RunReport, SummaryComparisonIsNullWhereItCannotBeComputed) {
 }
 
 TEST(RunReport, ComparisonTablePrintsTheWearChangeAsANegativePercentageWhenWearFalls) {
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_offset60.yaml"));
   const std::string table = comparison_table(scenario, hand_built_runs());
   // Rows: the change against the baseline (wear falls: negative), "-" for the baseline itself.
   EXPECT_NE(table.find("wear_mpc                0.0600    0.1200"), std::string::npos) << table;

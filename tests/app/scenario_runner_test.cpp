@@ -16,11 +16,10 @@
 
 #include "support/fake_clocks.hpp"
 #include "swerve/app/run_report.hpp"
+#include "support/test_data.hpp"
 
 namespace swerve {
 namespace {
-
-std::string data_file(const std::string& name) { return std::string(SWERVE_SOURCE_DIR) + "/tests/app/data/" + name; }
 
 std::string temp_dir(const std::string& name) {
   const auto dir = std::filesystem::temp_directory_path() / ("swerve_sim_test_" + name);
@@ -63,14 +62,14 @@ TravelSpread widest_travel_spread(const ControllerRun& run) {
 // one side together (hysteresis across the stop), so no two of them ever drive more than 60 deg
 // apart. Before, they split between the stops and drove against each other.
 TEST(ScenarioRunner, TheBaselineCrabsAt90DegreesOnEveryVehicleWithEndStopsThereWithoutModulesFighting) {
-  const std::string source = file_text(data_file("crab90_end_stops_baseline.yaml"));
+  const std::string source = file_text(testing::app_data_file("crab90_end_stops_baseline.yaml"));
   int vehicles = 0;
   for (const char* vehicle : {"carrier_6module", "carrier_8module", "paper_ms_agv"}) {
     SCOPED_TRACE(vehicle);
     std::string text = source;
     const std::string from = "carrier_6module.yaml";
     text.replace(text.find(from), from.size(), std::string(vehicle) + ".yaml");
-    const std::string path = data_file(std::string("crab90_end_stops_") + vehicle + ".generated.yaml");
+    const std::string path = testing::app_data_file(std::string("crab90_end_stops_") + vehicle + ".generated.yaml");
     std::ofstream(path) << text;
     const ScenarioConfig scenario = load_scenario_config_file(path);
     std::filesystem::remove(path);
@@ -97,7 +96,7 @@ TEST(ScenarioRunner, TheBaselineCrabsAt90DegreesOnEveryVehicleWithEndStopsThereW
 }
 
 TEST(ScenarioRunner, ShortPaperScenarioRunsEveryControllerWithFiniteMetrics) {
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_offset60.yaml"));
   const std::vector<ControllerRun> runs = run_scenario(scenario);
   ASSERT_EQ(runs.size(), 3u);
   for (const ControllerRun& run : runs) {
@@ -131,7 +130,7 @@ TEST(ScenarioRunner, ShortPaperScenarioRunsEveryControllerWithFiniteMetrics) {
 constexpr double kMinimumWearReductionPct = 30.0;
 
 TEST(ScenarioRunner, WearMpcWearsFarLessThanTheKinematicBaselineFromA60DegreeOffset) {
-  const ScenarioConfig base = load_scenario_config_file(data_file("offset60_from_rest.yaml"));
+  const ScenarioConfig base = load_scenario_config_file(testing::app_data_file("offset60_from_rest.yaml"));
   for (const std::uint64_t seed : {7u, 8u, 9u}) {
     SCOPED_TRACE(seed);
     RunOverrides overrides;
@@ -157,7 +156,7 @@ TEST(ScenarioRunner, IdenticalSeedsWriteIdenticalLogs) {
   // The controllers run on a clock that advances 10 us per read (SA reads it once per proposal),
   // so the deadline and SA's time-driven cooling are the same on any machine, under any load and
   // in a sanitizer build: the logs must agree to the last digit, timing columns included.
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("deterministic.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("deterministic.yaml"));
   const std::string a = temp_dir("det_a"), b = temp_dir("det_b"), c = temp_dir("det_c");
   const testing::WorkClock clock(10e-6);
   write_run_outputs(scenario, run_scenario(scenario, {}, &clock), a);
@@ -192,7 +191,7 @@ std::vector<std::string> csv_cells(const std::string& line) {
 // the best initial guess, and a total of at least its tracking and wear parts. The baseline runs no
 // optimiser and leaves them empty.
 TEST(ScenarioRunner, TheLogCarriesEachPlansPredictedCostAndTheBestGuessItStartedFrom) {
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("deterministic.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("deterministic.yaml"));
   const std::string dir = temp_dir("plan_cost");
   const testing::WorkClock clock(10e-6);
   write_run_outputs(scenario, run_scenario(scenario, {}, &clock), dir);
@@ -229,7 +228,7 @@ TEST(ScenarioRunner, TheLogCarriesEachPlansPredictedCostAndTheBestGuessItStarted
 }
 
 TEST(ScenarioRunner, SummaryJsonHasEveryDocumentedKeyWithItsType) {
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_offset60.yaml"));
   const std::string dir = temp_dir("summary");
   write_run_outputs(scenario, run_scenario(scenario), dir);
   std::ifstream in(dir + "/summary.json");
@@ -267,7 +266,7 @@ TEST(ScenarioRunner, SummaryJsonHasEveryDocumentedKeyWithItsType) {
 }
 
 TEST(ScenarioRunner, OverridesPickControllersAndRejectUnknownNames) {
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_offset60.yaml"));
   RunOverrides only_baseline;
   only_baseline.controllers = {"kinematic_baseline"};
   EXPECT_EQ(apply_overrides(scenario, only_baseline).controllers.size(), 1u);
@@ -291,7 +290,7 @@ TEST(ScenarioRunner, OverridesPickControllersAndRejectUnknownNames) {
 
 void expect_config_error(const std::string& file, const std::string& expected) {
   try {
-    load_scenario_config_file(data_file(file));
+    load_scenario_config_file(testing::app_data_file(file));
     FAIL() << file << " was accepted";
   } catch (const ConfigError& error) {
     const std::string message = error.what();
@@ -313,7 +312,7 @@ TEST(ScenarioConfig, BadFilesNameTheFileTheKeyPathAndTheValue) {
 }
 
 TEST(ScenarioConfig, AScenarioWideMeasurementFilterReachesEveryController) {
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("filtered_crab.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("filtered_crab.yaml"));
   ASSERT_EQ(scenario.controllers.size(), 2u);
   for (const ScenarioController& c : scenario.controllers) {
     SCOPED_TRACE(c.name);
@@ -325,14 +324,14 @@ TEST(ScenarioConfig, AScenarioWideMeasurementFilterReachesEveryController) {
 }
 
 TEST(RunReport, AnUnwritableOutputDirectoryIsAClearError) {
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_curve_baseline.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_curve_baseline.yaml"));
   const std::vector<ControllerRun> runs;  // nothing to write but the summary
   EXPECT_THROW(write_run_outputs(scenario, runs, "/proc/swerve_cannot_write_here"), std::runtime_error);
 }
 
 TEST(ScenarioRunner, ARepeatedControllerOverrideIsAnOverrideError) {
   // Running a controller twice would leave one summary.json entry for two runs.
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_curve_baseline.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_curve_baseline.yaml"));
   RunOverrides twice;
   twice.controllers = {"kinematic_baseline", "kinematic_baseline"};
   try {
@@ -349,7 +348,7 @@ TEST(ScenarioRunner, ARepeatedControllerOverrideIsAnOverrideError) {
 
 TEST(ScenarioRunner, ABadToleranceOverrideIsAnOverrideErrorEvenWithoutAWearAwareController) {
   // Like --backend: a typo must not pass just because the chosen controllers would ignore it.
-  const ScenarioConfig scenario = load_scenario_config_file(data_file("short_curve_baseline.yaml"));
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_curve_baseline.yaml"));
   RunOverrides bad;
   TrackingTolerance tolerance;
   tolerance.position = -0.05;
@@ -365,7 +364,7 @@ TEST(ScenarioRunner, ABadToleranceOverrideIsAnOverrideErrorEvenWithoutAWearAware
 }
 
 TEST(ScenarioConfig, StepCountIsBoundedInsteadOfOverflowing) {
-  ScenarioConfig scenario = load_scenario_config_file(data_file("short_curve_baseline.yaml"));
+  ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_curve_baseline.yaml"));
   EXPECT_EQ(scenario.steps(), 40);  // 2 s at 50 ms
   scenario.duration = kMaxScenarioSteps * scenario.simulator.control_period;
   EXPECT_EQ(scenario.steps(), kMaxScenarioSteps);
@@ -374,7 +373,7 @@ TEST(ScenarioConfig, StepCountIsBoundedInsteadOfOverflowing) {
 }
 
 TEST(RunReport, OutputDirectoryIsCheckedBeforeAnythingRuns) {
-  const std::string file = data_file("short_curve_baseline.yaml");
+  const std::string file = testing::app_data_file("short_curve_baseline.yaml");
   try {
     prepare_output_directory(file);  // an existing regular file cannot be the output directory
     FAIL() << "a regular file was accepted as the output directory";
@@ -393,7 +392,7 @@ TEST(RunReport, OutputDirectoryIsCheckedBeforeAnythingRuns) {
 // deadbeat steering chase its own delayed effect. The delayed run's wear stays within 1.5x of the
 // undelayed run's; without the latency compensation it was ~500x (0.4 J -> 228 J on 16 s).
 TEST(ScenarioRunner, AOnePeriodMeasurementDelayDoesNotMakeTheBaselineSteeringOscillate) {
-  ScenarioConfig delayed = load_scenario_config_file(data_file("crab_delayed_baseline.yaml"));
+  ScenarioConfig delayed = load_scenario_config_file(testing::app_data_file("crab_delayed_baseline.yaml"));
   ASSERT_EQ(delayed.simulator.measurement_delay_steps, 1);
   ScenarioConfig prompt = delayed;
   prompt.simulator.measurement_delay_steps = 0;
@@ -430,7 +429,7 @@ TEST(ScenarioRunner, AOnePeriodMeasurementDelayDoesNotMakeTheBaselineSteeringOsc
 // travel stay within 60 deg of each other (a pure translation; measured at most 29 deg over seeds
 // 1-8, against 156-173 deg in 4 of 5 seeds when each module decided its flip alone).
 TEST(ScenarioRunner, UnderSensorNoiseTheBaselinesModulesNeverDriveAgainstEachOther) {
-  ScenarioConfig scenario = load_scenario_config_file(data_file("crab_noisy_baseline.yaml"));
+  ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("crab_noisy_baseline.yaml"));
   for (const std::uint64_t seed : {1u, 2u, 3u, 4u}) {
     SCOPED_TRACE(::testing::Message() << "seed " << seed);
     scenario.simulator.seed = seed;

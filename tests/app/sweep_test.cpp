@@ -1,6 +1,7 @@
 // The wear-versus-tracking sweep: one baseline run, then the wear-aware controller at each point,
 // reported in order with the weight the cost actually used; bad points refused before any run.
 #include "swerve/app/sweep.hpp"
+#include "support/test_data.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,10 +12,8 @@
 namespace swerve {
 namespace {
 
-std::string data_file(const std::string& name) { return std::string(SWERVE_SOURCE_DIR) + "/tests/app/data/" + name; }
-
 ScenarioConfig short_scenario() {
-  ScenarioConfig scenario = load_scenario_config_file(data_file("short_offset60.yaml"));
+  ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_offset60.yaml"));
   scenario.duration = 0.5;
   return scenario;
 }

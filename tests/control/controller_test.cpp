@@ -630,6 +630,23 @@ TEST(Controller, TheDeadlineCoversTheWholeStepNotOnlyTheSolve) {
   EXPECT_NEAR(out.step_time_s, options.horizon * 1e-4, 1e-9);
 }
 
+TEST(Controller, ChargesItsPredictionModelsWorkToTheClockItRunsOn) {
+  // A work clock that charges only model evaluations: a step's time is the work its rollouts did,
+  // and after set_clock the work goes to the new clock, not the old one.
+  double remaining_s = -1.0;
+  Controller controller(small_robot(), testing::line_reference(0.5), fast_options(), [&](const OcpProblem& p) {
+    return std::make_unique<DeadlineRecorder>(p, &remaining_s);
+  });
+  const WorkClock first(0.0, 1e-6), second(0.0, 1e-6);
+  controller.set_clock(first);
+  const double first_step_s = controller.step(at_rest(), 0.0).step_time_s;
+  EXPECT_GT(first_step_s, 0.0);
+  const TimePoint first_after = first.now();
+  controller.set_clock(second);
+  EXPECT_GT(controller.step(at_rest(), fast_options().dt).step_time_s, 0.0);
+  EXPECT_EQ(first.now(), first_after);
+}
+
 TEST(Controller, AStallPastTheSolversDeadlineWidensTheMarginSoTheNextStepsEndInTime) {
   // 5 ms budget, 0.25 ms base margin. One step overshoots the solver's deadline by 1 ms (a stall):
   // that step misses, and the next steps give the solver 1.5 ms less, so the same stall again would

@@ -2,6 +2,7 @@
 #include "swerve/app/kinematics_config.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/kinematics/module_state.hpp"
+#include "support/config_errors.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,16 +11,6 @@
 
 namespace swerve {
 namespace {
-
-template <typename Body>
-std::string error_of(Body body) {
-  try {
-    body();
-  } catch (const ConfigError& error) {
-    return error.what();
-  }
-  return "";
-}
 
 void expect_position(const ModuleLayout& layout, int module, double x, double y) {
   EXPECT_NEAR(layout.position_body(module).x(), x, 1e-12) << "module " << module;
@@ -67,7 +58,7 @@ TEST(ModuleLayout, RecenteredMeasuresModulesFromTheNewReferencePoint) {
 }
 
 TEST(ModuleLayout, FewerThanTwoModulesIsRejected) {
-  const std::string message = error_of([] { ModuleLayout({{0.0, 0.0}}, 0.05); });
+  const std::string message = testing::config_error_of([] { ModuleLayout({{0.0, 0.0}}, 0.05); });
   EXPECT_NE(message.find("ModuleLayout.modules = 1"), std::string::npos) << message;
 }
 
@@ -75,28 +66,28 @@ TEST(ModuleLayout, MoreModulesThanTheKinematicsSupportIsRejected) {
   // kMaxModules sizes every real-time buffer: a layout past it must fail here, where a config
   // loader sees it, not later when a Kinematics or controller is built.
   EXPECT_NO_THROW(ModuleLayout::multi_axle(kMaxModules / 2, 0.3, 0.6, 0.05));
-  const std::string message = error_of([] { ModuleLayout::multi_axle(kMaxModules / 2 + 1, 0.3, 0.6, 0.05); });
+  const std::string message = testing::config_error_of([] { ModuleLayout::multi_axle(kMaxModules / 2 + 1, 0.3, 0.6, 0.05); });
   EXPECT_NE(message.find("ModuleLayout.modules = 18: at most 16 modules are supported"), std::string::npos) << message;
 }
 
 TEST(ModuleLayout, CoincidentModulesAreRejectedNamingBothModules) {
-  const std::string message = error_of([] { ModuleLayout({{0.3, 0.2}, {-0.3, 0.2}, {0.3, 0.2}}, 0.05); });
+  const std::string message = testing::config_error_of([] { ModuleLayout({{0.3, 0.2}, {-0.3, 0.2}, {0.3, 0.2}}, 0.05); });
   EXPECT_NE(message.find("modules[2].position"), std::string::npos) << message;
   EXPECT_NE(message.find("0.3"), std::string::npos) << message;
   EXPECT_NE(message.find("coincides with modules[0]"), std::string::npos) << message;
 }
 
 TEST(ModuleLayout, NonFinitePositionIsRejectedNamingTheModule) {
-  const std::string message = error_of([] { ModuleLayout({{0.3, 0.2}, {NAN, 0.2}}, 0.05); });
+  const std::string message = testing::config_error_of([] { ModuleLayout({{0.3, 0.2}, {NAN, 0.2}}, 0.05); });
   EXPECT_NE(message.find("modules[1].position"), std::string::npos) << message;
 }
 
 TEST(ModuleLayout, BadWheelRadiusAndLimitsAreRejectedWithTheirValue) {
-  EXPECT_NE(error_of([] { ModuleLayout::rectangle(0.6, 0.4, -0.05); }).find("wheel_radius = -0.05"),
+  EXPECT_NE(testing::config_error_of([] { ModuleLayout::rectangle(0.6, 0.4, -0.05); }).find("wheel_radius = -0.05"),
             std::string::npos);
   ModuleLimits limits;
   limits.max_drive_acceleration = -1.0;
-  EXPECT_NE(error_of([&] { ModuleLayout::rectangle(0.6, 0.4, 0.05, limits); })
+  EXPECT_NE(testing::config_error_of([&] { ModuleLayout::rectangle(0.6, 0.4, 0.05, limits); })
                 .find("max_drive_acceleration = -1"),
             std::string::npos);
   EXPECT_THROW(ModuleLayout::multi_axle(0, 0.5, 0.6, 0.05), ConfigError);
@@ -123,7 +114,7 @@ TEST(ModuleLayout, YamlWithMoreModulesThanSupportedNamesFileAndKey) {
   std::string text = "vehicle:\n  wheel_radius: 0.06\n  modules:\n";
   for (int i = 0; i <= kMaxModules; ++i) text += "    - {position: [" + std::to_string(0.5 * i) + ", 0.3]}\n";
   const auto root = config::ConfigNode::parse(text, "configs/vehicles/long.yaml");
-  const std::string message = error_of([&] { load_module_layout(root.child("vehicle")); });
+  const std::string message = testing::config_error_of([&] { load_module_layout(root.child("vehicle")); });
   EXPECT_EQ(message, "configs/vehicles/long.yaml: vehicle.modules = a list of 17: at most 16 modules are supported");
 }
 
@@ -131,7 +122,7 @@ TEST(ModuleLayout, YamlErrorsNameFileKeyPathAndValue) {
   const auto root = config::ConfigNode::parse(
       "vehicle:\n  wheel_radius: 0.06\n  modules:\n    - {position: [0.4, 0.3]}\n    - {position: [0.4, 0.3]}\n",
       "configs/vehicles/bad.yaml");
-  const std::string message = error_of([&] { load_module_layout(root.child("vehicle")); });
+  const std::string message = testing::config_error_of([&] { load_module_layout(root.child("vehicle")); });
   EXPECT_NE(message.find("configs/vehicles/bad.yaml: vehicle.modules[1].position"), std::string::npos) << message;
   EXPECT_NE(message.find("coincides with modules[0]"), std::string::npos) << message;
 
@@ -139,7 +130,7 @@ TEST(ModuleLayout, YamlErrorsNameFileKeyPathAndValue) {
       "vehicle:\n  wheel_radius: 0.06\n  modules:\n    - {position: [0.4, 0.3]}\n    - {position: [0.4, -0.3]}\n"
       "  limits: {steering_rate: -2}\n",
       "v.yaml");
-  const std::string limit_message = error_of([&] { load_module_layout(negative.child("vehicle")); });
+  const std::string limit_message = testing::config_error_of([&] { load_module_layout(negative.child("vehicle")); });
   EXPECT_NE(limit_message.find("vehicle.limits.steering_rate"), std::string::npos) << limit_message;
 }
 

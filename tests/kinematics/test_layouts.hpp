@@ -8,12 +8,9 @@
 
 #include "swerve/kinematics/module_layout.hpp"
 
-namespace swerve::testing {
+#include "support/named_layout.hpp"
 
-struct NamedLayout {
-  std::string name;
-  ModuleLayout layout;
-};
+namespace swerve::testing {
 
 // Every module count 2..8, covering each builder with non-square proportions.
 inline std::vector<NamedLayout> layouts_2_to_8() {

@@ -9,12 +9,9 @@
 
 #include "swerve/models/vehicle_params.hpp"
 
-namespace swerve::testing {
+#include "support/named_layout.hpp"
 
-struct NamedLayout {
-  std::string name;
-  ModuleLayout layout;
-};
+namespace swerve::testing {
 
 inline std::vector<NamedLayout> test_layouts() {
   return {

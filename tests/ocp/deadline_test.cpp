@@ -30,6 +30,30 @@ TEST(WorkClock, ADeadlineOnItPassesAfterAFixedNumberOfReads) {
   EXPECT_EQ(clock.reads(), 6);
 }
 
+TEST(WorkClock, ChargedModuleEvaluationsAdvanceItByTheirRateAndReadsByTheirs) {
+  WorkClock clock(1e-3, 2e-6);
+  const TimePoint first = clock.now();
+  clock.charge(250.0);  // 250 evaluations at 2 us
+  EXPECT_EQ(clock.now() - first, to_duration(1e-3 + 5e-4));
+  clock.charge(0.0);
+  clock.charge(-3.0);  // nothing to charge: time stands
+  EXPECT_EQ(clock.now() - first, to_duration(2e-3 + 5e-4));
+}
+
+TEST(WorkClock, WithoutAnEvaluationRateChargesCostNothing) {
+  WorkClock clock(1e-3);
+  const TimePoint first = clock.now();
+  clock.charge(1e6);
+  EXPECT_EQ(clock.now() - first, to_duration(1e-3));
+}
+
+TEST(SteadyClock, IgnoresCharges) {
+  // The wall clock already holds the time the work took; a charge must not move a deadline on it.
+  const Deadline deadline = Deadline::in(to_duration(60.0));
+  steady_clock().charge(1e12);
+  EXPECT_FALSE(deadline.passed());
+}
+
 TEST(WorkClock, WithoutACostTimeStandsStill) {
   WorkClock clock;
   const TimePoint start = clock.now();

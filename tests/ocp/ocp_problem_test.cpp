@@ -15,6 +15,7 @@
 #include "support/swerve_problems.hpp"
 #include "support/two_threads.hpp"
 #include "swerve/core/config_error.hpp"
+#include "support/config_errors.hpp"
 
 namespace swerve {
 namespace {
@@ -170,16 +171,6 @@ TEST(OcpProblem, PerCycleSettersRejectBadValuesAndKeepTheOldOnes) {
   EXPECT_FALSE(problem.set_reference(4, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()));
   EXPECT_FALSE(problem.set_wear_weight(-1.0));
   EXPECT_FALSE(problem.set_previous_input(Eigen::Vector3d(0, std::nan(""), 0)));
-}
-
-template <typename Build>
-std::string error_of(Build build) {
-  try {
-    build();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
 }
 
 // The tracking tube: mu (max(0, |e_xy| - b)^2 + max(0, |e_psi| - c)^2), by hand. dt = 1, x0 = 0,
@@ -411,28 +402,28 @@ TEST(OcpProblem, RolloutsOnTheirOwnDataOnTwoThreadsMatchOneThreadBitForBit) {
 
 TEST(OcpProblem, ConstructionValidatesEveryField) {
   const DoubleIntegratorModel model;
-  EXPECT_EQ(error_of([&] { OcpProblem(model, 0, 0.1, {}, {}); }), "OcpProblem.horizon = 0: must be in [1, 1000]");
-  EXPECT_EQ(error_of([&] { OcpProblem(model, 5, -0.1, {}, {}); }), "OcpProblem.dt = -0.1: must be finite and > 0");
+  EXPECT_EQ(testing::config_error_of([&] { OcpProblem(model, 0, 0.1, {}, {}); }), "OcpProblem.horizon = 0: must be in [1, 1000]");
+  EXPECT_EQ(testing::config_error_of([&] { OcpProblem(model, 5, -0.1, {}, {}); }), "OcpProblem.dt = -0.1: must be finite and > 0");
   CostWeights negative;
   negative.wear = -1.0;
-  EXPECT_EQ(error_of([&] { OcpProblem(model, 5, 0.1, negative, {}); }),
+  EXPECT_EQ(testing::config_error_of([&] { OcpProblem(model, 5, 0.1, negative, {}); }),
             "OcpProblem.weights.wear = -1: must be finite and >= 0");
   CostWeights negative_width;
   negative_width.pose_huber_width = -0.1;
-  EXPECT_EQ(error_of([&] { OcpProblem(model, 5, 0.1, negative_width, {}); }),
+  EXPECT_EQ(testing::config_error_of([&] { OcpProblem(model, 5, 0.1, negative_width, {}); }),
             "OcpProblem.weights.pose_huber_width = -0.1: must be finite and >= 0");
   CostWeights wrong_size;
   wrong_size.effort = Eigen::VectorXd::Ones(2);
-  EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, wrong_size, {}); }).find("weights.effort.size() = 2"),
+  EXPECT_NE(testing::config_error_of([&] { OcpProblem(model, 5, 0.1, wrong_size, {}); }).find("weights.effort.size() = 2"),
             std::string::npos);
   InputBounds inverted;
   inverted.lower = Eigen::Vector3d(0, 2, 0);
   inverted.upper = Eigen::Vector3d(1, 1, 1);
-  EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, {}, inverted); }).find("OcpProblem.bounds.lower[1] = 2"),
+  EXPECT_NE(testing::config_error_of([&] { OcpProblem(model, 5, 0.1, {}, inverted); }).find("OcpProblem.bounds.lower[1] = 2"),
             std::string::npos);
   InputBounds zero_step;
   zero_step.max_step = Eigen::Vector3d(1, 0, 1);
-  EXPECT_NE(error_of([&] { OcpProblem(model, 5, 0.1, {}, zero_step); }), "");
+  EXPECT_NE(testing::config_error_of([&] { OcpProblem(model, 5, 0.1, {}, zero_step); }), "");
 }
 
 }  // namespace

@@ -472,6 +472,43 @@ TEST(VehiclePredictionModel, RolloutsWithTheirOwnDataOnTwoThreadsMatchOneThreadB
   EXPECT_EQ(mismatches[1], 0);
 }
 
+TEST(VehiclePredictionModel, ChargesItsClockModulesTimesTheEvaluationsEachStepTook) {
+  // A work clock prices a rollout by what it evaluates: four modules cost four per evaluation, and
+  // a slow step (five substeps) more than a cruising one.
+  const VehicleParams params = small_agv(true);
+  VehiclePredictionModel model(params);
+  const WorkClock clock(0.0, 1e-6);
+  model.charge_work_to(&clock);
+  const std::unique_ptr<PredictionData> data = model.create_data();
+  Eigen::VectorXd x_next(model.state_size());
+  double wear = 0.0;
+  const auto charged_step = [&](const Eigen::VectorXd& x, const Eigen::Vector3d& twist, long* evaluations) {
+    const long before = VehiclePredictionModel::model_evaluations(*data);
+    const TimePoint start = clock.now();
+    EXPECT_TRUE(model.twist_step(data.get(), x, twist, 0.05, x_next, &wear));
+    *evaluations = VehiclePredictionModel::model_evaluations(*data) - before;
+    return to_seconds(clock.now() - start);
+  };
+  long cruise_evaluations = 0, slow_evaluations = 0;
+  const double cruise = charged_step(moving_with(params, {0.8, 0.0, 0.3}), {0.8, 0.0, 0.3}, &cruise_evaluations);
+  const double slow = charged_step(Eigen::VectorXd::Zero(model.state_size()), {0.05, 0.0, 0.0}, &slow_evaluations);
+  ASSERT_GT(cruise_evaluations, 0);
+  EXPECT_NEAR(cruise, 4e-6 * static_cast<double>(cruise_evaluations), 1e-9);
+  EXPECT_NEAR(slow, 4e-6 * static_cast<double>(slow_evaluations), 1e-9);
+  EXPECT_GT(slow_evaluations, cruise_evaluations);
+  // A Jacobian is charged its Jet chunks, and nothing is charged once the clock is unwired.
+  Eigen::MatrixXd a(model.state_size(), model.state_size()), b(model.state_size(), 3);
+  Eigen::VectorXd wear_gradient(model.state_size() + 3);
+  TimePoint start = clock.now();
+  ASSERT_TRUE(model.twist_step_jacobians(data.get(), moving_with(params, {0.8, 0.0, 0.3}), {0.8, 0.0, 0.3}, 0.05,
+                                         x_next, a, b, &wear, wear_gradient));
+  EXPECT_GT(to_seconds(clock.now() - start), 4 * VehiclePredictionModel::module_evaluations_per_jet_chunk() * 1e-6 - 1e-9);
+  model.charge_work_to(nullptr);
+  start = clock.now();
+  EXPECT_TRUE(model.twist_step(data.get(), moving_with(params, {0.8, 0.0, 0.3}), {0.8, 0.0, 0.3}, 0.05, x_next, &wear));
+  EXPECT_EQ(clock.now(), start);
+}
+
 TEST(VehiclePredictionModel, SteadyMotionWearsNothingInPredictionAndPlant) {
   const WearPair w = stage_wear({0.5, 0.0, 0.0}, {0.5, 0.0, 0.0});
   EXPECT_NEAR(w.predicted, 0.0, 1e-9);

@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include "models/model_fixtures.hpp"
+#include "support/config_errors.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/models/integrators.hpp"
 
@@ -127,6 +128,26 @@ TEST(Simulator, IdenticalSeedsGiveIdenticalMeasurementsAndOtherSeedsDiffer) {
     EXPECT_EQ(a[k], b[k]);
     EXPECT_NE(a[k], c[k]);
   }
+}
+
+TEST(SimulatorOptions, ValidateHoldsTheSameRulesTheScenarioLoaderReads) {
+  // One table for both: a delay the loader refuses (it capped at 100, validate() did not) is refused
+  // in code too, and each message names the field and the value.
+  const auto message = [](const SimulatorOptions& options) {
+    return testing::config_error_of([&] { options.validate(); });
+  };
+  SimulatorOptions options;
+  EXPECT_EQ(message(options), "");
+  options.measurement_delay_steps = 100;
+  EXPECT_EQ(message(options), "");
+  options.measurement_delay_steps = 101;
+  EXPECT_EQ(message(options), "SimulatorOptions.measurement_delay_steps = 101: must be in [0, 100]");
+  options = SimulatorOptions{};
+  options.noise.yaw_rate = -0.1;
+  EXPECT_EQ(message(options), "SimulatorOptions.noise.yaw_rate = -0.1: must be finite and >= 0 (rad/s)");
+  options = SimulatorOptions{};
+  options.substeps = -1;
+  EXPECT_EQ(message(options), "SimulatorOptions.substeps = -1: must be in [0, 100000]");
 }
 
 TEST(Simulator, MeasurementDelayShowsTheStateFromEarlierPeriods) {

@@ -11,6 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "swerve/ocp/deadline.hpp"
+#include "swerve/ocp/work_clock_rates.hpp"
+
 #include "swerve/sim/metrics.hpp"
 
 namespace swerve {
@@ -46,7 +49,9 @@ struct EnvelopeOptions {
   std::string baseline_file = "configs/controllers/kinematic_baseline.yaml";
   // s per clock read of each run's WorkClock; 0: the steady (wall) clock. The work clock is the
   // default so that the same seed gives the same verdicts on every machine and at every --jobs.
-  double work_clock = 8e-5;
+  double work_clock = kReferenceSecondsPerRead;
+  // s per module evaluation the prediction model charges to that clock (0: reads only).
+  double work_clock_evaluation = kReferenceSecondsPerModuleEvaluation;
 
   // The families asked for, in the order given (every family when none is named). Call validate() first.
   std::vector<ReferenceFamily> family_list() const;

@@ -304,6 +304,7 @@ class SemiImplicitStep {
     std::vector<Vector> split_states;                                        // per split depth
     ModuleStates wheel_states;
     typename DiscreteDynamics<T>::Data rk4;  // PredictionMethod::kRk4's stages
+    long rk4_evaluations = 0;                 // its derivative evaluations (4 per substep)
     BodyTwistSolver::Data twist;
   };
 
@@ -313,8 +314,10 @@ class SemiImplicitStep {
   int state_size() const noexcept { return model_.state_size() + lag_states_ + steering_lag_states_; }
   int wheel_speed_states() const noexcept { return lag_states_; }
   int steering_rate_states() const noexcept { return steering_lag_states_; }
-  // Evaluations of the vehicle model's derivative in double by the semi-implicit steps so far.
-  static long model_evaluations(const Data& d) noexcept { return BodyTwistSolver::evaluations(d.twist); }
+  // Evaluations of the vehicle model's derivative in double by the steps so far.
+  static long model_evaluations(const Data& d) noexcept {
+    return BodyTwistSolver::evaluations(d.twist) + d.rk4_evaluations;
+  }
 
   // Jacobians are evaluated in chunks of Jet directions, each a full step at the same values. The
   // first chunk records each substep's Newton solution and dG/dv factorisation; later chunks
@@ -372,6 +375,7 @@ class SemiImplicitStep {
                           &d.steering_rates_end[i], &d.u_applied[InputIndex::steering_rate(i)]);
       }
       ok = rk4_.step(d.rk4, x, d.u_applied, dt, options_.substeps, x_next, &wear) == ModelStatus::kOk;
+      d.rk4_evaluations += 4L * options_.substeps;
       d.wheel_speeds_now = d.wheel_speeds_next;
       d.steering_rates_now = d.steering_rates_end;
     } else {

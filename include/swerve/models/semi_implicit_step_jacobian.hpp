@@ -25,6 +25,9 @@ class SemiImplicitStepJacobian {
 
   int state_size() const noexcept { return state_size_; }
   int input_size() const noexcept { return input_size_; }  // module inputs: 2 per module
+  // The Jet evaluations of the step one Jacobian takes: the nx + (input size) directions in chunks
+  // of the Jet's width (module_step: input_size(); twist_step: 3).
+  static int chunks(int directions) noexcept;
 
   // The caller's scratch: the step's Jet data and the seeded inputs, for the Jacobian it was made
   // from only. The Jacobian object itself is immutable, so evaluations that each pass a Data of

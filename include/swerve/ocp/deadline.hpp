@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 
 namespace swerve {
 
@@ -16,6 +17,9 @@ class Clock {
  public:
   virtual ~Clock() = default;
   virtual TimePoint now() const noexcept = 0;
+  // Work done by a model on this clock's behalf, in module evaluations (one swerve module's forces
+  // and wear, in double). The wall clock ignores it: the time it took is already on the clock.
+  virtual void charge(double module_evaluations) const noexcept { (void)module_evaluations; }
 };
 
 // The process's steady clock (the default everywhere). A namespace-scope object: no
@@ -29,26 +33,42 @@ inline double to_seconds(Duration duration) noexcept { return std::chrono::durat
 
 // A clock that advances by the work done rather than the time taken: `per_read` at every read
 // (the solvers read once per proposal or iteration, the controller a few times per step), plus
-// whatever advance() adds. A run on it does the same work on every machine, under any load and
-// under an emulator, so it is repeatable bit for bit and its instructions can be counted
-// (`swerve-mpc run --work-clock`, scripts/cpu_slowdown.py); deadline tests use it too. Reads and
-// advances are atomic, so a solver's worker threads may share one (their interleaving then decides
-// which read sees which time, so a multi-threaded run is safe but not bit-repeatable).
+// `per_module_evaluation` for every module evaluation a prediction model charges (charge()), plus
+// whatever advance() adds. The model's charge makes a proposal cost in proportion to the modules
+// and substeps it evaluates, as on the wall clock; reads alone price a 10-module vehicle's
+// proposal like a 2-module one's. A run on it does the same work on every machine, under any load and under an
+// emulator, so it is repeatable bit for bit and its instructions can be counted (`swerve-mpc run
+// --work-clock`, scripts/cpu_slowdown.py); deadline tests use it too. Reads, charges and advances
+// are atomic, so a solver's worker threads may share one (their interleaving then decides which
+// read sees which time, so a multi-threaded run is safe but not bit-repeatable).
 class WorkClock final : public Clock {
  public:
-  explicit WorkClock(double per_read_s = 0.0) noexcept : per_read_(to_duration(per_read_s).count()) {}
+  explicit WorkClock(double per_read_s = 0.0, double per_module_evaluation_s = 0.0) noexcept
+      : per_read_(to_duration(per_read_s).count()),
+        per_module_evaluation_(std::chrono::duration<double, Duration::period>(
+                                   std::chrono::duration<double>(per_module_evaluation_s))
+                                   .count()) {}
   WorkClock(const WorkClock& other) noexcept
-      : per_read_(other.per_read_), ticks_(other.ticks_.load()), reads_(other.reads_.load()) {}
+      : per_read_(other.per_read_),
+        per_module_evaluation_(other.per_module_evaluation_),
+        ticks_(other.ticks_.load()),
+        reads_(other.reads_.load()) {}
   WorkClock& operator=(const WorkClock&) = delete;
   TimePoint now() const noexcept override {
     reads_.fetch_add(1, std::memory_order_relaxed);
     return TimePoint(Duration(ticks_.fetch_add(per_read_, std::memory_order_relaxed) + per_read_));
+  }
+  void charge(double module_evaluations) const noexcept override {
+    if (!(module_evaluations > 0.0) || per_module_evaluation_ == 0.0) return;
+    ticks_.fetch_add(static_cast<Duration::rep>(std::llround(module_evaluations * per_module_evaluation_)),
+                     std::memory_order_relaxed);
   }
   void advance(Duration by) noexcept { ticks_.fetch_add(by.count(), std::memory_order_relaxed); }
   long reads() const noexcept { return reads_.load(std::memory_order_relaxed); }
 
  private:
   Duration::rep per_read_;
+  double per_module_evaluation_;  // in the clock's ticks
   mutable std::atomic<Duration::rep> ticks_{0};
   mutable std::atomic<long> reads_{0};
 };

@@ -9,6 +9,8 @@
 
 #include <memory>
 
+#include "swerve/ocp/deadline.hpp"
+
 namespace swerve {
 
 // The scratch of a model's step (Crocoddyl's createData(), acados' workspace), made by the model's
@@ -46,6 +48,12 @@ class PredictionModel {
     (void)data;
     return step(x, u, dt, x_next, stage_wear);
   }
+
+  // The clock this model charges its work to (Clock::charge, in module evaluations), so a work
+  // clock prices a rollout by what it evaluates; nullptr (the default) charges nothing. Wiring,
+  // set by the owner before solving, not part of an evaluation: the clock must outlive the model.
+  // Models whose cost does not grow with a vehicle's size may leave it unused (the default).
+  virtual void charge_work_to(const Clock* clock) noexcept { (void)clock; }
 
   // Whether step_jacobians() gives exact derivatives (gradient-based backends need them).
   virtual bool has_jacobians() const noexcept { return false; }

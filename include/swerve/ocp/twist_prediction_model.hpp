@@ -26,6 +26,7 @@ class TwistPredictionModel final : public PredictionModel {
   bool step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
             const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
             double* stage_wear) const noexcept override;
+  void charge_work_to(const Clock* clock) noexcept override { modules_.charge_work_to(clock); }
   bool has_jacobians() const noexcept override { return true; }
   bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& twist_body,
                       double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,

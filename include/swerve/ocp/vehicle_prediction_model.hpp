@@ -49,6 +49,13 @@ class VehiclePredictionModel final : public PredictionModel {
   int state_size() const noexcept override { return state_size_; }
   int input_size() const noexcept override { return input_size_; }
   int input_group_size() const noexcept override { return 2; }  // (steering rate, wheel speed) per module
+  // Charges modules x (double evaluations of the vehicle model) per step, and a Jacobian's Jet
+  // chunks at module_evaluations_per_jet_chunk() each per module.
+  void charge_work_to(const Clock* clock) noexcept override { work_clock_ = clock; }
+  // What one module's share of one Jet chunk of a step (kModelJetSize directions, with its substeps
+  // and the replayed twist solve) costs in double evaluations of one module, as
+  // BM_Models_PredictionStep measures the two on the reference machine.
+  static double module_evaluations_per_jet_chunk() noexcept;
   bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
             Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override;
   bool has_jacobians() const noexcept override { return true; }
@@ -121,6 +128,10 @@ class VehiclePredictionModel final : public PredictionModel {
   std::unique_ptr<SemiImplicitStep<double>> values_;
   std::unique_ptr<SemiImplicitStepJacobian> jacobian_;  // the step's derivatives (models/)
   std::unique_ptr<Data> data_;                     // the scratch of the overloads without a Data
+  const Clock* work_clock_ = nullptr;              // charged with the work of every step (not owned)
+  double module_jacobian_work_ = 0.0, twist_jacobian_work_ = 0.0;  // module evaluations per Jacobian
+  bool charged_step(Data::Impl& own, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+                    double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
   Data::Impl& scratch(PredictionData* data) const noexcept;  // *data's, or the model's own for nullptr
 };
 

@@ -11,6 +11,7 @@
 #include <deque>
 #include <vector>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/vehicle_model.hpp"
 #include "swerve/kinematics/module_state.hpp"
@@ -23,6 +24,8 @@ struct MeasurementNoise {
   double velocity = 0.0;        // m/s on vx, vy
   double yaw_rate = 0.0;        // rad/s
   double steering_angle = 0.0;  // rad
+  // The rules of every field (each a standard deviation >= 0), for validate() and the loader.
+  static const OptionFields<MeasurementNoise>& fields();
 };
 
 struct SimulatorOptions {
@@ -33,6 +36,10 @@ struct SimulatorOptions {
   MeasurementNoise noise;
   int measurement_delay_steps = 0;  // the controller sees the state this many periods old
   std::uint64_t seed = 1;
+  // The rules of the fields a scenario's `simulator:` block sets (substeps, measurement_delay_steps),
+  // one table for validate() and the loader. control_period is the controllers' (checked by
+  // validate() alone), the seed any unsigned integer, the noise MeasurementNoise::fields().
+  static const OptionFields<SimulatorOptions>& fields();
   void validate() const;            // throws ConfigError naming the field and value
 };
 
