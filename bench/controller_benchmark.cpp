@@ -10,7 +10,7 @@
 #include <chrono>
 #include <vector>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/control/controller.hpp"
 #include "swerve/sim/metrics.hpp"

@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/ocp/vehicle_prediction_model.hpp"
 
 namespace swerve {

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <memory>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/vehicle_model.hpp"
 #include "swerve/control/reference.hpp"

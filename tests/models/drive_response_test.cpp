@@ -7,7 +7,7 @@
 
 #include <cmath>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/vehicle_model.hpp"
 

@@ -7,7 +7,7 @@
 
 #include <random>
 
-#include "model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/models/jet.hpp"
 
 namespace swerve {

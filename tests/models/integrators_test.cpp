@@ -8,7 +8,7 @@
 #include <cmath>
 #include <limits>
 
-#include "model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 
 namespace swerve {
 namespace {

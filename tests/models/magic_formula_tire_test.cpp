@@ -138,7 +138,7 @@ TEST(MagicFormulaTire, PeakEqualsDAtTheClosedFormPeakSlip) {
   const double alpha_peak = std::tan(kPiTest / (2 * 1.3)) / 15.0;
   EXPECT_NEAR(tire.peak_slip_ratio(), kappa_peak, 1e-12);
   EXPECT_NEAR(tire.peak_slip_angle(), alpha_peak, 1e-12);
-  // paper-notes assumption 4's default tire peaks at kappa = tan(pi / 3.3) / 10 = 0.14038..., printed
+  // docs/paper.md, assumption 4's default tire peaks at kappa = tan(pi / 3.3) / 10 = 0.14038..., printed
   // there as 0.1404: tolerance half a unit in that last digit.
   EXPECT_NEAR(tire.peak_slip_ratio(), 0.1404, 5e-5);
   const double d = p.mu * kFz;

@@ -2,7 +2,7 @@
 // its wear outputs, and the Jet Jacobians of f and F (counted by hooking malloc, not timed).
 #include <gtest/gtest.h>
 
-#include "model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "support/allocation_counter.hpp"
 #include "swerve/models/dynamics_jacobian.hpp"
 #include "swerve/models/integrators.hpp"

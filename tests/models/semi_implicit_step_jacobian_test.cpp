@@ -9,7 +9,7 @@
 #include <cmath>
 #include <vector>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "support/two_threads.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/kinematics/module_state.hpp"

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <string>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/models/jet.hpp"
 

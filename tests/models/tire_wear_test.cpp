@@ -8,7 +8,7 @@
 #include <cmath>
 #include <vector>
 
-#include "model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/models/vehicle_model.hpp"
 

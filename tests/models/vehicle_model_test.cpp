@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/magic_formula_tire.hpp"
 

@@ -7,14 +7,14 @@
 #include <cmath>
 #include <functional>
 
-#include "model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/core/config_error.hpp"
 
 namespace swerve {
 namespace {
 
 TEST(VehicleParams, SymmetricLayoutsShareTheWeightEqually) {
-  // paper-notes assumption 2: F_N = m g / n on every wheel of a symmetric layout.
+  // docs/paper.md, assumption 2: F_N = m g / n on every wheel of a symmetric layout.
   for (const auto& named : testing::test_layouts()) {
     const VehicleParams params = testing::make_params(named.layout);
     const auto loads = params.static_normal_loads();

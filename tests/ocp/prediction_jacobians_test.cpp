@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <random>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
 

@@ -16,7 +16,7 @@
 #include <random>
 #include <vector>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "support/two_threads.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/sim/simulator.hpp"

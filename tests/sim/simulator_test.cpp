@@ -6,7 +6,7 @@
 
 #include <cstdio>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "support/config_errors.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/models/integrators.hpp"

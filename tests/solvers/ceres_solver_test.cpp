@@ -11,7 +11,7 @@
 #include <random>
 #include <string>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "support/fake_clocks.hpp"
 #include "support/linear_models.hpp"
 #include "support/swerve_problems.hpp"

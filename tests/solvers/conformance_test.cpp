@@ -10,7 +10,7 @@
 #include <limits>
 #include <vector>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "support/fake_clocks.hpp"
 #include "support/linear_models.hpp"
 #include "support/swerve_problems.hpp"

@@ -11,7 +11,7 @@
 
 #include <random>
 
-#include "models/model_fixtures.hpp"
+#include "support/model_fixtures.hpp"
 #include "swerve/ocp/ocp_problem.hpp"
 #include "swerve/ocp/solver.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"

@@ -24,7 +24,7 @@ inline std::vector<NamedLayout> test_layouts() {
   };
 }
 
-// Default tire/wear (paper-notes assumptions 4, 5); 40 kg per module; plate inertia.
+// Default tire/wear (docs/paper.md, assumptions 4, 5); 40 kg per module; plate inertia.
 inline VehicleParams make_params(const ModuleLayout& layout) {
   VehicleParams params(layout);
   params.name = "test";
