@@ -151,6 +151,22 @@ class SimulatedAnnealingSolver::Workers {
   std::atomic<bool> solving_{false};
 };
 
+// The workers spin from a solve's start to its end, so the first batch does not wait for a wake-up.
+class SimulatedAnnealingSolver::SolvingWorkers {
+ public:
+  explicit SolvingWorkers(Workers* workers) noexcept : workers_(workers) {
+    if (workers_ != nullptr) workers_->begin_solve();
+  }
+  ~SolvingWorkers() {
+    if (workers_ != nullptr) workers_->end_solve();
+  }
+  SolvingWorkers(const SolvingWorkers&) = delete;
+  SolvingWorkers& operator=(const SolvingWorkers&) = delete;
+
+ private:
+  Workers* workers_;
+};
+
 const OptionFields<SaOptions>& SaOptions::fields() {
   static const OptionFields<SaOptions> table{
       {"knots", &SaOptions::knots, Bound::at_least(0), {}, nullptr, "(0: one knot per step)"},
@@ -658,39 +674,10 @@ void SimulatedAnnealingSolver::interpolate(const Eigen::MatrixXd& knots, int fir
   }
 }
 
-SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses,
-                                               Deadline deadline, Solution* out, SolveSummary* summary) noexcept {
-  // The workers spin from here to the solve's end, so the first batch does not wait for a wake-up.
-  struct SolvingWorkers {
-    Workers* workers;
-    explicit SolvingWorkers(Workers* w) noexcept : workers(w) {
-      if (workers != nullptr) workers->begin_solve();
-    }
-    ~SolvingWorkers() {
-      if (workers != nullptr) workers->end_solve();
-    }
-    SolvingWorkers(const SolvingWorkers&) = delete;
-    SolvingWorkers& operator=(const SolvingWorkers&) = delete;
-  } solving(workers_.get());
-  const double start_cost = start_.choose(problem, guesses, deadline);
-  long rollouts = start_.rollouts();
-  if (!std::isfinite(start_cost)) {
-    summary->reason = "the model failed on every initial guess";
-    summary->rollouts = rollouts;
-    return SolveStatus::kNumericalError;
-  }
-  knots_.setZero();
-  base_ = start_.inputs();
-  raw_ = base_;
-  inputs_ = base_;
-  states_ = start_.states();
-  stage_costs_ = start_.stage_costs();
-  stage_wear_ = start_.stage_wear();
-  double current_cost = start_cost;
-  // A full rollout, as timed on the start's guesses; the loop stops while one more proposal (the
-  // slowest seen) and one such rollout of slack for the scheduler still fit before the deadline.
-  const auto full_rollout = start_.longest_rollout();
-  const auto loop_start = deadline.now();
+SimulatedAnnealingSolver::BudgetPlan SimulatedAnnealingSolver::plan_budget(const Deadline& deadline,
+                                                                           TimePoint loop_start,
+                                                                           Duration full_rollout) noexcept {
+  BudgetPlan plan;
   // With a polish, the annealing ends early enough to leave it its share of the budget, unless a
   // gradient as last timed (with the polish's 1.5x allowance) would not fit in that share.
   // The slowest gradient seen decays by 1/16 per solve, so one stall is forgotten in ~50 solves.
@@ -698,7 +685,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
   const bool timed = deadline.at() != TimePoint::max();
   const Duration polish_window =
       timed ? std::chrono::duration_cast<Duration>(options_.polish_share * (deadline.at() - loop_start)) : Duration::max();
-  bool exact_polish = derivatives_ != nullptr &&
+  plan.exact_polish = derivatives_ != nullptr &&
                       (!timed || longest_gradient_ == Duration::zero() ||
                        longest_gradient_ + longest_gradient_ / 2 + 2 * full_rollout <= polish_window);
   // Else the knot polish, when one forward-difference gradient (as last timed, or one full rollout
@@ -709,15 +696,168 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
           ? longest_knot_gradient_
           : std::chrono::duration_cast<Duration>(knot_gradient_rollouts() * full_rollout);
   // knot_gradient_ is sized only when the options ask for a polish at all.
-  const bool knot_polish_allowed = options_.knot_polish && knot_gradient_.size() > 0;
+  plan.knot_polish_allowed = options_.knot_polish && knot_gradient_.size() > 0;
   const bool knot_polishing =
-      !exact_polish && knot_polish_allowed && (!timed || knot_gradient_estimate + 2 * full_rollout <= polish_window);
-  const bool polishing = exact_polish || knot_polishing;
-  const TimePoint anneal_end =
-      polishing && timed
+      !plan.exact_polish && plan.knot_polish_allowed && (!timed || knot_gradient_estimate + 2 * full_rollout <= polish_window);
+  plan.polishing = plan.exact_polish || knot_polishing;
+  plan.anneal_end =
+      plan.polishing && timed
           ? loop_start + std::chrono::duration_cast<Duration>((1.0 - options_.polish_share) * (deadline.at() - loop_start))
           : deadline.at();
-  const double loop_budget = to_seconds(anneal_end - 2 * full_rollout - loop_start);
+  plan.loop_budget = to_seconds(plan.anneal_end - 2 * full_rollout - loop_start);
+  return plan;
+}
+
+bool SimulatedAnnealingSolver::evaluate_batch(const OcpProblem& problem, long* rollouts,
+                                              double* candidate_cost) noexcept {
+  // Propose: one proposal here and, with workers, one more on each (drawn in order, so the seed
+  // alone decides them).
+  const int changed = propose(problem, &candidate_knots_, &candidate_raw_, &candidate_inputs_);
+  int batch = 0;
+  for (Proposal& p : proposals_) {
+    p.changed = propose(problem, &p.knots, &p.raw, &p.inputs);
+    if (p.changed < horizon_) ++batch;
+  }
+  if (changed == horizon_ && batch == 0) return false;  // the projection undid every move
+  batch_problem_ = &problem;
+  const bool parallel = batch > 0 && &problem.model() == proposal_model_;
+  if (parallel) workers_->start();
+  *candidate_cost = std::numeric_limits<double>::infinity();
+  if (changed < horizon_) {
+    *candidate_cost = roll_out_from(problem, nullptr, changed, candidate_inputs_, candidate_states_,
+                                    candidate_stage_costs_, candidate_stage_wear_);
+    ++*rollouts;
+  }
+  if (parallel) {
+    workers_->wait();
+  } else {
+    for (std::size_t b = 0; b < proposals_.size(); ++b) roll_out_proposal(b);
+  }
+  *rollouts += batch;
+  // The cheapest of the batch is the candidate (ties: the first drawn).
+  for (Proposal& p : proposals_) {
+    if (p.changed < horizon_ && p.cost < *candidate_cost) {
+      *candidate_cost = p.cost;
+      std::swap(candidate_knots_, p.knots);
+      std::swap(candidate_raw_, p.raw);
+      std::swap(candidate_inputs_, p.inputs);
+      std::swap(candidate_states_, p.states);
+      std::swap(candidate_stage_costs_, p.stage_costs);
+      std::swap(candidate_stage_wear_, p.stage_wear);
+    }
+  }
+  return true;
+}
+
+bool SimulatedAnnealingSolver::Schedule::accepts(double delta, double progress, double initial_acceptance,
+                                                 double final_temperature_ratio, double draw) noexcept {
+  if (probes < kProbeMoves) {
+    // Calibration: greedy, recording uphill steps to set T0 (docs/paper.md, assumption 8).
+    if (delta > 0.0 && std::isfinite(delta)) {
+      uphill_sum += delta;
+      ++uphill_count;
+    }
+    if (++probes == kProbeMoves) {
+      const double typical_uphill = uphill_count > 0 ? uphill_sum / uphill_count : 1e-9 * (1.0 + calibration_cost);
+      initial_temperature = -typical_uphill / std::log(initial_acceptance);
+    }
+    return delta <= 0.0;
+  }
+  temperature = initial_temperature * std::pow(final_temperature_ratio, std::max(0.0, progress));
+  return delta <= 0.0 || (std::isfinite(delta) && draw < std::exp(-delta / temperature));
+}
+
+void SimulatedAnnealingSolver::take_candidate(double candidate_cost, double* current_cost, double* best_cost,
+                                              Solution* out) noexcept {
+  std::swap(knots_, candidate_knots_);
+  std::swap(raw_, candidate_raw_);
+  std::swap(inputs_, candidate_inputs_);
+  std::swap(states_, candidate_states_);
+  std::swap(stage_costs_, candidate_stage_costs_);
+  std::swap(stage_wear_, candidate_stage_wear_);
+  *current_cost = candidate_cost;
+  if (*current_cost < *best_cost) {
+    *best_cost = *current_cost;
+    out->inputs = inputs_;
+    out->states = states_;
+    best_stage_wear_ = stage_wear_;
+    best_stage_costs_ = stage_costs_;
+  }
+}
+
+double SimulatedAnnealingSolver::restart_from_best(const OcpProblem& problem, const Solution& best) noexcept {
+  // Restart from the best plan seen, warmer: escapes a basin without losing the best.
+  raw_ = best.inputs;  // the best plan, as raw inputs with zero offsets
+  base_ = best.inputs;
+  knots_.setZero();
+  inputs_ = best.inputs;
+  return problem.rollout(nullptr, inputs_, 0, states_, stage_costs_, stage_wear_.data());
+}
+
+double SimulatedAnnealingSolver::start_from_guesses(const OcpProblem& problem, const InitialGuesses& guesses,
+                                                   const Deadline& deadline) noexcept {
+  const double start_cost = start_.choose(problem, guesses, deadline);
+  if (!std::isfinite(start_cost)) return start_cost;
+  knots_.setZero();
+  base_ = start_.inputs();
+  raw_ = base_;
+  inputs_ = base_;
+  states_ = start_.states();
+  stage_costs_ = start_.stage_costs();
+  stage_wear_ = start_.stage_wear();
+  return start_cost;
+}
+
+SimulatedAnnealingSolver::PolishResult SimulatedAnnealingSolver::polish_best(const OcpProblem& problem,
+                                                                             const Deadline& deadline,
+                                                                             const BudgetPlan& plan,
+                                                                             Duration full_rollout,
+                                                                             Duration longest_proposal, Solution* out,
+                                                                             long* rollouts) noexcept {
+  // The polish's own stop keeps the annealing's slack; its line search starts from the slowest
+  // proposal seen as the price of a full rollout, and raises it by what its trials take.
+  const TimePoint polish_end = deadline.at() == TimePoint::max() ? deadline.at() : deadline.at() - full_rollout;
+  const Duration proposal = std::max(full_rollout, longest_proposal);
+  PolishResult result;
+  result.exact = plan.exact_polish;
+  int steps = result.exact ? polish(problem, deadline, polish_end, proposal, out, rollouts) : kGradientDoesNotFit;
+  // The first solve learns a gradient's time from one stage; when it does not fit, or whenever
+  // none would, the knot polish takes the window.
+  if (steps == kGradientDoesNotFit && plan.knot_polish_allowed) {
+    result.exact = false;
+    steps = knot_polish(problem, deadline, polish_end, proposal, out, rollouts);
+  }
+  result.polished = steps > 0;
+  return result;
+}
+
+const char* SimulatedAnnealingSolver::solve_reason(bool deadline_hit, const PolishResult& polish) noexcept {
+  if (deadline_hit) {
+    return !polish.polished ? "stopped at the deadline with the best plan seen"
+           : polish.exact   ? "annealed and polished until the deadline"
+                            : "annealed and polished over the knots until the deadline";
+  }
+  return !polish.polished ? "completed the annealing schedule"
+         : polish.exact   ? "completed the annealing schedule and the polish"
+                          : "completed the annealing schedule and the knot polish";
+}
+
+SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses,
+                                               Deadline deadline, Solution* out, SolveSummary* summary) noexcept {
+  SolvingWorkers solving(workers_.get());
+  const double start_cost = start_from_guesses(problem, guesses, deadline);
+  long rollouts = start_.rollouts();
+  if (!std::isfinite(start_cost)) {
+    summary->reason = "the model failed on every initial guess";
+    summary->rollouts = rollouts;
+    return SolveStatus::kNumericalError;
+  }
+  double current_cost = start_cost;
+  // A full rollout, as timed on the start's guesses; the loop stops while one more proposal (the
+  // slowest seen) and one such rollout of slack for the scheduler still fit before the deadline.
+  const auto full_rollout = start_.longest_rollout();
+  const auto loop_start = deadline.now();
+  const BudgetPlan plan = plan_budget(deadline, loop_start, full_rollout);
   summary->initial_cost = current_cost;
   out->inputs = inputs_;
   out->states = states_;
@@ -727,13 +867,11 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
 
   // Geometric cooling over the schedule's progress: the larger of the share of iterations done and
   // the share of the time budget used, so a deadline-limited solve still cools all the way.
-  double initial_temperature = std::numeric_limits<double>::infinity();
-  double temperature = initial_temperature;
+  Schedule schedule;
+  schedule.calibration_cost = current_cost;
   double progress_at_reheat = 0.0;
-  double uphill_sum = 0.0;
-  int uphill_count = 0;
   int window_proposed = 0, window_accepted = 0;
-  int iteration = 0, probes = 0;
+  int iteration = 0;
   bool deadline_hit = false;
 
   auto longest_proposal = full_rollout;  // grows if a proposal ever takes longer than a full rollout
@@ -744,90 +882,32 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     // overruns without it: up to 0.2 ms on a 20 ms budget). The slowest proposal, not the start's
     // rollout: a plan that slows under 0.25 m/s takes the slow-motion substeps, and its rollout
     // costs ~10x one in cruise.
-    if (proposal_start + longest_proposal + full_rollout >= anneal_end) {
+    if (proposal_start + longest_proposal + full_rollout >= plan.anneal_end) {
       deadline_hit = true;
       break;
     }
     const double time_progress =
-        loop_budget > 0.0 ? std::chrono::duration<double>(proposal_start - loop_start).count() / loop_budget : 1.0;
+        plan.loop_budget > 0.0 ? std::chrono::duration<double>(proposal_start - loop_start).count() / plan.loop_budget
+                               : 1.0;
     const double progress =
         std::max(static_cast<double>(iteration) / options_.max_iterations, time_progress) - progress_at_reheat;
-    // Propose: one proposal here and, with workers, one more on each (drawn in order, so the seed
-    // alone decides them).
-    const int changed = propose(problem, &candidate_knots_, &candidate_raw_, &candidate_inputs_);
-    int batch = 0;
-    for (Proposal& p : proposals_) {
-      p.changed = propose(problem, &p.knots, &p.raw, &p.inputs);
-      if (p.changed < horizon_) ++batch;
-    }
-    if (changed == horizon_ && batch == 0) {  // the projection undid every move
+    double candidate_cost = 0.0;
+    if (!evaluate_batch(problem, &rollouts, &candidate_cost)) {
       now = deadline.now();
       continue;
     }
-    batch_problem_ = &problem;
-    const bool parallel = batch > 0 && &problem.model() == proposal_model_;
-    if (parallel) workers_->start();
-    double candidate_cost = std::numeric_limits<double>::infinity();
-    if (changed < horizon_) {
-      candidate_cost = roll_out_from(problem, nullptr, changed, candidate_inputs_, candidate_states_,
-                                     candidate_stage_costs_, candidate_stage_wear_);
-      ++rollouts;
-    }
-    if (parallel) {
-      workers_->wait();
-    } else {
-      for (std::size_t b = 0; b < proposals_.size(); ++b) roll_out_proposal(b);
-    }
-    rollouts += batch;
-    // The cheapest of the batch is the candidate (ties: the first drawn).
-    for (Proposal& p : proposals_) {
-      if (p.changed < horizon_ && p.cost < candidate_cost) {
-        candidate_cost = p.cost;
-        std::swap(candidate_knots_, p.knots);
-        std::swap(candidate_raw_, p.raw);
-        std::swap(candidate_inputs_, p.inputs);
-        std::swap(candidate_states_, p.states);
-        std::swap(candidate_stage_costs_, p.stage_costs);
-        std::swap(candidate_stage_wear_, p.stage_wear);
-      }
-    }
     now = deadline.now();
     longest_proposal = std::max(longest_proposal, now - proposal_start);
+    // A uniform draw only where the acceptance test needs one (calibrated, uphill): the seed's
+    // sequence of draws depends on it.
     const double delta = candidate_cost - current_cost;
-
-    bool accept = false;
-    if (probes < kProbeMoves) {
-      // Calibration: greedy, recording uphill steps to set T0 (docs/paper.md, assumption 8).
-      accept = delta <= 0.0;
-      if (delta > 0.0 && std::isfinite(delta)) {
-        uphill_sum += delta;
-        ++uphill_count;
-      }
-      if (++probes == kProbeMoves) {
-        const double typical_uphill = uphill_count > 0 ? uphill_sum / uphill_count : 1e-9 * (1.0 + current_cost);
-        initial_temperature = -typical_uphill / std::log(options_.initial_acceptance);
-      }
-    } else {
-      temperature = initial_temperature * std::pow(options_.final_temperature_ratio, std::max(0.0, progress));
-      accept = delta <= 0.0 || (std::isfinite(delta) && uniform() < std::exp(-delta / temperature));
-    }
+    const bool needs_draw = schedule.probes >= kProbeMoves && delta > 0.0 && std::isfinite(delta);
+    const bool accept = schedule.accepts(delta, progress, options_.initial_acceptance,
+                                         options_.final_temperature_ratio, needs_draw ? uniform() : 0.0);
     ++window_proposed;
     if (accept) {
       ++window_accepted;
-      std::swap(knots_, candidate_knots_);
-      std::swap(raw_, candidate_raw_);
-      std::swap(inputs_, candidate_inputs_);
-      std::swap(states_, candidate_states_);
-      std::swap(stage_costs_, candidate_stage_costs_);
-      std::swap(stage_wear_, candidate_stage_wear_);
-      current_cost = candidate_cost;
-      if (current_cost < best_cost) {
-        best_cost = current_cost;
-        out->inputs = inputs_;
-        out->states = states_;
-        best_stage_wear_ = stage_wear_;
-        best_stage_costs_ = stage_costs_;
-      }
+      take_candidate(candidate_cost, &current_cost, &best_cost, out);
     }
     if (window_proposed >= options_.adapt_interval) {
       const double rate = static_cast<double>(window_accepted) / window_proposed;
@@ -836,12 +916,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
       window_proposed = window_accepted = 0;
     }
     if (options_.reheat_interval > 0 && iteration > 0 && iteration % options_.reheat_interval == 0) {
-      // Restart from the best plan seen, warmer: escapes a basin without losing the best.
-      raw_ = out->inputs;  // the best plan, as raw inputs with zero offsets
-      base_ = out->inputs;
-      knots_.setZero();
-      inputs_ = out->inputs;
-      current_cost = problem.rollout(nullptr, inputs_, 0, states_, stage_costs_, stage_wear_.data());
+      current_cost = restart_from_best(problem, *out);
       ++rollouts;
       now = deadline.now();
       // Warmer again: half of the way back up the schedule.
@@ -849,35 +924,13 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     }
   }
   out->cost = best_cost;
-  bool polished = false;
-  if (polishing) {
-    // The polish's own stop keeps the annealing's slack; its line search starts from the slowest
-    // proposal seen as the price of a full rollout, and raises it by what its trials take.
-    const TimePoint polish_end = deadline.at() == TimePoint::max() ? deadline.at() : deadline.at() - full_rollout;
-    const Duration proposal = std::max(full_rollout, longest_proposal);
-    int steps = exact_polish ? polish(problem, deadline, polish_end, proposal, out, &rollouts) : kGradientDoesNotFit;
-    // The first solve learns a gradient's time from one stage; when it does not fit, or whenever
-    // none would, the knot polish takes the window.
-    if (steps == kGradientDoesNotFit && knot_polish_allowed) {
-      exact_polish = false;
-      steps = knot_polish(problem, deadline, polish_end, proposal, out, &rollouts);
-    }
-    polished = steps > 0;
-    best_cost = out->cost;
-  }
+  const PolishResult polished =
+      plan.polishing ? polish_best(problem, deadline, plan, full_rollout, longest_proposal, out, &rollouts) : PolishResult{};
   summary->iterations = iteration;
   summary->rollouts = rollouts;
   summary->cost = problem.breakdown(out->inputs, out->states, best_stage_wear_);
-  if (deadline_hit) {
-    summary->reason = !polished      ? "stopped at the deadline with the best plan seen"
-                      : exact_polish ? "annealed and polished until the deadline"
-                                     : "annealed and polished over the knots until the deadline";
-    return SolveStatus::kBudgetExhausted;
-  }
-  summary->reason = !polished      ? "completed the annealing schedule"
-                    : exact_polish ? "completed the annealing schedule and the polish"
-                                   : "completed the annealing schedule and the knot polish";
-  return SolveStatus::kConverged;
+  summary->reason = solve_reason(deadline_hit, polished);
+  return deadline_hit ? SolveStatus::kBudgetExhausted : SolveStatus::kConverged;
 }
 
 }  // namespace swerve

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -66,6 +67,51 @@ class SimulatedAnnealingSolver final : public Solver {
  private:
   SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                        SolveSummary* summary) noexcept override;
+
+  class SolvingWorkers;  // the workers spin while it lives (a solve)
+  // Chooses the start among the guesses (StartPlan) and makes it the current plan; returns its
+  // cost (not finite: the model failed on every guess).
+  double start_from_guesses(const OcpProblem& problem, const InitialGuesses& guesses, const Deadline& deadline) noexcept;
+  struct PolishResult {
+    bool polished = false;  // at least one step taken
+    bool exact = false;     // by the exact polish (else the knot polish)
+  };
+  struct BudgetPlan;
+  // The polish phase of `plan` on the best plan *out: the exact polish, or the knot polish when no
+  // gradient fits. `longest_proposal`: the slowest proposal of the annealing.
+  PolishResult polish_best(const OcpProblem& problem, const Deadline& deadline, const BudgetPlan& plan,
+                           Duration full_rollout, Duration longest_proposal, Solution* out, long* rollouts) noexcept;
+  // The summary's reason for how the solve ended.
+  static const char* solve_reason(bool deadline_hit, const PolishResult& polish) noexcept;
+
+  // How a solve spends its budget: the annealing until anneal_end (its progress measured over
+  // loop_budget seconds), then the exact polish or, when no gradient fits, the knot polish.
+  struct BudgetPlan {
+    bool exact_polish = false, knot_polish_allowed = false, polishing = false;
+    TimePoint anneal_end{};
+    double loop_budget = 0.0;
+  };
+  // The plan from the slowest gradients seen (each decayed by 1/16 here) and the time of a full
+  // rollout; reads no clock.
+  BudgetPlan plan_budget(const Deadline& deadline, TimePoint loop_start, Duration full_rollout) noexcept;
+  // The acceptance rule: kProbeMoves greedy probes whose mean uphill step sets T0 (so that it is
+  // accepted with probability initial_acceptance), then Metropolis at T0 ratio^progress. `draw` is
+  // a uniform draw in [0, 1), used only once calibrated and uphill.
+  struct Schedule {
+    int probes = 0, uphill_count = 0;
+    double uphill_sum = 0.0, calibration_cost = 0.0;
+    double initial_temperature = std::numeric_limits<double>::infinity();
+    double temperature = std::numeric_limits<double>::infinity();
+    bool accepts(double delta, double progress, double initial_acceptance, double final_temperature_ratio,
+                 double draw) noexcept;
+  };
+  // Draws a batch (one proposal here, one per worker), rolls it out and leaves the cheapest in the
+  // candidate buffers with its cost in *candidate_cost; false when the projection undid every move.
+  bool evaluate_batch(const OcpProblem& problem, long* rollouts, double* candidate_cost) noexcept;
+  // The candidate becomes the current plan (and the best one, with *out, when it is cheaper).
+  void take_candidate(double candidate_cost, double* current_cost, double* best_cost, Solution* out) noexcept;
+  // The current plan restarts from `best` with zero offsets; returns its cost (one rollout).
+  double restart_from_best(const OcpProblem& problem, const Solution& best) noexcept;
 
   // The polish (see SaOptions::polish_share) of out->inputs until `stop`; returns its steps and
   // updates *out (inputs, states, cost) and *rollouts; -1 when not even a first gradient fits.
