@@ -11,12 +11,8 @@
 namespace swerve {
 namespace {
 
-template <typename Value>
-[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
-  std::ostringstream message;
-  message << "VehicleParams." << field << " = " << value << ": " << rule;
-  throw ConfigError(message.str());
-}
+// The owner every rule of this file names (throw_invalid_field: "<owner>.<field> = <value>: <rule>").
+constexpr const char* kOwner = "VehicleParams";
 
 std::string format(const Eigen::Vector2d& v) {
   std::ostringstream out;
@@ -95,22 +91,22 @@ const OptionFields<VehicleParams>& VehicleParams::fields() {
 void VehicleParams::validate() const {
   check_fields("VehicleParams", *this, fields());
   if (!center_of_mass_body.allFinite()) {
-    reject("center_of_mass", format(center_of_mass_body), "must be finite");
+    throw_invalid_field(kOwner, "center_of_mass", format(center_of_mass_body), "must be finite");
   }
   check_fields("VehicleParams.actuators", actuators, ActuatorParams::fields());
   check_fields("VehicleParams.plant", plant, PlantOptions::fields());
   if (plant.load_transfer && !cog_height) {
-    reject("plant.load_transfer", "true", "needs cog_height");
+    throw_invalid_field(kOwner, "plant.load_transfer", "true", "needs cog_height");
   }
   for (std::size_t j = 0; j < casters.size(); ++j) {
     const std::string field = "casters[" + std::to_string(j) + "]";
     if (!casters[j].position_body.allFinite()) {
-      reject(field + ".position", format(casters[j].position_body), "must be finite");
+      throw_invalid_field(kOwner, field + ".position", format(casters[j].position_body), "must be finite");
     }
     check_fields(("VehicleParams." + field).c_str(), casters[j], CasterParams::fields());
     for (int i = 0; i < layout.size(); ++i) {
       if ((casters[j].position_body - layout.position_body(i)).norm() < 1e-3) {
-        reject(field + ".position", format(casters[j].position_body),
+        throw_invalid_field(kOwner, field + ".position", format(casters[j].position_body),
                "coincides with modules[" + std::to_string(i) + "]");
       }
     }
@@ -133,7 +129,7 @@ std::vector<double> VehicleParams::static_normal_loads() const {
     residual(2) += loads(i) * (positions(1, i) - center_of_mass_body.y());
   }
   if (residual.norm() > 1e-6 * b(0)) {
-    reject("center_of_mass", format(center_of_mass_body),
+    throw_invalid_field(kOwner, "center_of_mass", format(center_of_mass_body),
            "is off the line through all contacts: the weight cannot be carried (add a caster)");
   }
   for (Eigen::Index i = 0; i < loads.size(); ++i) {
@@ -141,7 +137,7 @@ std::vector<double> VehicleParams::static_normal_loads() const {
       const int modules = layout.size();
       const std::string contact = i < modules ? "modules[" + std::to_string(i) + "]"
                                               : "casters[" + std::to_string(i - modules) + "]";
-      reject("center_of_mass", format(center_of_mass_body),
+      throw_invalid_field(kOwner, "center_of_mass", format(center_of_mass_body),
              "lies outside the support: the static load on " + contact + " would be " +
                  std::to_string(loads(i)) + " N < 0");
     }

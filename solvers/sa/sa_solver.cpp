@@ -17,10 +17,8 @@
 namespace swerve {
 namespace {
 
-template <typename Value>
-[[noreturn]] void reject(const char* field, const Value& value, const char* rule) {
-  throw_invalid_field("SaOptions", field, value, rule);
-}
+// The owner every rule of this file names (throw_invalid_field: "<owner>.<field> = <value>: <rule>").
+constexpr const char* kOwner = "SaOptions";
 
 std::uint64_t rotate_left(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
 
@@ -190,7 +188,7 @@ const OptionFields<SaOptions>& SaOptions::fields() {
 void SaOptions::validate() const {
   check_fields("SaOptions", *this, fields());
   if (probability_one_group + probability_one_knot > 1.0) {
-    reject("probability_one_group", probability_one_group,
+    throw_invalid_field(kOwner, "probability_one_group", probability_one_group,
            "must be >= 0, and with probability_one_knot (also >= 0) sum to at most 1");
   }
 }

@@ -11,10 +11,8 @@
 namespace swerve {
 namespace {
 
-template <typename Value>
-[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
-  throw_invalid_field("BaselineOptions", field, value, rule);
-}
+// The owner every rule of this file names (throw_invalid_field: "<owner>.<field> = <value>: <rule>").
+constexpr const char* kOwner = "BaselineOptions";
 
 Eigen::Matrix3d planar_rotation(double heading) {
   const double c = std::cos(heading), s = std::sin(heading);
@@ -53,7 +51,7 @@ void BaselineOptions::validate() const {
   check_fields("BaselineOptions", *this, horizon_and_step_fields<BaselineOptions>());
   check_fields("BaselineOptions", *this, fields());
   if (!(twist_weight.minCoeff() > 0.0 || rate_weight.minCoeff() > 0.0)) {
-    reject("twist_weight", twist_weight.transpose(), "or rate_weight must be > 0 on every axis (the plan must be unique)");
+    throw_invalid_field(kOwner, "twist_weight", twist_weight.transpose(), "or rate_weight must be > 0 on every axis (the plan must be unique)");
   }
   measurement_filter.validate();
 }

@@ -6,13 +6,13 @@
 #include <cmath>
 #include <sstream>
 
+#include "swerve/core/config_error.hpp"
+
 namespace swerve {
 namespace {
 
-template <typename Value>
-[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
-  throw_invalid_field("", field, value, rule);
-}
+// Rules named by the field alone (throw_invalid_field with no owner).
+constexpr const char* kOwner = "";
 
 bool finite3(const Eigen::Vector3d& v) {
   return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z());
@@ -69,7 +69,7 @@ void KinematicsOptions::validate() const { check_fields("KinematicsOptions", *th
 Kinematics::Kinematics(ModuleLayout layout, KinematicsOptions options)
     : layout_(std::move(layout)), options_(options), size_(layout_.size()) {
   if (size_ > kMaxModules) {
-    reject("Kinematics: ModuleLayout.modules", size_, "at most " + std::to_string(kMaxModules) + " modules supported");
+    throw_invalid_field(kOwner, "Kinematics: ModuleLayout.modules", size_, "at most " + std::to_string(kMaxModules) + " modules supported");
   }
   options_.validate();
   double sum_r2 = 0.0;

@@ -6,17 +6,16 @@
 #include <sstream>
 
 #include "swerve/kinematics/module_state.hpp"
+#include "swerve/core/config_error.hpp"
 
 namespace swerve {
 namespace {
 
-template <typename Value>
-[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
-  throw_invalid_field("", field, value, rule);
-}
+// Rules named by the field alone (throw_invalid_field with no owner).
+constexpr const char* kOwner = "";
 
 void require_positive(const std::string& field, double value) {
-  if (!std::isfinite(value) || value <= 0.0) reject(field, value, "must be finite and > 0");
+  if (!std::isfinite(value) || value <= 0.0) throw_invalid_field(kOwner, field, value, "must be finite and > 0");
 }
 
 }  // namespace
@@ -33,13 +32,13 @@ const OptionFields<ModuleLimits>& ModuleLimits::fields() {
 void ModuleLimits::validate() const {
   check_fields("ModuleLimits", *this, fields());
   if (!std::isfinite(min_steering_angle) || min_steering_angle < -kPi - 1e-12) {
-    reject("ModuleLimits.min_steering_angle", min_steering_angle, "must be in [-pi, pi]");
+    throw_invalid_field(kOwner, "ModuleLimits.min_steering_angle", min_steering_angle, "must be in [-pi, pi]");
   }
   if (!std::isfinite(max_steering_angle) || max_steering_angle > kPi + 1e-12) {
-    reject("ModuleLimits.max_steering_angle", max_steering_angle, "must be in [-pi, pi]");
+    throw_invalid_field(kOwner, "ModuleLimits.max_steering_angle", max_steering_angle, "must be in [-pi, pi]");
   }
   if (min_steering_angle >= max_steering_angle) {
-    reject("ModuleLimits.min_steering_angle", min_steering_angle, "must be < max_steering_angle");
+    throw_invalid_field(kOwner, "ModuleLimits.min_steering_angle", min_steering_angle, "must be < max_steering_angle");
   }
 }
 
@@ -47,19 +46,19 @@ ModuleLayout::ModuleLayout(std::vector<Eigen::Vector2d> positions_body, double w
                            ModuleLimits limits)
     : positions_body_(std::move(positions_body)), wheel_radius_(wheel_radius), limits_(limits) {
   const std::size_t count = positions_body_.size();
-  if (count < 2) reject("ModuleLayout.modules", count, "need at least 2 modules");
+  if (count < 2) throw_invalid_field(kOwner, "ModuleLayout.modules", count, "need at least 2 modules");
   // Every fixed-capacity buffer of the kinematics and controllers is sized by kMaxModules.
   if (count > static_cast<std::size_t>(kMaxModules)) {
-    reject("ModuleLayout.modules", count, "at most " + std::to_string(kMaxModules) + " modules are supported");
+    throw_invalid_field(kOwner, "ModuleLayout.modules", count, "at most " + std::to_string(kMaxModules) + " modules are supported");
   }
   for (std::size_t i = 0; i < count; ++i) {
     const Eigen::Vector2d& p = positions_body_[i];
     if (!p.allFinite()) {
-      reject("ModuleLayout.modules[" + std::to_string(i) + "].position", p.transpose(), "must be finite");
+      throw_invalid_field(kOwner, "ModuleLayout.modules[" + std::to_string(i) + "].position", p.transpose(), "must be finite");
     }
     for (std::size_t j = 0; j < i; ++j) {
       if ((p - positions_body_[j]).norm() < kMinModuleSeparation) {
-        reject("ModuleLayout.modules[" + std::to_string(i) + "].position", p.transpose(),
+        throw_invalid_field(kOwner, "ModuleLayout.modules[" + std::to_string(i) + "].position", p.transpose(),
                "coincides with modules[" + std::to_string(j) + "]");
       }
     }
@@ -74,7 +73,7 @@ ModuleLayout::ModuleLayout(std::vector<Eigen::Vector2d> positions_body, double w
     stacked.row(row + 1) << 0.0, 1.0, positions_body_[i].x();
   }
   if (Eigen::FullPivLU<Eigen::MatrixXd>(stacked).rank() < 3) {
-    reject("ModuleLayout.modules", count, "module positions give a forward-kinematics matrix of rank < 3");
+    throw_invalid_field(kOwner, "ModuleLayout.modules", count, "module positions give a forward-kinematics matrix of rank < 3");
   }
   require_positive("ModuleLayout.wheel_radius", wheel_radius_);
   limits_.validate();
@@ -82,7 +81,7 @@ ModuleLayout::ModuleLayout(std::vector<Eigen::Vector2d> positions_body, double w
 
 ModuleLayout ModuleLayout::recentered(const Eigen::Vector2d& reference_point_body) const {
   if (!reference_point_body.allFinite()) {
-    reject("ModuleLayout::recentered reference_point_body", reference_point_body.transpose(), "must be finite");
+    throw_invalid_field(kOwner, "ModuleLayout::recentered reference_point_body", reference_point_body.transpose(), "must be finite");
   }
   std::vector<Eigen::Vector2d> shifted = positions_body_;
   for (Eigen::Vector2d& p : shifted) p -= reference_point_body;
@@ -109,7 +108,7 @@ ModuleLayout ModuleLayout::triangle(double radius, double wheel_radius, ModuleLi
 
 ModuleLayout ModuleLayout::multi_axle(int axles, double axle_spacing, double track, double wheel_radius,
                                       ModuleLimits limits) {
-  if (axles < 1) reject("ModuleLayout::multi_axle axles", axles, "must be >= 1");
+  if (axles < 1) throw_invalid_field(kOwner, "ModuleLayout::multi_axle axles", axles, "must be >= 1");
   require_positive("ModuleLayout::multi_axle axle_spacing", axle_spacing);
   require_positive("ModuleLayout::multi_axle track", track);
   std::vector<Eigen::Vector2d> positions;

@@ -14,13 +14,11 @@ namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
-template <typename Value>
-[[noreturn]] void reject(const std::string& field, const Value& value, const std::string& rule) {
-  throw_invalid_field("OcpProblem", field, value, rule);
-}
+// The owner every rule of this file names (throw_invalid_field: "<owner>.<field> = <value>: <rule>").
+constexpr const char* kOwner = "OcpProblem";
 
 void require_non_negative(const std::string& field, double value) {
-  if (!std::isfinite(value) || value < 0.0) reject(field, value, "must be finite and >= 0");
+  if (!std::isfinite(value) || value < 0.0) throw_invalid_field(kOwner, field, value, "must be finite and >= 0");
 }
 
 // The pseudo-Huber factor of an error of size |e| = error_norm and width `width` (> 0; 0 or +inf:
@@ -45,7 +43,7 @@ HuberFactor huber_factor(double error_norm, double width) noexcept {
 // An empty vector means "this default for every input"; otherwise it must have one entry per input.
 Eigen::VectorXd expand(const Eigen::VectorXd& given, int size, double fallback, const std::string& field) {
   if (given.size() == 0) return Eigen::VectorXd::Constant(size, fallback);
-  if (given.size() != size) reject(field + ".size()", given.size(), "must equal the input size " + std::to_string(size));
+  if (given.size() != size) throw_invalid_field(kOwner, field + ".size()", given.size(), "must equal the input size " + std::to_string(size));
   return given;
 }
 
@@ -55,12 +53,12 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
     : model_(&model), horizon_(horizon), nx_(model.state_size()), nu_(model.input_size()), dt_(dt),
       weights_(std::move(weights)), bounds_(std::move(bounds)) {
   if (horizon_ < 1 || horizon_ > kMaxHorizon) {
-    reject("horizon", horizon_, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
+    throw_invalid_field(kOwner, "horizon", horizon_, "must be in [1, " + std::to_string(kMaxHorizon) + "]");
   }
-  if (!std::isfinite(dt_) || dt_ <= 0.0) reject("dt", dt_, "must be finite and > 0");
-  if (nx_ < 6) reject("state_size", nx_, "must be >= 6 (pose and body twist first)");
-  if (nu_ < 1) reject("input_size", nu_, "must be >= 1");
-  if (nu_ % model.input_group_size() != 0) reject("input_group_size", model.input_group_size(), "must divide the input size");
+  if (!std::isfinite(dt_) || dt_ <= 0.0) throw_invalid_field(kOwner, "dt", dt_, "must be finite and > 0");
+  if (nx_ < 6) throw_invalid_field(kOwner, "state_size", nx_, "must be >= 6 (pose and body twist first)");
+  if (nu_ < 1) throw_invalid_field(kOwner, "input_size", nu_, "must be >= 1");
+  if (nu_ % model.input_group_size() != 0) throw_invalid_field(kOwner, "input_group_size", model.input_group_size(), "must divide the input size");
   const char* pose_names[3] = {"weights.pose.x", "weights.pose.y", "weights.pose.psi"};
   const char* twist_names[3] = {"weights.twist.vx", "weights.twist.vy", "weights.twist.r"};
   for (int i = 0; i < 3; ++i) {
@@ -78,7 +76,7 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
     require_non_negative("weights.rate[" + std::to_string(i) + "]", weights_.rate[i]);
   }
   if (weights_.state_effort.size() != 0 && weights_.state_effort.size() != nx_) {
-    reject("weights.state_effort.size()", weights_.state_effort.size(), "must equal the state size " + std::to_string(nx_));
+    throw_invalid_field(kOwner, "weights.state_effort.size()", weights_.state_effort.size(), "must equal the state size " + std::to_string(nx_));
   }
   int weighted_states = 0;
   for (Eigen::Index j = 0; j < weights_.state_effort.size(); ++j) {
@@ -98,11 +96,11 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
   for (int i = 0; i < nu_; ++i) {
     const std::string index = "[" + std::to_string(i) + "]";
     if (std::isnan(bounds_.lower[i]) || std::isnan(bounds_.upper[i]) || bounds_.lower[i] > bounds_.upper[i]) {
-      reject("bounds.lower" + index, bounds_.lower[i], "must be <= bounds.upper" + index + " (" +
+      throw_invalid_field(kOwner, "bounds.lower" + index, bounds_.lower[i], "must be <= bounds.upper" + index + " (" +
                                                             std::to_string(bounds_.upper[i]) + ")");
     }
     if (std::isnan(bounds_.max_step[i]) || bounds_.max_step[i] <= 0.0) {
-      reject("bounds.max_step" + index, bounds_.max_step[i], "must be > 0");
+      throw_invalid_field(kOwner, "bounds.max_step" + index, bounds_.max_step[i], "must be > 0");
     }
   }
   pose_root_ = (2.0 * weights_.pose).cwiseSqrt();

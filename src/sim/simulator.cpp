@@ -9,10 +9,8 @@
 namespace swerve {
 namespace {
 
-template <typename Value>
-[[noreturn]] void reject(const char* field, const Value& value, const char* rule) {
-  throw_invalid_field("SimulatorOptions", field, value, rule);
-}
+// The owner every rule of this file names (throw_invalid_field: "<owner>.<field> = <value>: <rule>").
+constexpr const char* kOwner = "SimulatorOptions";
 
 }  // namespace
 
@@ -39,7 +37,7 @@ const OptionFields<SimulatorOptions>& SimulatorOptions::fields() {
 }
 
 void SimulatorOptions::validate() const {
-  if (!std::isfinite(control_period) || control_period <= 0.0) reject("control_period", control_period, "must be > 0");
+  if (!std::isfinite(control_period) || control_period <= 0.0) throw_invalid_field(kOwner, "control_period", control_period, "must be > 0");
   check_fields("SimulatorOptions", *this, fields());
   check_fields("SimulatorOptions.noise", noise, MeasurementNoise::fields());
 }
