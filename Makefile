@@ -11,6 +11,7 @@ OUT       ?= out
 RELEASE_DIR := $(BUILD_DIR)/release
 TEST_DIR    := $(BUILD_DIR)/test
 ASAN_DIR    := $(BUILD_DIR)/asan
+TSAN_DIR    := $(BUILD_DIR)/tsan
 FUZZ_DIR    := $(BUILD_DIR)/fuzz
 ARM64_DIR   := $(BUILD_DIR)/arm64
 ARM64_SYSROOT := $(abspath $(ARM64_DIR))/sysroot
@@ -22,7 +23,7 @@ FUZZ_RUNS_controller_step ?= 2000
 FUZZ_ARGS ?= -max_len=4096 -timeout=10 -rss_limit_mb=4096 -print_final_stats=1
 FUZZERS   := config controller_step
 
-.PHONY: all deps fuzz-deps cross-deps demo test bench asan fuzz cross-arm64 install clean format
+.PHONY: all deps fuzz-deps cross-deps demo test bench asan tsan fuzz cross-arm64 install clean format
 
 all: test
 
@@ -55,6 +56,13 @@ $(ASAN_DIR)/CMakeCache.txt: | deps
 	$(CMAKE) -S . -B $(ASAN_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g" \
 	  -DSWERVE_ENABLE_DCHECKS=ON -DSWERVE_SANITIZE=ON -DSWERVE_BUILD_BENCHMARKS=OFF
 
+# ThreadSanitizer: the tests whose code runs on several threads (SA's, with its workers sharing a
+# work clock and the model's charges, and the polish's gradient shares; the controller suite). The
+# rest of the solver suite is single-threaded and takes ~8 min under TSan.
+$(TSAN_DIR)/CMakeCache.txt: | deps
+	$(CMAKE) -S . -B $(TSAN_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+	  -DSWERVE_TSAN=ON -DSWERVE_BUILD_BENCHMARKS=OFF
+
 # clang with libFuzzer, ASan and UBSan; only the fuzz targets and what they link (tests/fuzz).
 $(FUZZ_DIR)/CMakeCache.txt: | fuzz-deps
 	CC=clang CXX=clang++ $(CMAKE) -S . -B $(FUZZ_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSWERVE_BUILD_FUZZERS=ON \
@@ -84,6 +92,12 @@ bench: deps $(RELEASE_DIR)/CMakeCache.txt
 asan: deps $(ASAN_DIR)/CMakeCache.txt
 	$(CMAKE) --build $(ASAN_DIR) -j $(JOBS)
 	cd $(ASAN_DIR) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j $(JOBS)
+
+tsan: deps $(TSAN_DIR)/CMakeCache.txt
+	$(CMAKE) --build $(TSAN_DIR) -j $(JOBS) --target solver_tests control_tests
+	TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" $(TSAN_DIR)/tests/solvers/solver_tests --gtest_brief=1 \
+	  --gtest_filter='SimulatedAnnealing.*'
+	TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" $(TSAN_DIR)/tests/control/control_tests --gtest_brief=1
 
 # Builds the fuzz targets and runs each for FUZZ_RUNS_<name> executions on a fresh copy of its
 # committed corpus (tests/fuzz/corpus/<name>/ -> $(FUZZ_DIR)/corpus/<name>/); any finding fails,

@@ -505,6 +505,46 @@ void Controller::set_reference(std::shared_ptr<const Reference> reference) {
   reference_ = std::move(reference);
 }
 
+void Controller::update_problem(double t) noexcept {
+  // In place: the state (with the actuators' estimate), the last applied input, the reference window.
+  prediction_state_.head(6 + modules_) = now_;
+  if (wheel_speeds_.size() > 0 || steering_rates_.size() > 0) {
+    estimate_actuators(now_, t);
+    prediction_state_.segment(6 + modules_, wheel_speeds_.size()) = wheel_speeds_;
+    prediction_state_.tail(steering_rates_.size()) = steering_rates_;
+  }
+  problem_->set_initial_state(prediction_state_);
+  if (!previous_input_known_) assume_previous_input(now_);
+  problem_->set_previous_input(applied_decision_);
+  for (int k = 1; k <= options_.horizon; ++k) {
+    const ReferenceSample sample = reference_->sample(t + k * options_.dt);
+    problem_->set_reference(k, sample.pose_world, sample.twist_body);
+  }
+}
+
+bool Controller::plan_baseline(bool* policy_guess_usable) noexcept {
+  // The baseline plan is both an initial guess and the second fallback. Its acceleration limit
+  // starts from the twist commanded last cycle (see plan_twists). With module-rate decisions that
+  // twist is not at hand, and the measured one stands in.
+  const Eigen::Vector3d measured_twist = now_.segment<3>(StateIndex::kVx);
+  const Eigen::Vector3d last_command =
+      twist_model_ != nullptr ? Eigen::Vector3d(applied_decision_.head<3>()) : measured_twist;
+  if (!baseline_.plan_twists(now_.head<3>(), measured_twist, last_command, problem_->reference_poses(),
+                             problem_->reference_twists())) {
+    return false;
+  }
+  baseline_.module_inputs(now_.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
+  baseline_.commit_first_step();
+  if (twist_model_ != nullptr) {
+    baseline_guess_ = baseline_.twist_plan();
+    *policy_guess_usable = options_.baseline_guess && close_baseline_loop();
+  } else {
+    baseline_guess_ = baseline_inputs_;
+  }
+  problem_->project(baseline_guess_);
+  return true;
+}
+
 const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
                                       double measured_at) noexcept {
   // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
@@ -547,41 +587,9 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   // A measurement taken before t is rolled forward by the commands sent since (Smith predictor),
   // after the observer's filtering when it is on.
   latency_.estimate(measured, measured_at, t, now_);
-  // Update the problem in place: state, last applied input, reference window.
-  prediction_state_.head(6 + modules_) = now_;
-  if (wheel_speeds_.size() > 0 || steering_rates_.size() > 0) {
-    estimate_actuators(now_, t);
-    prediction_state_.segment(6 + modules_, wheel_speeds_.size()) = wheel_speeds_;
-    prediction_state_.tail(steering_rates_.size()) = steering_rates_;
-  }
-  problem_->set_initial_state(prediction_state_);
-  if (!previous_input_known_) assume_previous_input(now_);
-  problem_->set_previous_input(applied_decision_);
-  for (int k = 1; k <= options_.horizon; ++k) {
-    const ReferenceSample sample = reference_->sample(t + k * options_.dt);
-    problem_->set_reference(k, sample.pose_world, sample.twist_body);
-  }
-  bool baseline_usable = false, policy_guess_usable = false;
-  {  // the baseline plan is both an initial guess and the second fallback
-    // Its acceleration limit starts from the twist commanded last cycle (see plan_twists). With
-    // module-rate decisions that twist is not at hand, and the measured one stands in.
-    const Eigen::Vector3d measured_twist = now_.segment<3>(StateIndex::kVx);
-    const Eigen::Vector3d last_command =
-        twist_model_ != nullptr ? Eigen::Vector3d(applied_decision_.head<3>()) : measured_twist;
-    baseline_usable = baseline_.plan_twists(now_.head<3>(), measured_twist, last_command, problem_->reference_poses(),
-                                            problem_->reference_twists());
-    if (baseline_usable) {
-      baseline_.module_inputs(now_.segment(StateIndex::kFirstSteering, modules_), baseline_inputs_);
-      baseline_.commit_first_step();
-      if (twist_model_ != nullptr) {
-        baseline_guess_ = baseline_.twist_plan();
-        policy_guess_usable = options_.baseline_guess && close_baseline_loop();
-      } else {
-        baseline_guess_ = baseline_inputs_;
-      }
-      problem_->project(baseline_guess_);
-    }
-  }
+  update_problem(t);
+  bool policy_guess_usable = false;
+  const bool baseline_usable = plan_baseline(&policy_guess_usable);
   if (options_.tracking_tolerance.enabled()) set_tube(baseline_usable);
   if (deadline.passed()) {
     // The plan and the problem update alone used the budget: no time is left to solve.

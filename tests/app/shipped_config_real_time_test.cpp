@@ -18,7 +18,7 @@ namespace {
 std::string shipped(const std::string& path) { return std::string(SWERVE_SOURCE_DIR) + "/configs/" + path; }
 
 TEST(ShippedDefaultController, StepAllocatesNothingWithThePolishIncluded) {
-  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (ASan)";
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (a sanitizer owns malloc)";
   ControllerConfig config = load_controller_config_file(shipped("controllers/default.yaml"));
   ASSERT_EQ(config.solver.backend, "sa");
   ASSERT_GT(config.solver.sa.polish_share, 0.0) << "the shipped file no longer polishes: this test lost its subject";

@@ -892,7 +892,7 @@ long allocations_over_cycles(TrackingController& controller, testing::ModelPlant
 }
 
 TEST(Controller, StepAllocatesNothingAfterTheFirstCycles) {
-  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (ASan)";
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (a sanitizer owns malloc)";
   {  // the instrument works in this executable: it sees an Eigen allocation
     const testing::AllocationCounter counter;
     Eigen::VectorXd probe(64);
@@ -934,7 +934,7 @@ TEST(Controller, StepAllocatesNothingAfterTheFirstCycles) {
 // The baseline's step too (its plan is also the wear-aware controller's guess and fallback), on a
 // long horizon where the old dense plan's temporaries would have shown.
 TEST(KinematicBaseline, StepAllocatesNothingAfterConstruction) {
-  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (ASan)";
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (a sanitizer owns malloc)";
   const VehicleParams params = small_robot();
   BaselineOptions options;
   options.horizon = 200;
@@ -1002,7 +1002,7 @@ TEST(KinematicBaseline, FollowsANewReferenceAndStopsSafelyWithoutATrajectory) {
 }
 
 TEST(Controller, StepAllocatesNothingWhileAPlannerReplansEveryCycle) {
-  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (ASan)";
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (a sanitizer owns malloc)";
   const VehicleParams params = small_robot();
   const ControllerOptions options = closed_loop_options(1.0, InputParameterization::kBodyTwist);
   const auto trajectory = std::make_shared<TrajectoryReference>(128);

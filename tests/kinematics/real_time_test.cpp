@@ -12,7 +12,7 @@ namespace swerve {
 namespace {
 
 TEST(KinematicsRealTime, PerCycleCallsDoNotAllocate) {
-  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (ASan)";
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (a sanitizer owns malloc)";
   for (const ModuleLayout& layout : {ModuleLayout::rectangle(0.6, 0.4, 0.05), ModuleLayout::multi_axle(4, 0.4, 0.7, 0.05),
                                      ModuleLayout::two_module(0.3, 0.5, 0.05)}) {
     const int n = layout.size();

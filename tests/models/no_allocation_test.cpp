@@ -13,7 +13,7 @@ namespace {
 using Vector = Eigen::VectorXd;
 
 TEST(ModelsAllocation, DerivativeStepAndJacobiansAllocateNothing) {
-  if (!swerve::testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (ASan)";
+  if (!swerve::testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting unavailable (a sanitizer owns malloc)";
   for (int n : {4, 16}) {
     for (Fidelity fidelity : {Fidelity::kIdeal, Fidelity::kPlant}) {
       VehicleParams params = swerve::testing::make_params(n);

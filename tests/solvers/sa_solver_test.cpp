@@ -231,6 +231,31 @@ TEST(SimulatedAnnealing, ThePolishsGradientInSharesOnWorkersGivesTheAnswerOfOneT
   EXPECT_LT(costs[0], annealed.cost);
 }
 
+// Two threads, the polish and a work clock the prediction model charges from both threads (the
+// configuration `make tsan` exists for): every solve ends by its deadline with a feasible plan.
+TEST(SimulatedAnnealing, TwoThreadsWithThePolishOnAChargedWorkClockEndByTheDeadline) {
+  testing::SwerveTestProblem shape(testing::SwerveScene::kTurn, 20);
+  const WorkClock clock(2e-6, 1e-7);
+  shape.model.charge_work_to(&clock);
+  SaOptions options;
+  options.threads = 2;
+  options.polish_share = 0.3;
+  options.max_iterations = 100000;
+  SimulatedAnnealingSolver solver(shape.problem, options);
+  Solution solution;
+  solution.resize(shape.problem.state_size(), shape.problem.input_size(), shape.problem.horizon());
+  for (int solve = 0; solve < 3; ++solve) {
+    SolveSummary summary;
+    const TimePoint start = clock.now();
+    EXPECT_EQ(solver.solve(shape.problem, {}, Deadline(start + 5ms, clock), &solution, &summary),
+              SolveStatus::kBudgetExhausted);
+    EXPECT_LE(clock.now() - start, 5ms) << "solve " << solve;
+    EXPECT_GT(summary.rollouts, 10) << "solve " << solve;
+    EXPECT_TRUE(shape.problem.is_feasible(solution.inputs)) << "solve " << solve;
+  }
+  shape.model.charge_work_to(nullptr);
+}
+
 // The cheapest of two proposals per step anneals further per step than one proposal: over five
 // seeds of the same schedule, two threads end lower on average (and threads = 1 is the solver's
 // single-proposal path, whose results the other tests pin).

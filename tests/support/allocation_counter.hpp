@@ -1,9 +1,14 @@
 // Counts heap allocations made by the current thread while a scope is active, so tests can assert
 // "no allocation after construction" on the real-time path (a count, never a timer). It hooks
 // malloc itself (Eigen allocates through malloc, not operator new), forwarding to glibc.
-// Include it in exactly one .cpp of a test executable. Under AddressSanitizer, which owns malloc,
-// counting is unavailable: tests call `AllocationCounter::available()` and GTEST_SKIP.
+// Include it in exactly one .cpp of a test executable. Under AddressSanitizer or ThreadSanitizer,
+// which own malloc, counting is unavailable: tests call `AllocationCounter::available()` and
+// GTEST_SKIP.
 #pragma once
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define SWERVE_SANITIZER_OWNS_MALLOC 1
+#endif
 
 #include <cstddef>
 #include <cstdlib>
@@ -21,7 +26,7 @@ class AllocationCounter {
   AllocationCounter& operator=(const AllocationCounter&) = delete;
   long count() const { return allocation_count - start_; }
   static bool available() {
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(SWERVE_SANITIZER_OWNS_MALLOC)
     return false;
 #else
     return true;
@@ -34,7 +39,7 @@ class AllocationCounter {
 
 }  // namespace swerve::testing
 
-#if !defined(__SANITIZE_ADDRESS__)
+#if !defined(SWERVE_SANITIZER_OWNS_MALLOC)
 extern "C" {
 void* __libc_malloc(std::size_t size) noexcept;
 void* __libc_calloc(std::size_t count, std::size_t size) noexcept;

@@ -167,6 +167,13 @@ class Controller final : public TrackingController {
   void steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
                                 const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
   void assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
+  // Updates the problem for a step at t from now_: initial state (with the actuator estimate),
+  // previous input, the reference over the horizon.
+  void update_problem(double t) noexcept;
+  // Plans the baseline from now_ (the second fallback) and makes its plan the initial guess;
+  // *policy_guess_usable when its policy, closed through the prediction, is a guess too. false
+  // when the baseline cannot plan.
+  bool plan_baseline(bool* policy_guess_usable) noexcept;
   // rad/s: module `module`'s wheel rolling with the measured body twist at its measured angle.
   double rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept;
   // The drives' wheel speeds (prediction with drive_lag) and steering rates (steering_lag) at t: the
