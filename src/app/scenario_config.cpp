@@ -94,6 +94,66 @@ std::string step_limit_rule(double control_period) {
          format(kMaxScenarioSteps * control_period) + " s at " + format(control_period) + " s)";
 }
 
+// The `initial_state:` block over the state `initial` (6 + n: pose, twist, steering angles), whose
+// pose is the reference's start: each of pose, twist and steering (one angle for all, or n) given
+// replaces its part.
+void read_initial_state(const ConfigNode& initial, int n, Eigen::VectorXd* state) {
+  if (initial.has("pose")) {
+    const std::vector<double> p = initial.get_doubles("pose", 3);
+    state->head<3>() << p[0], p[1], p[2];
+  }
+  if (initial.has("twist")) {
+    const std::vector<double> v = initial.get_doubles("twist", 3);
+    state->segment<3>(3) << v[0], v[1], v[2];
+  }
+  if (initial.has("steering")) {
+    const ConfigNode steering = initial.child("steering");
+    if (steering.is_scalar()) {
+      state->tail(n).setConstant(steering.as_double(Bound::closed(-kPi, kPi)));
+    } else {
+      const std::vector<double> angles = steering.as_doubles(static_cast<std::size_t>(n), Bound::closed(-kPi, kPi));
+      for (int i = 0; i < n; ++i) (*state)[6 + i] = angles[static_cast<std::size_t>(i)];
+    }
+  }
+}
+
+// One entry of `controllers:`: its name (a plain word, none of the `earlier` entries'), its config
+// file beside the scenario's, and the overrides a wear_mpc entry may carry (wear_weight, backend).
+ScenarioController load_scenario_controller(const ConfigNode& entry, const std::string& scenario_file,
+                                            const std::vector<ScenarioController>& earlier) {
+  ScenarioController c;
+  c.name = entry.get_string("name");
+  // The name becomes a file name (<out>/<name>.csv) and a JSON key: keep it to a plain word.
+  if (c.name.empty() || c.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
+                            std::string::npos) {
+    entry.fail_at("name", "'" + printable_value(c.name) + "': use letters, digits, '_' and '-' only");
+  }
+  for (const ScenarioController& other : earlier) {
+    if (other.name == c.name) entry.fail_at("name", "'" + printable_value(c.name) + "' appears twice");
+  }
+  c.config_file = resolve_beside(scenario_file, entry.get_string("config"));
+  try {
+    c.config = load_controller_config_file(c.config_file);
+  } catch (const ConfigError& error) {
+    entry.fail_at("config", std::string("cannot load: ") + error.what());
+  }
+  c.config.name = c.name;
+  if (entry.has("wear_weight")) {
+    if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("wear_weight", "only a wear_mpc controller has one");
+    c.config.mpc.wear_weight = entry.get_double("wear_weight", Bound::non_negative());
+  }
+  if (entry.has("backend")) {
+    if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("backend", "only a wear_mpc controller has one");
+    c.config.solver.backend = entry.get_string("backend");
+    try {
+      c.config.solver.validate();
+    } catch (const ConfigError& error) {
+      entry.fail_at("backend", error.what());
+    }
+  }
+  return c;
+}
+
 }  // namespace
 
 int ScenarioConfig::steps() const {
@@ -127,25 +187,7 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
   const ReferenceSample start = s.reference->sample(0.0);
   s.initial_state = Eigen::VectorXd::Zero(6 + n);
   s.initial_state.head<3>() = start.pose_world;
-  if (const auto initial = node.optional_child("initial_state")) {
-    if (initial->has("pose")) {
-      const std::vector<double> p = initial->get_doubles("pose", 3);
-      s.initial_state.head<3>() << p[0], p[1], p[2];
-    }
-    if (initial->has("twist")) {
-      const std::vector<double> v = initial->get_doubles("twist", 3);
-      s.initial_state.segment<3>(3) << v[0], v[1], v[2];
-    }
-    if (initial->has("steering")) {
-      const ConfigNode steering = initial->child("steering");
-      if (steering.is_scalar()) {
-        s.initial_state.tail(n).setConstant(steering.as_double(Bound::closed(-kPi, kPi)));
-      } else {
-        const std::vector<double> angles = steering.as_doubles(static_cast<std::size_t>(n), Bound::closed(-kPi, kPi));
-        for (int i = 0; i < n; ++i) s.initial_state[6 + i] = angles[static_cast<std::size_t>(i)];
-      }
-    }
-  }
+  if (const auto initial = node.optional_child("initial_state")) read_initial_state(*initial, n, &s.initial_state);
 
   if (const auto sim = node.optional_child("simulator")) {
     config::read_fields(*sim, SimulatorOptions::fields(), &s.simulator);
@@ -159,36 +201,7 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
   if (!controllers.is_sequence() || controllers.size() == 0) controllers.fail("expected a list of >= 1 controllers");
   for (std::size_t j = 0; j < controllers.size(); ++j) {
     const ConfigNode entry = controllers.at(j);
-    ScenarioController c;
-    c.name = entry.get_string("name");
-    // The name becomes a file name (<out>/<name>.csv) and a JSON key: keep it to a plain word.
-    if (c.name.empty() || c.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
-                              std::string::npos) {
-      entry.fail_at("name", "'" + printable_value(c.name) + "': use letters, digits, '_' and '-' only");
-    }
-    for (const ScenarioController& other : s.controllers) {
-      if (other.name == c.name) entry.fail_at("name", "'" + printable_value(c.name) + "' appears twice");
-    }
-    c.config_file = resolve_beside(file_path, entry.get_string("config"));
-    try {
-      c.config = load_controller_config_file(c.config_file);
-    } catch (const ConfigError& error) {
-      entry.fail_at("config", std::string("cannot load: ") + error.what());
-    }
-    c.config.name = c.name;
-    if (entry.has("wear_weight")) {
-      if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("wear_weight", "only a wear_mpc controller has one");
-      c.config.mpc.wear_weight = entry.get_double("wear_weight", Bound::non_negative());
-    }
-    if (entry.has("backend")) {
-      if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("backend", "only a wear_mpc controller has one");
-      c.config.solver.backend = entry.get_string("backend");
-      try {
-        c.config.solver.validate();
-      } catch (const ConfigError& error) {
-        entry.fail_at("backend", error.what());
-      }
-    }
+    ScenarioController c = load_scenario_controller(entry, file_path, s.controllers);
     s.controllers.push_back(std::move(c));
   }
   // The vehicle's state observer, the same in front of every controller: a comparison in which one
