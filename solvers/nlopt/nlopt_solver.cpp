@@ -171,6 +171,37 @@ NloptSolver::NloptSolver(const OcpProblem& problem, NloptOptions options)
 
 NloptSolver::~NloptSolver() = default;
 
+namespace {
+
+// The status and reason of a run NLopt ended with `result` (the best point seen is the answer).
+SolveStatus status_of(nlopt::result result, SolveSummary* summary) noexcept {
+  switch (result) {
+    case nlopt::SUCCESS:
+    case nlopt::STOPVAL_REACHED:
+    case nlopt::FTOL_REACHED:
+    case nlopt::XTOL_REACHED:
+      summary->reason = "nlopt converged (tolerance reached)";
+      return SolveStatus::kConverged;
+    case nlopt::MAXEVAL_REACHED:
+      summary->reason = "nlopt stopped at max_evaluations with the best point seen";
+      return SolveStatus::kBudgetExhausted;
+    case nlopt::MAXTIME_REACHED:
+    case nlopt::FORCED_STOP:
+      summary->reason = "nlopt stopped at the deadline with the best point seen";
+      return SolveStatus::kBudgetExhausted;
+    case nlopt::ROUNDOFF_LIMITED:
+      summary->reason = "nlopt stopped by round-off with the best point seen";
+      return SolveStatus::kBudgetExhausted;
+    default:
+      if (summary->reason == nullptr || std::string(summary->reason) == "solve() not called") {
+        summary->reason = "nlopt failed with the best point seen";
+      }
+      return SolveStatus::kBudgetExhausted;
+  }
+}
+
+}  // namespace
+
 SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
                                   Solution* out, SolveSummary* summary) noexcept {
   Evaluation& e = *evaluation_;
@@ -253,29 +284,7 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   out->states = e.best_states;
   out->cost = e.best_cost;
   summary->cost = problem.evaluate(out->inputs, e.states);
-  switch (result) {
-    case nlopt::SUCCESS:
-    case nlopt::STOPVAL_REACHED:
-    case nlopt::FTOL_REACHED:
-    case nlopt::XTOL_REACHED:
-      summary->reason = "nlopt converged (tolerance reached)";
-      return SolveStatus::kConverged;
-    case nlopt::MAXEVAL_REACHED:
-      summary->reason = "nlopt stopped at max_evaluations with the best point seen";
-      return SolveStatus::kBudgetExhausted;
-    case nlopt::MAXTIME_REACHED:
-    case nlopt::FORCED_STOP:
-      summary->reason = "nlopt stopped at the deadline with the best point seen";
-      return SolveStatus::kBudgetExhausted;
-    case nlopt::ROUNDOFF_LIMITED:
-      summary->reason = "nlopt stopped by round-off with the best point seen";
-      return SolveStatus::kBudgetExhausted;
-    default:
-      if (summary->reason == nullptr || std::string(summary->reason) == "solve() not called") {
-        summary->reason = "nlopt failed with the best point seen";
-      }
-      return SolveStatus::kBudgetExhausted;
-  }
+  return status_of(result, summary);
 }
 
 }  // namespace swerve
