@@ -761,7 +761,7 @@ bool SimulatedAnnealingSolver::Schedule::accepts(double delta, double progress, 
     }
     return delta <= 0.0;
   }
-  temperature = initial_temperature * std::pow(final_temperature_ratio, std::max(0.0, progress));
+  const double temperature = initial_temperature * std::pow(final_temperature_ratio, std::max(0.0, progress));
   return delta <= 0.0 || (std::isfinite(delta) && draw < std::exp(-delta / temperature));
 }
 

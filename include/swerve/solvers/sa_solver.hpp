@@ -101,7 +101,6 @@ class SimulatedAnnealingSolver final : public Solver {
     int probes = 0, uphill_count = 0;
     double uphill_sum = 0.0, calibration_cost = 0.0;
     double initial_temperature = std::numeric_limits<double>::infinity();
-    double temperature = std::numeric_limits<double>::infinity();
     bool accepts(double delta, double progress, double initial_acceptance, double final_temperature_ratio,
                  double draw) noexcept;
   };
