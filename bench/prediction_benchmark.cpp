@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cmath>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -25,6 +26,7 @@ constexpr int kProposals = 64;  // distinct twist sequences, cycled
 struct RolloutCase {
   VehicleParams params;
   VehiclePredictionModel model;
+  std::unique_ptr<PredictionData> data;  // the model's step scratch
   Eigen::VectorXd start, x, x_next;
   std::vector<std::array<Eigen::Vector3d, kHorizon>> proposals;
 
@@ -38,7 +40,8 @@ struct RolloutCase {
   RolloutCase(int modules, bool from_rest, bool lags)
       : params(testing::make_params(
             ModuleLayout::multi_axle(modules / 2, 0.6, 0.5, 0.1, ModuleLimits{2.0, 2.0, 3.0, -kPi, kPi}))),
-        model(params, options(lags)) {
+        model(params, options(lags)),
+        data(model.create_data()) {
     const int nx = model.state_size();
     start = Eigen::VectorXd::Zero(nx);
     const Eigen::Vector3d cruise(0.8, 0.0, 0.8 / 3.0);
@@ -71,7 +74,7 @@ struct RolloutCase {
     *wear = 0.0;
     for (int k = 0; k < kHorizon; ++k) {
       double stage_wear = 0.0;
-      if (!model.twist_step(x, proposals[static_cast<std::size_t>(proposal)][static_cast<std::size_t>(k)], kDt,
+      if (!model.twist_step(*data, x, proposals[static_cast<std::size_t>(proposal)][static_cast<std::size_t>(k)], kDt,
                             x_next, &stage_wear)) {
         return false;
       }
@@ -84,7 +87,7 @@ struct RolloutCase {
 
 void BM_Prediction_Rollout(benchmark::State& state) {
   RolloutCase rollout_case(static_cast<int>(state.range(0)), state.range(1) != 0, state.range(2) != 0);
-  const long evaluations_before = rollout_case.model.model_evaluations();
+  const long evaluations_before = VehiclePredictionModel::model_evaluations(*rollout_case.data);
   long rollouts = 0;
   double wear = 0.0;
   for (auto _ : state) {
@@ -97,7 +100,7 @@ void BM_Prediction_Rollout(benchmark::State& state) {
   }
   state.counters["rollouts_per_s"] = benchmark::Counter(static_cast<double>(rollouts), benchmark::Counter::kIsRate);
   state.counters["evals_per_stage"] =
-      rollouts > 0 ? static_cast<double>(rollout_case.model.model_evaluations() - evaluations_before) /
+      rollouts > 0 ? static_cast<double>(VehiclePredictionModel::model_evaluations(*rollout_case.data) - evaluations_before) /
                          (static_cast<double>(rollouts) * kHorizon)
                    : 0.0;
 }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <new>
 #include <utility>
 #include <vector>
@@ -59,8 +60,9 @@ class ShootingResiduals final : public ceres::CostFunction {
   }
 
   // The problem the next evaluations are of (same shape); its residuals' weights come with it.
-  void bind(const OcpProblem& problem) noexcept {
+  void bind(const OcpProblem& problem, PredictionData& data) noexcept {
     problem_ = &problem;
+    data_ = &data;
     evaluations_ = 0;
     stop_ = Deadline(TimePoint::max());
   }
@@ -96,7 +98,7 @@ class ShootingResiduals final : public ceres::CostFunction {
       if (jacobians != nullptr) {
         if (!derivatives_.linearize_stage(problem, k, states_.col(k), inputs_.col(k), states_.col(k + 1))) return false;
         wear = derivatives_.wear(k);
-      } else if (!problem.model().step(states_.col(k), inputs_.col(k), problem.dt(), states_.col(k + 1), &wear) ||
+      } else if (!problem.model().step(*data_, states_.col(k), inputs_.col(k), problem.dt(), states_.col(k + 1), &wear) ||
                  !std::isfinite(wear)) {
         return false;
       }
@@ -165,6 +167,7 @@ class ShootingResiduals final : public ceres::CostFunction {
 
  private:
   const OcpProblem* problem_ = nullptr;
+  PredictionData* data_ = nullptr;  // the model's scratch (the solver's)
   Deadline stop_{TimePoint::max()};
   int nx_, nu_, horizon_, stage_rows_;
   double penalty_root_;  // sqrt(2 step_penalty_weight)
@@ -300,7 +303,8 @@ bool CeresSolver::evaluate_residuals(const OcpProblem& problem, const Eigen::Ref
   std::vector<RowMajor> blocks(static_cast<std::size_t>(horizon_), RowMajor::Zero(residual_count(), nu_));
   std::vector<double*> block_pointers;
   for (RowMajor& block : blocks) block_pointers.push_back(block.data());
-  impl_->residuals.bind(problem);
+  const std::unique_ptr<PredictionData> data = problem.model().create_data();
+  impl_->residuals.bind(problem, *data);
   if (!impl_->residuals.Evaluate(parameters.data(), residuals.data(), jacobian != nullptr ? block_pointers.data() : nullptr)) {
     return false;
   }
@@ -315,7 +319,7 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
                                   Solution* out, SolveSummary* summary) noexcept {
   Impl& s = *impl_;
   try {
-    s.residuals.bind(problem);
+    s.residuals.bind(problem, model_data());
     const double start_cost = s.start.choose(problem, guesses, deadline);
     summary->initial_cost = start_cost;
     if (!std::isfinite(start_cost)) {
@@ -363,7 +367,7 @@ SolveStatus CeresSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     // penalty may leave it slightly off the change bounds, so it is projected before comparing.
     s.candidate_inputs = s.parameters;
     problem.project(s.candidate_inputs);
-    const double candidate_cost = problem.rollout(nullptr, s.candidate_inputs, 0, s.candidate_states, s.stage_costs,
+    const double candidate_cost = problem.rollout(model_data(), s.candidate_inputs, 0, s.candidate_states, s.stage_costs,
                                                   s.candidate_stage_wear.data());
     const bool improved = candidate_cost < start_cost;
     out->inputs = improved ? s.candidate_inputs : s.start.inputs();

@@ -83,9 +83,10 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   int constraints() const { return horizon_ * (nx_ + rate_count_); }
 
   // Per solve: the problem, the start point (inputs nu x N and their rollout states nx x N+1).
-  void prepare(const OcpProblem& problem, const Eigen::MatrixXd& inputs, const Eigen::MatrixXd& states,
-               Deadline deadline, bool warm_multipliers, Duration iteration_estimate) {
+  void prepare(const OcpProblem& problem, PredictionData& data, const Eigen::MatrixXd& inputs,
+               const Eigen::MatrixXd& states, Deadline deadline, bool warm_multipliers, Duration iteration_estimate) {
     problem_ = &problem;
+    data_ = &data;
     deadline_ = deadline;
     iteration_estimate_ = iteration_estimate;
     for (int k = 0; k < horizon_; ++k) {
@@ -368,7 +369,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     const double lambda = problem_->weights().wear;
     for (int k = 0; k < horizon_ && values_ok_; ++k) {
       double wear = 0.0;
-      values_ok_ = problem_->model().step(state_at(x, k), input(x, k), problem_->dt(), next_states_.col(k), &wear) &&
+      values_ok_ = problem_->model().step(*data_, state_at(x, k), input(x, k), problem_->dt(), next_states_.col(k), &wear) &&
                    std::isfinite(wear);
       objective_ += problem_->stage_cost_without_wear(k, state_after(x, k), input(x, k), input_before(x, k), d_x_next_,
                                                       d_u_, d_u_before_) +
@@ -555,6 +556,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   std::vector<int> rate_inputs_;
   OcpDerivatives derivatives_;
   const OcpProblem* problem_ = nullptr;
+  PredictionData* data_ = nullptr;  // the model's scratch (the solver's)
   Deadline deadline_{};
   Eigen::MatrixXd next_states_;  // F(x_k, u_k), nx x N
   Eigen::VectorXd d_x_next_, d_u_, d_u_before_;
@@ -676,7 +678,7 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     const bool warm = options_.warm_start && s.have_multipliers;
     const bool warm_duals = warm && options_.warm_start_multipliers;
     if (warm_duals) s.nlp->shift_multipliers();
-    s.nlp->prepare(problem, s.best_inputs, s.best_states, deadline, warm_duals, s.iteration_estimate);
+    s.nlp->prepare(problem, model_data(), s.best_inputs, s.best_states, deadline, warm_duals, s.iteration_estimate);
     Ipopt::OptionsList& options = *s.app->Options();
     options.SetStringValue("warm_start_init_point", warm_duals ? "yes" : "no");
     options.SetNumericValue("mu_init", warm ? options_.warm_mu_init : 0.1);
@@ -705,7 +707,7 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     bool improved = false;
     if (s.nlp->final_inputs(&s.inputs, &max_defect)) {
       problem.project(s.inputs);
-      const double cost = problem.rollout(nullptr, s.inputs, 0, s.states, s.stage_costs, s.stage_wear.data());
+      const double cost = problem.rollout(model_data(), s.inputs, 0, s.states, s.stage_costs, s.stage_wear.data());
       if (cost <= best_cost) {
         best_cost = cost;
         s.best_inputs = s.inputs;

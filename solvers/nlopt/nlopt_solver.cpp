@@ -62,6 +62,7 @@ void NloptOptions::validate() const {
 // What the objective needs: the problem, the deadline, buffers, and the best point seen.
 struct NloptSolver::Evaluation {
   const OcpProblem* problem = nullptr;
+  PredictionData* data = nullptr;         // the model's scratch (Solver::model_data)
   OcpDerivatives* derivatives = nullptr;  // gradient algorithms only
   Eigen::MatrixXd gradient;               // nu x N
   Deadline deadline;
@@ -90,7 +91,7 @@ struct NloptSolver::Evaluation {
       feasible = self->problem->is_feasible(self->inputs, 1e-9);
       cost = gradient != nullptr
                  ? self->derivatives->cost_and_gradient(*self->problem, self->inputs, self->states, self->gradient)
-                 : self->problem->rollout(self->inputs, 0, self->states, self->stage_costs);
+                 : self->problem->rollout(*self->data, self->inputs, 0, self->states, self->stage_costs);
       if (gradient != nullptr) {
         if (std::isfinite(cost)) {
           std::copy(self->gradient.data(), self->gradient.data() + n, gradient);
@@ -100,7 +101,7 @@ struct NloptSolver::Evaluation {
       }
     } else {
       self->problem->project(self->inputs);
-      cost = self->problem->rollout(self->inputs, 0, self->states, self->stage_costs);
+      cost = self->problem->rollout(*self->data, self->inputs, 0, self->states, self->stage_costs);
     }
     self->longest = std::max(self->longest, self->deadline.now() - start);
     ++self->evaluations;
@@ -206,6 +207,7 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
                                   Solution* out, SolveSummary* summary) noexcept {
   Evaluation& e = *evaluation_;
   e.problem = &problem;
+  e.data = &model_data();
   e.deadline = deadline;
   e.evaluations = 0;
   e.deadline_hit = false;
@@ -261,7 +263,7 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     // The gradient algorithm's last point, projected (its constraints hold only to a tolerance).
     e.inputs = Eigen::MatrixXd::Map(x_.data(), nu_, horizon_);
     problem.project(e.inputs);
-    const double cost = problem.rollout(e.inputs, 0, e.states, e.stage_costs);
+    const double cost = problem.rollout(*e.data, e.inputs, 0, e.states, e.stage_costs);
     if (cost < e.best_cost) {
       e.best_cost = cost;
       e.best_inputs = e.inputs;
@@ -274,7 +276,7 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     // Not one evaluation finished: the initial point stands if it was usable.
     e.best_inputs = Eigen::MatrixXd::Map(x_.data(), nu_, horizon_);
     problem.project(e.best_inputs);
-    e.best_cost = problem.rollout(e.best_inputs, 0, e.best_states, e.stage_costs);
+    e.best_cost = problem.rollout(*e.data, e.best_inputs, 0, e.best_states, e.stage_costs);
     if (!std::isfinite(e.best_cost)) {
       summary->reason = "the model failed on the initial point";
       return SolveStatus::kNumericalError;
@@ -283,7 +285,7 @@ SolveStatus NloptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
   out->inputs = e.best_inputs;
   out->states = e.best_states;
   out->cost = e.best_cost;
-  summary->cost = problem.evaluate(out->inputs, e.states);
+  summary->cost = problem.evaluate(*e.data, out->inputs, e.states);
   return status_of(result, summary);
 }
 

@@ -194,7 +194,7 @@ void SaOptions::validate() const {
 }
 
 SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, SaOptions options)
-    : Solver(problem),
+    : Solver(problem, std::clamp(options.threads, 1, kMaxThreads)),  // validated below
       options_(options),
       nx_(problem.state_size()),
       nu_(problem.input_size()),
@@ -246,14 +246,12 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
   }
   sigma_ = reference_step_ * options_.step_fraction;
   best_stage_costs_ = Eigen::VectorXd::Zero(horizon_);
-  proposal_model_ = &problem.model();
   proposals_.resize(static_cast<std::size_t>(options_.threads - 1));
   for (Proposal& p : proposals_) {
     p.knots = Eigen::MatrixXd::Zero(nu_, knot_count_);
     p.raw = p.inputs = Eigen::MatrixXd::Zero(nu_, horizon_);
     p.states = Eigen::MatrixXd::Zero(nx_, horizon_ + 1);
     p.stage_costs = p.stage_wear = Eigen::VectorXd::Zero(horizon_);
-    p.data = problem.model().create_data();
     p.x_next = Eigen::VectorXd::Zero(nx_);
   }
   x_next_ = Eigen::VectorXd::Zero(nx_);
@@ -278,7 +276,8 @@ void SimulatedAnnealingSolver::run_worker_job(std::size_t index) noexcept {
   if (worker_job_ == WorkerJob::kLinearise) {
     Proposal& p = proposals_[index];
     p.done_stages = derivatives_->linearize_stages(*batch_problem_, *job_inputs_, *job_states_, p.first_stage,
-                                                   p.last_stage, p.data.get(), p.x_next, job_stop_);
+                                                   p.last_stage, model_data(static_cast<int>(index) + 1), p.x_next,
+                                                   job_stop_);
   } else {
     roll_out_proposal(index);
   }
@@ -293,8 +292,7 @@ double SimulatedAnnealingSolver::exact_gradient(const OcpProblem& problem, const
     return cost;
   }
   // With workers: the stages of the known rollout split into contiguous shares, the first here and
-  // one on each worker (each on its own scratch), then the adjoint recursion here. Another model
-  // than the workers' scratch was made for: every share here, in turn.
+  // one on each worker (each on its own scratch), then the adjoint recursion here.
   const int share = stages_per_thread();
   for (std::size_t w = 0; w < proposals_.size(); ++w) {
     Proposal& p = proposals_[w];
@@ -306,22 +304,13 @@ double SimulatedAnnealingSolver::exact_gradient(const OcpProblem& problem, const
   job_inputs_ = &inputs;
   job_states_ = &states;
   job_stop_ = &give_up;
-  const bool parallel = &problem.model() == proposal_model_;
-  if (parallel) {
-    worker_job_ = WorkerJob::kLinearise;
-    workers_->start();
-  }
+  worker_job_ = WorkerJob::kLinearise;
+  workers_->start();
   const int first_share = std::min(share, horizon_);
-  const int here = derivatives_->linearize_stages(problem, inputs, states, 0, first_share, nullptr, x_next_, &give_up);
-  if (parallel) {
-    workers_->wait();
-    worker_job_ = WorkerJob::kProposal;
-  } else {
-    for (Proposal& p : proposals_) {
-      p.done_stages = derivatives_->linearize_stages(problem, inputs, states, p.first_stage, p.last_stage, nullptr,
-                                                     x_next_, &give_up);
-    }
-  }
+  const int here =
+      derivatives_->linearize_stages(problem, inputs, states, 0, first_share, model_data(), x_next_, &give_up);
+  workers_->wait();
+  worker_job_ = WorkerJob::kProposal;
   bool failed = here < 0;
   double least = first_share > 0 ? static_cast<double>(std::max(here, 0)) / first_share : 1.0;
   for (const Proposal& p : proposals_) {
@@ -339,9 +328,8 @@ double SimulatedAnnealingSolver::exact_gradient(const OcpProblem& problem, const
 void SimulatedAnnealingSolver::roll_out_proposal(std::size_t index) noexcept {
   Proposal& p = proposals_[index];
   if (p.changed >= horizon_) return;
-  // Scratch of its own when the batch's problem runs on the model it was made for.
-  PredictionData* data = &batch_problem_->model() == proposal_model_ ? p.data.get() : nullptr;
-  p.cost = roll_out_from(*batch_problem_, data, p.changed, p.inputs, p.states, p.stage_costs, p.stage_wear);
+  p.cost = roll_out_from(*batch_problem_, model_data(static_cast<int>(index) + 1), p.changed, p.inputs, p.states,
+                         p.stage_costs, p.stage_wear);
 }
 
 int SimulatedAnnealingSolver::first_changed_step(const Eigen::MatrixXd& inputs, int first, int last) const noexcept {
@@ -351,7 +339,7 @@ int SimulatedAnnealingSolver::first_changed_step(const Eigen::MatrixXd& inputs, 
   return horizon_;
 }
 
-double SimulatedAnnealingSolver::roll_out_from(const OcpProblem& problem, PredictionData* data, int changed,
+double SimulatedAnnealingSolver::roll_out_from(const OcpProblem& problem, PredictionData& data, int changed,
                                                const Eigen::MatrixXd& inputs, Eigen::MatrixXd& states,
                                                Eigen::VectorXd& stage_costs,
                                                Eigen::VectorXd& stage_wear) const noexcept {
@@ -493,7 +481,7 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     const auto along_direction = [&](double step, double* trial_cost, double* decrease) {
       candidate_inputs_ = inputs_ + step * direction_;
       problem.project(candidate_inputs_);
-      *trial_cost = problem.rollout(nullptr, candidate_inputs_, 0, candidate_states_, candidate_stage_costs_,
+      *trial_cost = problem.rollout(model_data(), candidate_inputs_, 0, candidate_states_, candidate_stage_costs_,
                                     candidate_stage_wear_.data());
       *decrease = flat(gradient_).dot(flat(candidate_inputs_) - flat(inputs_));
       return true;
@@ -549,7 +537,7 @@ bool SimulatedAnnealingSolver::knot_gradient(const OcpProblem& problem, double c
         (*gradient)(i, knot) = 0.0;
         continue;
       }
-      const double shifted = roll_out_from(problem, nullptr, changed, candidate_inputs_, candidate_states_,
+      const double shifted = roll_out_from(problem, model_data(), changed, candidate_inputs_, candidate_states_,
                                            candidate_stage_costs_, candidate_stage_wear_);
       ++*rollouts;
       *proposal = std::max(*proposal, deadline.now() - start);
@@ -605,7 +593,7 @@ int SimulatedAnnealingSolver::knot_polish(const OcpProblem& problem, Deadline de
       problem.project(candidate_inputs_);
       const int changed = first_changed_step(candidate_inputs_, 0, horizon_ - 1);
       if (changed == horizon_) return false;  // the bounds hold every step of the move
-      *trial_cost = roll_out_from(problem, nullptr, changed, candidate_inputs_, candidate_states_,
+      *trial_cost = roll_out_from(problem, model_data(), changed, candidate_inputs_, candidate_states_,
                                   candidate_stage_costs_, candidate_stage_wear_);
       *decrease = flat(knot_gradient_).dot(flat(candidate_knots_) - flat(knots_));
       return true;
@@ -718,19 +706,15 @@ bool SimulatedAnnealingSolver::evaluate_batch(const OcpProblem& problem, long* r
   }
   if (changed == horizon_ && batch == 0) return false;  // the projection undid every move
   batch_problem_ = &problem;
-  const bool parallel = batch > 0 && &problem.model() == proposal_model_;
+  const bool parallel = batch > 0;
   if (parallel) workers_->start();
   *candidate_cost = std::numeric_limits<double>::infinity();
   if (changed < horizon_) {
-    *candidate_cost = roll_out_from(problem, nullptr, changed, candidate_inputs_, candidate_states_,
+    *candidate_cost = roll_out_from(problem, model_data(), changed, candidate_inputs_, candidate_states_,
                                     candidate_stage_costs_, candidate_stage_wear_);
     ++*rollouts;
   }
-  if (parallel) {
-    workers_->wait();
-  } else {
-    for (std::size_t b = 0; b < proposals_.size(); ++b) roll_out_proposal(b);
-  }
+  if (parallel) workers_->wait();
   *rollouts += batch;
   // The cheapest of the batch is the candidate (ties: the first drawn).
   for (Proposal& p : proposals_) {
@@ -789,7 +773,7 @@ double SimulatedAnnealingSolver::restart_from_best(const OcpProblem& problem, co
   base_ = best.inputs;
   knots_.setZero();
   inputs_ = best.inputs;
-  return problem.rollout(nullptr, inputs_, 0, states_, stage_costs_, stage_wear_.data());
+  return problem.rollout(model_data(), inputs_, 0, states_, stage_costs_, stage_wear_.data());
 }
 
 double SimulatedAnnealingSolver::start_from_guesses(const OcpProblem& problem, const InitialGuesses& guesses,

@@ -202,6 +202,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, layout_, vehicle.mass, model_->state_size(),
                                                                        module_model->steering_rate_states()),
                                           twist ? twist_bounds(layout_, options_.dt) : input_bounds(layout_, options_.dt));
+  model_data_ = model_->create_data();
   solver_ = make_solver(*problem_);
   if (!solver_) throw ConfigError("Controller.solver: the solver factory returned nothing");
   solution_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
@@ -405,7 +406,7 @@ bool Controller::close_baseline_loop() noexcept {
     previous = baseline_.policy_twist(k, baseline_states_.col(k).head<3>(), previous);
     baseline_policy_guess_.col(k) = previous;
     double wear = 0.0;
-    if (!model.step(baseline_states_.col(k), baseline_policy_guess_.col(k), options_.dt, baseline_states_.col(k + 1),
+    if (!model.step(*model_data_, baseline_states_.col(k), baseline_policy_guess_.col(k), options_.dt, baseline_states_.col(k + 1),
                     &wear)) {
       return false;
     }
@@ -416,7 +417,7 @@ bool Controller::close_baseline_loop() noexcept {
 void Controller::set_tube(bool baseline_usable) noexcept {
   const TrackingTolerance& tolerance = options_.tracking_tolerance;
   const bool rolled_out =
-      baseline_usable && std::isfinite(problem_->rollout(baseline_guess_, 0, baseline_states_, baseline_stage_costs_));
+      baseline_usable && std::isfinite(problem_->rollout(*model_data_, baseline_guess_, 0, baseline_states_, baseline_stage_costs_));
   for (int k = 1; k <= options_.horizon; ++k) {
     Eigen::Vector2d bound(tolerance.position, tolerance.heading);
     // Where the baseline's own plan is predicted further off, the tube widens to it.

@@ -23,8 +23,7 @@ OcpDerivatives::OcpDerivatives(const OcpProblem& shape)
     : horizon_(shape.horizon()),
       nx_(shape.state_size()),
       nu_(shape.input_size()),
-      data_model_(&shape.model()),
-      data_(shape.model().create_data()) {
+      workspace_(shape.model(), 1) {
   if (!shape.model().has_jacobians()) {
     throw ConfigError("OcpDerivatives: the problem's prediction model has no exact Jacobians (has_jacobians() is "
                       "false); gradient backends need them");
@@ -44,18 +43,17 @@ OcpDerivatives::OcpDerivatives(const OcpProblem& shape)
 bool OcpDerivatives::linearize_stage(const OcpProblem& problem, int k, const Eigen::Ref<const Eigen::VectorXd>& x_k,
                                      const Eigen::Ref<const Eigen::VectorXd>& u_k,
                                      Eigen::Ref<Eigen::VectorXd> x_next) noexcept {
-  return linearize_stage_on(nullptr, problem, k, x_k, u_k, x_next);
+  if (!workspace_.bind(problem.model())) return false;
+  return linearize_stage_on(workspace_.data(), problem, k, x_k, u_k, x_next);
 }
 
-bool OcpDerivatives::linearize_stage_on(PredictionData* data, const OcpProblem& problem, int k,
+bool OcpDerivatives::linearize_stage_on(PredictionData& data, const OcpProblem& problem, int k,
                                         const Eigen::Ref<const Eigen::VectorXd>& x_k,
                                         const Eigen::Ref<const Eigen::VectorXd>& u_k,
                                         Eigen::Ref<Eigen::VectorXd> x_next) noexcept {
   if (k < 0 || k >= horizon_) return false;
   const auto s = static_cast<std::size_t>(k);
   double wear = 0.0;
-  // Its own scratch when the problem's model is the one it was made for, else the model's own.
-  if (data == nullptr) data = &problem.model() == data_model_ ? data_.get() : nullptr;
   const bool ok =
       problem.model().step_jacobians(data, x_k, u_k, problem.dt(), x_next, a_[s], b_[s], &wear, wear_gradient_[s]);
   wear_[k] = wear;
@@ -81,7 +79,7 @@ double OcpDerivatives::cost_and_gradient(const OcpProblem& problem, const Eigen:
 
 int OcpDerivatives::linearize_stages(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
                                      const Eigen::Ref<const Eigen::MatrixXd>& states, int first, int last,
-                                     PredictionData* data, Eigen::Ref<Eigen::VectorXd> x_next,
+                                     PredictionData& data, Eigen::Ref<Eigen::VectorXd> x_next,
                                      const Deadline* stop) noexcept {
   first = std::max(first, 0);
   last = std::min(last, horizon_);

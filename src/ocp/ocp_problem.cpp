@@ -295,12 +295,7 @@ double OcpProblem::state_effort(const Eigen::Ref<const Eigen::VectorXd>& x_next)
   return 0.5 * sum;
 }
 
-double OcpProblem::rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
-                           Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept {
-  return rollout(nullptr, inputs, first_step, states, stage_costs);
-}
-
-double OcpProblem::rollout(PredictionData* data, const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
+double OcpProblem::rollout(PredictionData& data, const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
                            Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs,
                            double* stage_wear) const noexcept {
   if (first_step <= 0) {
@@ -320,11 +315,11 @@ double OcpProblem::rollout(PredictionData* data, const Eigen::Ref<const Eigen::M
   return stage_costs.sum();
 }
 
-CostBreakdown OcpProblem::evaluate(const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+CostBreakdown OcpProblem::evaluate(PredictionData& data, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
                                    Eigen::Ref<Eigen::MatrixXd> states) const noexcept {
   std::array<double, kMaxHorizon> stage_costs, stage_wear;
   Eigen::Map<Eigen::VectorXd> costs(stage_costs.data(), horizon_);
-  if (!std::isfinite(rollout(nullptr, inputs, 0, states, costs, stage_wear.data()))) {
+  if (!std::isfinite(rollout(data, inputs, 0, states, costs, stage_wear.data()))) {
     CostBreakdown failed;
     failed.tracking = std::numeric_limits<double>::infinity();
     return failed;

@@ -81,12 +81,13 @@ StartPlan::StartPlan(const OcpProblem& shape)
       stage_costs_(Eigen::VectorXd::Zero(shape.horizon())),
       stage_wear_(stage_costs_),
       candidate_stage_costs_(stage_costs_),
-      candidate_stage_wear_(stage_costs_) {}
+      candidate_stage_wear_(stage_costs_),
+      workspace_(shape.model(), 1) {}
 
 void StartPlan::try_candidate(const OcpProblem& problem, const Deadline& deadline) noexcept {
   problem.project(candidate_inputs_);
   const TimePoint rollout_start = deadline.now();
-  const double cost = problem.rollout(nullptr, candidate_inputs_, 0, candidate_states_, candidate_stage_costs_,
+  const double cost = problem.rollout(workspace_.data(), candidate_inputs_, 0, candidate_states_, candidate_stage_costs_,
                                       candidate_stage_wear_.data());
   longest_rollout_ = std::max(longest_rollout_, deadline.now() - rollout_start);
   ++rollouts_;
@@ -107,6 +108,7 @@ double StartPlan::choose(const OcpProblem& problem, const InitialGuesses& guesse
   cost_ = std::numeric_limits<double>::infinity();
   rollouts_ = skipped_ = 0;
   longest_rollout_ = Duration::zero();
+  if (!workspace_.bind(problem.model())) return cost_;
   for (int g = 0; g < guesses.count; ++g) {
     const Eigen::MatrixXd* guess = guesses.sequences[g];
     if (guess == nullptr || guess->rows() != problem.input_size() || guess->cols() != problem.horizon() ||
@@ -155,6 +157,9 @@ SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guess
     return finish(SolveStatus::kInvalidInput, "the problem's state, reference or previous input is not finite");
   }
   if (deadline.at() <= start) return finish(SolveStatus::kInvalidInput, "the deadline has already passed");
+  if (!workspace_.bind(problem.model())) {
+    return finish(SolveStatus::kNumericalError, "out of memory for the prediction model's scratch");
+  }
   const SolveStatus status = do_solve(problem, guesses, deadline, out, &report);
   backend_ran = true;
   if (has_solution(status) && (!out->inputs.allFinite() || !std::isfinite(out->cost))) {

@@ -5,28 +5,14 @@ namespace swerve {
 TwistPredictionModel::TwistPredictionModel(const VehicleParams& params, PredictionOptions options)
     : modules_(params, options) {}
 
-bool TwistPredictionModel::step(const Eigen::Ref<const Eigen::VectorXd>& x,
-                                const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt,
-                                Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
-  return step(nullptr, x, twist_body, dt, x_next, stage_wear);
-}
-
-bool TwistPredictionModel::step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+bool TwistPredictionModel::step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                                 const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt,
                                 Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
   if (twist_body.size() != 3) return false;
   return modules_.twist_step(data, x, twist_body.head<3>(), dt, x_next, stage_wear);
 }
 
-bool TwistPredictionModel::step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x,
-                                          const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt,
-                                          Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
-                                          Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
-                                          Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
-  return step_jacobians(nullptr, x, twist_body, dt, x_next, a, b, stage_wear, wear_gradient);
-}
-
-bool TwistPredictionModel::step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+bool TwistPredictionModel::step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                                           const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt,
                                           Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                           Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,

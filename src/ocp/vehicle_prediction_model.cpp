@@ -17,7 +17,6 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   modules_ = values_->model().modules();
   state_size_ = values_->state_size();
   input_size_ = values_->model().input_size();
-  data_.reset(static_cast<Data*>(create_data().release()));
   module_jacobian_work_ =
       modules_ * module_evaluations_per_jet_chunk() * SemiImplicitStepJacobian::chunks(state_size_ + input_size_);
   twist_jacobian_work_ = modules_ * module_evaluations_per_jet_chunk() * SemiImplicitStepJacobian::chunks(state_size_ + 3);
@@ -50,27 +49,19 @@ std::unique_ptr<PredictionData> VehiclePredictionModel::create_data() const {
   return std::unique_ptr<Data>(new Data(std::make_unique<Data::Impl>(*values_, *jacobian_)));
 }
 
-VehiclePredictionModel::Data::Impl& VehiclePredictionModel::scratch(PredictionData* data) const noexcept {
-  if (data == nullptr) return *data_->impl_;
-  SWERVE_DCHECK(dynamic_cast<Data*>(data) != nullptr);
-  return *static_cast<Data*>(data)->impl_;
+VehiclePredictionModel::Data::Impl& VehiclePredictionModel::scratch(PredictionData& data) noexcept {
+  SWERVE_DCHECK(dynamic_cast<Data*>(&data) != nullptr);
+  return *static_cast<Data&>(data).impl_;
 }
 
 int VehiclePredictionModel::wheel_speed_states() const noexcept { return values_->wheel_speed_states(); }
 int VehiclePredictionModel::steering_rate_states() const noexcept { return values_->steering_rate_states(); }
 
-long VehiclePredictionModel::model_evaluations() const noexcept { return model_evaluations(*data_); }
-
 long VehiclePredictionModel::model_evaluations(const PredictionData& data) noexcept {
   return SemiImplicitStep<double>::model_evaluations(static_cast<const Data&>(data).impl_->values);
 }
 
-bool VehiclePredictionModel::step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
-                                  double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
-  return step(nullptr, x, u, dt, x_next, stage_wear);
-}
-
-bool VehiclePredictionModel::step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+bool VehiclePredictionModel::step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                                   const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
                                   Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept {
   if (x.size() != state_size_ || u.size() != input_size_ || x_next.size() != state_size_ || !(dt > 0.0) ||
@@ -85,13 +76,7 @@ void VehiclePredictionModel::module_inputs(const Eigen::Ref<const Eigen::VectorX
   values_->module_inputs(x, twist_body, dt, inputs);
 }
 
-bool VehiclePredictionModel::twist_step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
-                                        double dt, Eigen::Ref<Eigen::VectorXd> x_next,
-                                        double* stage_wear) const noexcept {
-  return twist_step(nullptr, x, twist_body, dt, x_next, stage_wear);
-}
-
-bool VehiclePredictionModel::twist_step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+bool VehiclePredictionModel::twist_step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                                         const Eigen::Vector3d& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
                                         double* stage_wear) const noexcept {
   if (x.size() != state_size_ || x_next.size() != state_size_ || !(dt > 0.0) || !std::isfinite(dt) ||
@@ -103,15 +88,7 @@ bool VehiclePredictionModel::twist_step(PredictionData* data, const Eigen::Ref<c
   return charged_step(own, x, own.inputs, dt, x_next, stage_wear);
 }
 
-bool VehiclePredictionModel::step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x,
-                                            const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
-                                            Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
-                                            Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
-                                            Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
-  return step_jacobians(nullptr, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
-}
-
-bool VehiclePredictionModel::step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+bool VehiclePredictionModel::step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                                             const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
                                             Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                             Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
@@ -120,15 +97,7 @@ bool VehiclePredictionModel::step_jacobians(PredictionData* data, const Eigen::R
   return jacobian_->module_step(scratch(data).jacobian, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
 }
 
-bool VehiclePredictionModel::twist_step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x,
-                                                  const Eigen::Vector3d& twist_body, double dt,
-                                                  Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
-                                                  Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
-                                                  Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
-  return twist_step_jacobians(nullptr, x, twist_body, dt, x_next, a, b, stage_wear, wear_gradient);
-}
-
-bool VehiclePredictionModel::twist_step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+bool VehiclePredictionModel::twist_step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                                                   const Eigen::Vector3d& twist_body, double dt,
                                                   Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                                   Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,

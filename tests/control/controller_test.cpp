@@ -21,6 +21,7 @@
 #include "support/fake_clocks.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/solvers/sa_solver.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -103,7 +104,7 @@ class FakeSolver final : public Solver {
         for (int i = 0; i < problem.input_size(); i += 2) out->inputs(i, k) = planned_value(k);
       }
     }
-    out->cost = problem.rollout(out->inputs, 0, out->states, stage_costs_);
+    out->cost = testing::rollout_once(problem, out->inputs, 0, out->states, stage_costs_);
     summary->reason = "fake: scripted plan";
     return SolveStatus::kConverged;
   }
@@ -1058,7 +1059,7 @@ class OutOfBoundsSolver final : public Solver {
         out->inputs.row(i).setConstant(value);
       }
     }
-    out->cost = problem.rollout(out->inputs, 0, out->states, stage_costs_);
+    out->cost = testing::rollout_once(problem, out->inputs, 0, out->states, stage_costs_);
     summary->reason = "out_of_bounds: scripted plan";
     return SolveStatus::kConverged;
   }
@@ -1158,7 +1159,7 @@ class FixedPlanSolver final : public Solver {
   SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses&, Deadline, Solution* out,
                        SolveSummary* summary) noexcept override {
     out->inputs = plan_;
-    out->cost = problem.rollout(out->inputs, 0, out->states, stage_costs_);
+    out->cost = testing::rollout_once(problem, out->inputs, 0, out->states, stage_costs_);
     summary->reason = "fixed plan";
     return SolveStatus::kConverged;
   }
@@ -1413,7 +1414,7 @@ class GuessRecorder final : public Solver {
     *worst_ = std::numeric_limits<double>::infinity();
     for (int g = 0; g < guesses.count; ++g) {
       Eigen::MatrixXd states(problem.state_size(), problem.horizon() + 1);
-      problem.evaluate(*guesses.sequences[g], states);
+      testing::evaluate_once(problem, *guesses.sequences[g], states);
       double worst = 0.0;
       for (int k = 1; k <= problem.horizon(); ++k) worst = std::max(worst, problem.tracking_error(k, states.col(k))[0]);
       *worst_ = std::min(*worst_, worst);

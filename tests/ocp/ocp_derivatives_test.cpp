@@ -15,6 +15,7 @@
 #include "support/two_threads.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -42,14 +43,14 @@ TEST(OcpDerivatives, SwerveGradientMatchesCentralFiniteDifferencesOfTheRolloutCo
   Eigen::MatrixXd states(model.state_size(), 11), gradient(3, 10), fd(3, 10);
   Eigen::VectorXd stage_costs(10);
   const double cost = derivatives.cost_and_gradient(problem, inputs, states, gradient);
-  EXPECT_NEAR(cost, problem.rollout(inputs, 0, states, stage_costs), 1e-12 * cost);
+  EXPECT_NEAR(cost, testing::rollout_once(problem, inputs, 0, states, stage_costs), 1e-12 * cost);
   for (int k = 0; k < 10; ++k) {
     for (int i = 0; i < 3; ++i) {
       Eigen::MatrixXd plus = inputs, minus = inputs;
       const double h = 1e-6;
       plus(i, k) += h;
       minus(i, k) -= h;
-      fd(i, k) = (problem.rollout(plus, 0, states, stage_costs) - problem.rollout(minus, 0, states, stage_costs)) / (2 * h);
+      fd(i, k) = (testing::rollout_once(problem, plus, 0, states, stage_costs) - testing::rollout_once(problem, minus, 0, states, stage_costs)) / (2 * h);
     }
   }
   const double scale = fd.cwiseAbs().maxCoeff();
@@ -117,26 +118,28 @@ TEST(OcpDerivatives, AKnownRolloutsStagesLinearisedInSharesOnTwoThreadsGiveTheGr
 
   Eigen::MatrixXd states(nx, horizon + 1);
   Eigen::VectorXd stage_costs(horizon), stage_wear(horizon);
-  ASSERT_TRUE(std::isfinite(problem.rollout(nullptr, plan, 0, states, stage_costs, stage_wear.data())));
+  ASSERT_TRUE(std::isfinite(testing::rollout_once(problem, plan, 0, states, stage_costs, stage_wear.data())));
   const int half = horizon / 2;
   Eigen::MatrixXd one_thread_gradient(3, horizon), two_thread_gradient(3, horizon);
   double one_thread_cost = 0.0, two_thread_cost = 0.0;
   {
     OcpDerivatives derivatives(problem);
+    const std::unique_ptr<PredictionData> data = problem.model().create_data();
     Eigen::VectorXd x_next(nx);
-    ASSERT_EQ(derivatives.linearize_stages(problem, plan, states, 0, half, nullptr, x_next), half);
-    ASSERT_EQ(derivatives.linearize_stages(problem, plan, states, half, horizon, nullptr, x_next), horizon - half);
+    ASSERT_EQ(derivatives.linearize_stages(problem, plan, states, 0, half, *data, x_next), half);
+    ASSERT_EQ(derivatives.linearize_stages(problem, plan, states, half, horizon, *data, x_next), horizon - half);
     one_thread_cost = derivatives.gradient_of_stages(problem, plan, states, one_thread_gradient);
   }
   {
     OcpDerivatives derivatives(problem);
+    const std::unique_ptr<PredictionData> data = problem.model().create_data();
     const std::unique_ptr<PredictionData> worker_data = problem.model().create_data();
     Eigen::VectorXd x_next(nx), worker_x_next(nx);
     int worker_done = 0;
     std::thread worker([&] {
-      worker_done = derivatives.linearize_stages(problem, plan, states, half, horizon, worker_data.get(), worker_x_next);
+      worker_done = derivatives.linearize_stages(problem, plan, states, half, horizon, *worker_data, worker_x_next);
     });
-    const int done = derivatives.linearize_stages(problem, plan, states, 0, half, nullptr, x_next);
+    const int done = derivatives.linearize_stages(problem, plan, states, 0, half, *data, x_next);
     worker.join();
     ASSERT_EQ(done, half);
     ASSERT_EQ(worker_done, horizon - half);
@@ -156,10 +159,11 @@ TEST(OcpDerivatives, ASharesLinearisationReportsItsStagesAndTheModelsFailure) {
   OcpDerivatives derivatives(problem);
   Eigen::MatrixXd plan = Eigen::MatrixXd::Zero(3, 10), states(6, 11);
   Eigen::VectorXd stage_costs(10), stage_wear(10), x_next(6);
-  ASSERT_TRUE(std::isfinite(problem.rollout(nullptr, plan, 0, states, stage_costs, stage_wear.data())));
-  EXPECT_EQ(derivatives.linearize_stages(problem, plan, states, 2, 7, nullptr, x_next), 5);
+  const std::unique_ptr<PredictionData> data = model.create_data();
+  ASSERT_TRUE(std::isfinite(testing::rollout_once(problem, plan, 0, states, stage_costs, stage_wear.data())));
+  EXPECT_EQ(derivatives.linearize_stages(problem, plan, states, 2, 7, *data, x_next), 5);
   states(3, 4) = std::numeric_limits<double>::quiet_NaN();  // stage 4 starts from a NaN state
-  EXPECT_EQ(derivatives.linearize_stages(problem, plan, states, 2, 7, nullptr, x_next), -1);
+  EXPECT_EQ(derivatives.linearize_stages(problem, plan, states, 2, 7, *data, x_next), -1);
 }
 
 }  // namespace

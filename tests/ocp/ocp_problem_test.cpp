@@ -16,6 +16,7 @@
 #include "support/two_threads.hpp"
 #include "swerve/core/config_error.hpp"
 #include "support/config_errors.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -50,14 +51,14 @@ TEST(OcpProblem, CostOfAHandComputedCaseIsExact) {
   Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 2);
   inputs(0, 0) = 1.0;
   Eigen::MatrixXd states(6, 3);
-  const CostBreakdown parts = problem.evaluate(inputs, states);
+  const CostBreakdown parts = testing::evaluate_once(problem, inputs, states);
   EXPECT_DOUBLE_EQ(parts.tracking, 227.5);
   EXPECT_DOUBLE_EQ(parts.effort, 1.0);
   EXPECT_DOUBLE_EQ(parts.rate, 4.0);
   EXPECT_DOUBLE_EQ(parts.wear, 0.5);
   EXPECT_DOUBLE_EQ(states(0, 2), 1.5);
   Eigen::VectorXd stage(2);
-  EXPECT_DOUBLE_EQ(problem.rollout(inputs, 0, states, stage), 233.0);
+  EXPECT_DOUBLE_EQ(testing::rollout_once(problem, inputs, 0, states, stage), 233.0);
 }
 
 TEST(OcpProblem, HeadingErrorIsWrapped) {
@@ -72,7 +73,7 @@ TEST(OcpProblem, HeadingErrorIsWrapped) {
   ASSERT_TRUE(problem.set_reference(1, {0.0, 0.0, -3.1}, Eigen::Vector3d::Zero()));
   Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 1), states(6, 2);
   const double error = 2 * 3.14159265358979323846 - 6.2;
-  EXPECT_NEAR(problem.evaluate(inputs, states).tracking, error * error, 1e-12);
+  EXPECT_NEAR(testing::evaluate_once(problem, inputs, states).tracking, error * error, 1e-12);
 }
 
 TEST(OcpProblem, IncrementalRolloutEqualsFullRollout) {
@@ -81,12 +82,12 @@ TEST(OcpProblem, IncrementalRolloutEqualsFullRollout) {
   for (int k = 1; k <= 8; ++k) problem.set_reference(k, {0.1 * k, -0.05 * k, 0.02 * k}, Eigen::Vector3d::Zero());
   Eigen::MatrixXd inputs = Eigen::MatrixXd::Random(3, 8), states(6, 9);
   Eigen::VectorXd stage(8);
-  problem.rollout(inputs, 0, states, stage);
+  testing::rollout_once(problem, inputs, 0, states, stage);
   inputs.col(5) += Eigen::Vector3d(0.3, -0.2, 0.1);
-  const double incremental = problem.rollout(inputs, 5, states, stage);
+  const double incremental = testing::rollout_once(problem, inputs, 5, states, stage);
   Eigen::MatrixXd fresh_states(6, 9);
   Eigen::VectorXd fresh_stage(8);
-  EXPECT_NEAR(incremental, problem.rollout(inputs, 0, fresh_states, fresh_stage), 1e-12);
+  EXPECT_NEAR(incremental, testing::rollout_once(problem, inputs, 0, fresh_states, fresh_stage), 1e-12);
 }
 
 TEST(OcpProblem, ProjectionKeepsBoxAndStepBoundsAndReportsTheFirstChange) {
@@ -115,7 +116,7 @@ TEST(OcpProblem, CostOfAHandComputedCaseIncludesTheTwistTermWithoutTerminalScale
   Eigen::MatrixXd inputs = Eigen::MatrixXd::Zero(3, 2);
   inputs(0, 0) = 1.0;
   Eigen::MatrixXd states(6, 3);
-  EXPECT_DOUBLE_EQ(problem.evaluate(inputs, states).tracking, 229.5);
+  EXPECT_DOUBLE_EQ(testing::evaluate_once(problem, inputs, states).tracking, 229.5);
 }
 
 TEST(OcpProblem, ProjectionKeepsTheStepBoundGoingDownToo) {
@@ -184,14 +185,14 @@ TEST(OcpProblem, TheTubeCostsMuTimesTheSquaredExcessAndNothingInside) {
   Eigen::MatrixXd inputs(3, 1);
   inputs << 1.0, 0.0, 1.0;
   Eigen::MatrixXd states(6, 2);
-  EXPECT_DOUBLE_EQ(problem.evaluate(inputs, states).tracking, 0.0);  // no tube by default
+  EXPECT_DOUBLE_EQ(testing::evaluate_once(problem, inputs, states).tracking, 0.0);  // no tube by default
   EXPECT_EQ(problem.tube_excess(states), Eigen::Vector2d::Zero());
   ASSERT_TRUE(problem.set_tube(1, 0.2, 0.1));
-  EXPECT_NEAR(problem.evaluate(inputs, states).tracking, 100.0 * (0.3 * 0.3 + 0.4 * 0.4), 1e-12);
+  EXPECT_NEAR(testing::evaluate_once(problem, inputs, states).tracking, 100.0 * (0.3 * 0.3 + 0.4 * 0.4), 1e-12);
   EXPECT_NEAR(problem.tube_excess(states).x(), 0.3, 1e-12);
   EXPECT_NEAR(problem.tube_excess(states).y(), 0.4, 1e-12);
   ASSERT_TRUE(problem.set_tube(1, 0.6, 0.6));  // inside: free
-  EXPECT_DOUBLE_EQ(problem.evaluate(inputs, states).tracking, 0.0);
+  EXPECT_DOUBLE_EQ(testing::evaluate_once(problem, inputs, states).tracking, 0.0);
   EXPECT_EQ(problem.tube_excess(states), Eigen::Vector2d::Zero());
   problem.clear_tube();
   ASSERT_TRUE(problem.set_tube(1, 0.2, 0.1));
@@ -371,7 +372,7 @@ TEST(OcpProblem, RolloutsOnTheirOwnDataOnTwoThreadsMatchOneThreadBitForBit) {
       problem.project(inputs);
       plans.push_back(inputs);
     }
-    const auto roll = [&](PredictionData* data, int p, Eigen::MatrixXd* states) {
+    const auto roll = [&](PredictionData& data, int p, Eigen::MatrixXd* states) {
       *states = Eigen::MatrixXd::Zero(model.state_size(), problem.horizon() + 1);
       Eigen::VectorXd stage_costs(problem.horizon());
       return problem.rollout(data, plans[static_cast<std::size_t>(p)], 0, *states, stage_costs);
@@ -383,7 +384,7 @@ TEST(OcpProblem, RolloutsOnTheirOwnDataOnTwoThreadsMatchOneThreadBitForBit) {
       ASSERT_NE(data, nullptr);
       for (int p = 0; p < kPlans; ++p) {
         const auto index = static_cast<std::size_t>(p);
-        expected_cost[index] = roll(data.get(), p, &expected_states[index]);
+        expected_cost[index] = roll(*data, p, &expected_states[index]);
         ASSERT_TRUE(std::isfinite(expected_cost[index]));
       }
     }
@@ -392,7 +393,7 @@ TEST(OcpProblem, RolloutsOnTheirOwnDataOnTwoThreadsMatchOneThreadBitForBit) {
         [&](const std::unique_ptr<PredictionData>& data, int p) {
           const auto index = static_cast<std::size_t>(p);
           Eigen::MatrixXd states;
-          const double cost = roll(data.get(), p, &states);
+          const double cost = roll(*data, p, &states);
           return cost == expected_cost[index] && states == expected_states[index];
         });
     EXPECT_EQ(mismatches[0], 0);

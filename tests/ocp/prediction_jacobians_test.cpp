@@ -10,6 +10,7 @@
 #include "support/model_fixtures.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -25,7 +26,7 @@ struct Linearization {
 Linearization finite_differences(const PredictionModel& model, const Eigen::VectorXd& x, const Eigen::VectorXd& u) {
   const int nx = model.state_size(), nu = model.input_size();
   Linearization fd{Eigen::VectorXd(nx), Eigen::VectorXd(nx + nu), Eigen::MatrixXd(nx, nx), Eigen::MatrixXd(nx, nu)};
-  EXPECT_TRUE(model.step(x, u, kDt, fd.x_next, &fd.wear));
+  EXPECT_TRUE(testing::step_once(model, x, u, kDt, fd.x_next, &fd.wear));
   Eigen::VectorXd plus(nx), minus(nx);
   for (int j = 0; j < nx + nu; ++j) {
     Eigen::VectorXd xp = x, xm = x, up = u, um = u;
@@ -38,8 +39,8 @@ Linearization finite_differences(const PredictionModel& model, const Eigen::Vect
       um[j - nx] -= h;
     }
     double wear_plus = 0.0, wear_minus = 0.0;
-    EXPECT_TRUE(model.step(xp, up, kDt, plus, &wear_plus));
-    EXPECT_TRUE(model.step(xm, um, kDt, minus, &wear_minus));
+    EXPECT_TRUE(testing::step_once(model, xp, up, kDt, plus, &wear_plus));
+    EXPECT_TRUE(testing::step_once(model, xm, um, kDt, minus, &wear_minus));
     Eigen::VectorXd column = (plus - minus) / (2.0 * h);
     column[StateIndex::kPsi] = wrap_angle(plus[StateIndex::kPsi] - minus[StateIndex::kPsi]) / (2.0 * h);
     (j < nx ? fd.a.col(j) : fd.b.col(j - nx)) = column;
@@ -57,7 +58,7 @@ void expect_jacobians_match(const PredictionModel& model, const Eigen::VectorXd&
                             double tolerance, const char* label) {
   const int nx = model.state_size(), nu = model.input_size();
   Linearization exact{Eigen::VectorXd(nx), Eigen::VectorXd(nx + nu), Eigen::MatrixXd(nx, nx), Eigen::MatrixXd(nx, nu)};
-  ASSERT_TRUE(model.step_jacobians(x, u, kDt, exact.x_next, exact.a, exact.b, &exact.wear, exact.wear_gradient)) << label;
+  ASSERT_TRUE(testing::step_jacobians_once(model, x, u, kDt, exact.x_next, exact.a, exact.b, &exact.wear, exact.wear_gradient)) << label;
   ASSERT_TRUE(exact.a.allFinite() && exact.b.allFinite() && exact.wear_gradient.allFinite()) << label;
   const Linearization fd = finite_differences(model, x, u);
   EXPECT_LT((exact.x_next - fd.x_next).cwiseAbs().maxCoeff(), 1e-12) << label << ": the values must be step()'s";
@@ -196,12 +197,12 @@ TEST_F(PredictionJacobians, RejectWrongSizesAndNonFiniteInput) {
   Eigen::VectorXd x = moving_state(params, Eigen::Vector3d(0.5, 0.0, 0.0), 0.0, 0.0), x_next(nx), gradient(nx + 3);
   Eigen::MatrixXd a(nx, nx), b(nx, 3);
   double wear = 0.0;
-  EXPECT_FALSE(twist_model.step_jacobians(x, Eigen::Vector2d(0.5, 0.0), kDt, x_next, a, b, &wear, gradient));
+  EXPECT_FALSE(testing::step_jacobians_once(twist_model, x, Eigen::Vector2d(0.5, 0.0), kDt, x_next, a, b, &wear, gradient));
   Eigen::MatrixXd b_wrong(nx, 2);
-  EXPECT_FALSE(twist_model.step_jacobians(x, Eigen::Vector3d(0.5, 0, 0), kDt, x_next, a, b_wrong, &wear, gradient));
-  EXPECT_FALSE(twist_model.step_jacobians(x, Eigen::Vector3d(0.5, 0, 0), -kDt, x_next, a, b, &wear, gradient));
+  EXPECT_FALSE(testing::step_jacobians_once(twist_model, x, Eigen::Vector3d(0.5, 0, 0), kDt, x_next, a, b_wrong, &wear, gradient));
+  EXPECT_FALSE(testing::step_jacobians_once(twist_model, x, Eigen::Vector3d(0.5, 0, 0), -kDt, x_next, a, b, &wear, gradient));
   x[0] = std::nan("");
-  EXPECT_FALSE(twist_model.step_jacobians(x, Eigen::Vector3d(0.5, 0, 0), kDt, x_next, a, b, &wear, gradient));
+  EXPECT_FALSE(testing::step_jacobians_once(twist_model, x, Eigen::Vector3d(0.5, 0, 0), kDt, x_next, a, b, &wear, gradient));
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "support/fake_clocks.hpp"
 #include "support/linear_models.hpp"
 #include "swerve/ocp/solver.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -39,7 +40,7 @@ TEST(StartPlan, ChoosesTheCheapestUsableGuessWithItsOwnRolloutAndCost) {
   EXPECT_EQ(start.skipped(), 0);
   // Its states, cost and split are those of a fresh evaluation of the same inputs.
   Eigen::MatrixXd states(6, 11);
-  const CostBreakdown fresh = problem.evaluate(optimum, states);
+  const CostBreakdown fresh = testing::evaluate_once(problem, optimum, states);
   EXPECT_EQ(start.states(), states);
   EXPECT_DOUBLE_EQ(cost, fresh.total());
   EXPECT_DOUBLE_EQ(start.cost(), fresh.total());

@@ -20,6 +20,7 @@
 #include "support/two_threads.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/sim/simulator.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -57,7 +58,7 @@ WearPair stage_wear(const Eigen::Vector3d& twist, const Eigen::Vector3d& command
   Eigen::VectorXd x = moving_with(params, twist), x_next(10), u(8);
   prediction.module_inputs(x, command, 0.05, u);
   WearPair w;
-  EXPECT_TRUE(prediction.step(x, command, 0.05, x_next, &w.predicted));
+  EXPECT_TRUE(testing::step_once(prediction, x, command, 0.05, x_next, &w.predicted));
   EXPECT_EQ(plant.step(x, u, 0.05, 2000, x_next, &w.plant), ModelStatus::kOk);
   std::printf("[          ] twist (%.2f %.2f %.2f) -> (%.2f %.2f %.2f): predicted %.5f J, plant %.5f J\n", twist.x(),
               twist.y(), twist.z(), command.x(), command.y(), command.z(), w.predicted, w.plant);
@@ -107,8 +108,8 @@ LaggedWear lagged_stage_wear(const Eigen::Vector3d& twist, const Eigen::Vector3d
   Eigen::VectorXd x = moving_with(params, twist), x_next(10), u(8);
   prediction.module_inputs(x, command, 0.05, u);
   LaggedWear w;
-  EXPECT_TRUE(prediction.step(x, command, 0.05, x_next, &w.predicted));
-  EXPECT_TRUE(unscaled.step(x, command, 0.05, x_next, &w.predicted_unscaled));
+  EXPECT_TRUE(testing::step_once(prediction, x, command, 0.05, x_next, &w.predicted));
+  EXPECT_TRUE(testing::step_once(unscaled, x, command, 0.05, x_next, &w.predicted_unscaled));
   SimulatorOptions options;
   options.control_period = 0.05;
   Simulator plant(params, options);
@@ -180,7 +181,7 @@ TEST(VehiclePredictionModel, WithDriveLagTheWheelSpeedsFollowTheirCommandsThroug
   const double offsets[] = {0.5, -0.5, 3.0, 1.5};
   for (int i = 0; i < 4; ++i) u[InputIndex::wheel_speed(i)] = 5.0 + offsets[i];
   double wear = 0.0;
-  ASSERT_TRUE(model.step(x, u, 0.05, x_next, &wear));
+  ASSERT_TRUE(testing::step_once(model, x, u, 0.05, x_next, &wear));
   const double alpha = params.layout.limits().max_drive_acceleration / params.layout.wheel_radius();
   for (int i = 0; i < 4; ++i) {
     const double expected = drive_by_euler(5.0, 5.0 + offsets[i], params.actuators.drive_time_constant, alpha, 0.05);
@@ -194,13 +195,13 @@ TEST(VehiclePredictionModel, WithDriveLagTheWheelSpeedsFollowTheirCommandsThroug
     end_inputs[InputIndex::wheel_speed(i)] =
         drive_by_euler(5.0, 5.0 + offsets[i], params.actuators.drive_time_constant, alpha, 0.05);
   }
-  ASSERT_TRUE(instant.step(x.head(10), end_inputs, 0.05, instant_next, &wear));
+  ASSERT_TRUE(testing::step_once(instant, x.head(10), end_inputs, 0.05, instant_next, &wear));
   EXPECT_LT((x_next.head(10) - instant_next).cwiseAbs().maxCoeff(), 1e-4);
   // Lagging wheels drive the body less than the commands at once would.
-  ASSERT_TRUE(instant.step(x.head(10), u, 0.05, instant_next, &wear));
+  ASSERT_TRUE(testing::step_once(instant, x.head(10), u, 0.05, instant_next, &wear));
   EXPECT_LT(x_next[StateIndex::kVx], instant_next[StateIndex::kVx] - 1e-3);
   // A state without the wheel speeds is refused.
-  EXPECT_FALSE(model.step(x.head(10), u, 0.05, instant_next, &wear));
+  EXPECT_FALSE(testing::step_once(model, x.head(10), u, 0.05, instant_next, &wear));
 }
 
 TEST(VehiclePredictionModel, WithDriveLagTheWearOfSmallCorrectionsAtCruiseStaysNearThePlants) {
@@ -229,7 +230,7 @@ TEST(VehiclePredictionModel, WithDriveLagTheWearOfSmallCorrectionsAtCruiseStaysN
     double predicted = 0.0;
     for (int k = 0; k < 6; ++k) {
       double wear = 0.0;
-      ASSERT_TRUE(lagged.step(x, u, 0.05, x_next, &wear));
+      ASSERT_TRUE(testing::step_once(lagged, x, u, 0.05, x_next, &wear));
       predicted += wear;
       x = x_next;
       for (int i = 0; i < 4; ++i) u[InputIndex::steering_rate(i)] = 0.0;  // then held
@@ -270,7 +271,7 @@ TEST(VehiclePredictionModel, WithDriveLagARampsWearOverAHorizonStaysNearThePlant
       commands[i].wheel_speed = wheel_speed;
     }
     double wear = 0.0;
-    ASSERT_TRUE(lagged.step(x, u, 0.05, x_next, &wear));
+    ASSERT_TRUE(testing::step_once(lagged, x, u, 0.05, x_next, &wear));
     predicted += wear;
     x = x_next;
     ASSERT_TRUE(plant.advance(commands));
@@ -302,7 +303,7 @@ TEST(VehiclePredictionModel, WithSteeringLagTheAnglesAdvanceByTheLaggedRatesMean
     u[InputIndex::wheel_speed(i)] = 5.0;
   }
   double wear = 0.0;
-  ASSERT_TRUE(model.step(x, u, h, x_next, &wear));
+  ASSERT_TRUE(testing::step_once(model, x, u, h, x_next, &wear));
   const double decay = std::exp(-h / tau);
   for (int i = 0; i < 4; ++i) {
     const double r0 = x[10 + i], c = commands[i];
@@ -314,10 +315,10 @@ TEST(VehiclePredictionModel, WithSteeringLagTheAnglesAdvanceByTheLaggedRatesMean
   // Without the lag the angle moves c h, the rate a command at once.
   const VehiclePredictionModel instant(params);
   Eigen::VectorXd instant_next(10);
-  ASSERT_TRUE(instant.step(x.head(10), u, h, instant_next, &wear));
+  ASSERT_TRUE(testing::step_once(instant, x.head(10), u, h, instant_next, &wear));
   EXPECT_NEAR(instant_next[StateIndex::steering(0)] - x[StateIndex::steering(0)], 0.5 * h, 1e-12);
   // A state without the steering rates is refused.
-  EXPECT_FALSE(model.step(x.head(10), u, h, instant_next, &wear));
+  EXPECT_FALSE(testing::step_once(model, x.head(10), u, h, instant_next, &wear));
 }
 
 TEST(VehiclePredictionModel, WithSteeringLagASteeringSwingAtWalkingPaceCostsWhatThePlantWears) {
@@ -353,9 +354,9 @@ TEST(VehiclePredictionModel, WithSteeringLagASteeringSwingAtWalkingPaceCostsWhat
       commands[i].wheel_speed = 1.5;
     }
     double wear = 0.0;
-    ASSERT_TRUE(instant_steering.step(x_instant, u, 0.05, next_instant, &wear));
+    ASSERT_TRUE(testing::step_once(instant_steering, x_instant, u, 0.05, next_instant, &wear));
     instant_wear += wear;
-    ASSERT_TRUE(lagged_steering.step(x_lagged, u, 0.05, next_lagged, &wear));
+    ASSERT_TRUE(testing::step_once(lagged_steering, x_lagged, u, 0.05, next_lagged, &wear));
     lagged_wear += wear;
     x_instant = next_instant;
     x_lagged = next_lagged;
@@ -385,8 +386,8 @@ TEST(VehiclePredictionModel, WithDriveLagWheelsAtTheirCommandsPredictWhatInstant
   instant.module_inputs(x.head(10), twist, 0.05, u);
   for (int i = 0; i < 4; ++i) x[10 + i] = u[InputIndex::wheel_speed(i)];
   double lagged_wear = 0.0, instant_wear = 0.0;
-  ASSERT_TRUE(lagged.step(x, u, 0.05, x_next, &lagged_wear));
-  ASSERT_TRUE(instant.step(x.head(10), u, 0.05, instant_next, &instant_wear));
+  ASSERT_TRUE(testing::step_once(lagged, x, u, 0.05, x_next, &lagged_wear));
+  ASSERT_TRUE(testing::step_once(instant, x.head(10), u, 0.05, instant_next, &instant_wear));
   EXPECT_LT((x_next.head(10) - instant_next).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_GT(instant_wear, 0.0);
   EXPECT_NEAR(lagged_wear, instant_wear, 1e-12);
@@ -412,7 +413,7 @@ TEST(VehiclePredictionModel, AStartUpFromRestNeverPredictsASpeedBeyondTheCommand
       const Eigen::Vector3d twist(0.5 * (k + 1) / 20.0 + noise(random), noise(random), noise(random));
       fastest_commanded = std::max(fastest_commanded, twist.head<2>().norm() + 0.5 * std::abs(twist.z()));
       double wear = 0.0;
-      ASSERT_TRUE(model.step(x, twist, 0.05, x_next, &wear)) << "sequence " << sequence << ", stage " << k;
+      ASSERT_TRUE(testing::step_once(model, x, twist, 0.05, x_next, &wear)) << "sequence " << sequence << ", stage " << k;
       const double speed = x_next.segment<2>(StateIndex::kVx).norm();
       fastest_predicted = std::max(fastest_predicted, speed);
       EXPECT_LE(speed, fastest_commanded + 0.05) << "sequence " << sequence << ", stage " << k;
@@ -438,7 +439,7 @@ TEST(VehiclePredictionModel, RolloutsWithTheirOwnDataOnTwoThreadsMatchOneThreadB
       twists[static_cast<std::size_t>(s)].col(k) = Eigen::Vector3d(speed + noise(random), noise(random), 0.3 + noise(random));
     }
   }
-  const auto rollout = [&](PredictionData* data, int s, Eigen::VectorXd* final_state, double* wear) {
+  const auto rollout = [&](PredictionData& data, int s, Eigen::VectorXd* final_state, double* wear) {
     Eigen::VectorXd x = s % 2 == 0 ? Eigen::VectorXd::Zero(10) : moving_with(params, {0.8, 0.0, 0.3});
     Eigen::VectorXd x_next = x;
     *wear = 0.0;
@@ -456,7 +457,7 @@ TEST(VehiclePredictionModel, RolloutsWithTheirOwnDataOnTwoThreadsMatchOneThreadB
   {
     const std::unique_ptr<PredictionData> data = model.create_data();
     for (int s = 0; s < kSequences; ++s) {
-      ASSERT_TRUE(rollout(data.get(), s, &expected_states[static_cast<std::size_t>(s)], &expected_wear[static_cast<std::size_t>(s)]));
+      ASSERT_TRUE(rollout(*data, s, &expected_states[static_cast<std::size_t>(s)], &expected_wear[static_cast<std::size_t>(s)]));
     }
   }
   // Each thread runs every sequence three times.
@@ -466,7 +467,7 @@ TEST(VehiclePredictionModel, RolloutsWithTheirOwnDataOnTwoThreadsMatchOneThreadB
         const auto index = static_cast<std::size_t>(s);
         Eigen::VectorXd state;
         double wear = 0.0;
-        return rollout(data.get(), s, &state, &wear) && state == expected_states[index] && wear == expected_wear[index];
+        return rollout(*data, s, &state, &wear) && state == expected_states[index] && wear == expected_wear[index];
       });
   EXPECT_EQ(mismatches[0], 0);
   EXPECT_EQ(mismatches[1], 0);
@@ -485,7 +486,7 @@ TEST(VehiclePredictionModel, ChargesItsClockModulesTimesTheEvaluationsEachStepTo
   const auto charged_step = [&](const Eigen::VectorXd& x, const Eigen::Vector3d& twist, long* evaluations) {
     const long before = VehiclePredictionModel::model_evaluations(*data);
     const TimePoint start = clock.now();
-    EXPECT_TRUE(model.twist_step(data.get(), x, twist, 0.05, x_next, &wear));
+    EXPECT_TRUE(model.twist_step(*data, x, twist, 0.05, x_next, &wear));
     *evaluations = VehiclePredictionModel::model_evaluations(*data) - before;
     return to_seconds(clock.now() - start);
   };
@@ -500,12 +501,12 @@ TEST(VehiclePredictionModel, ChargesItsClockModulesTimesTheEvaluationsEachStepTo
   Eigen::MatrixXd a(model.state_size(), model.state_size()), b(model.state_size(), 3);
   Eigen::VectorXd wear_gradient(model.state_size() + 3);
   TimePoint start = clock.now();
-  ASSERT_TRUE(model.twist_step_jacobians(data.get(), moving_with(params, {0.8, 0.0, 0.3}), {0.8, 0.0, 0.3}, 0.05,
+  ASSERT_TRUE(model.twist_step_jacobians(*data, moving_with(params, {0.8, 0.0, 0.3}), {0.8, 0.0, 0.3}, 0.05,
                                          x_next, a, b, &wear, wear_gradient));
   EXPECT_GT(to_seconds(clock.now() - start), 4 * VehiclePredictionModel::module_evaluations_per_jet_chunk() * 1e-6 - 1e-9);
   model.charge_work_to(nullptr);
   start = clock.now();
-  EXPECT_TRUE(model.twist_step(data.get(), moving_with(params, {0.8, 0.0, 0.3}), {0.8, 0.0, 0.3}, 0.05, x_next, &wear));
+  EXPECT_TRUE(model.twist_step(*data, moving_with(params, {0.8, 0.0, 0.3}), {0.8, 0.0, 0.3}, 0.05, x_next, &wear));
   EXPECT_EQ(clock.now(), start);
 }
 

@@ -18,6 +18,7 @@
 #include "support/time_scale.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -27,7 +28,7 @@ using testing::DoubleIntegratorModel;
 
 double cost_of(const OcpProblem& problem, const Eigen::MatrixXd& inputs) {
   Eigen::MatrixXd states(problem.state_size(), problem.horizon() + 1);
-  return problem.evaluate(inputs, states).total();
+  return testing::evaluate_once(problem, inputs, states).total();
 }
 
 // The turning scene of tests/support/swerve_problems.hpp, every cost term active.
@@ -64,12 +65,12 @@ TEST(CeresSolver, HalfTheResidualSumOfSquaresIsTheOcpCostPlusTheWearSmoothingCon
   ASSERT_TRUE(solver.evaluate_residuals(s.problem, inputs, residuals, nullptr));
   Eigen::MatrixXd states(s.model.state_size(), 11);
   Eigen::VectorXd stage_costs(10);
-  const double cost = s.problem.rollout(inputs, 0, states, stage_costs);
+  const double cost = testing::rollout_once(s.problem, inputs, 0, states, stage_costs);
   const double smoothing = 10 * CeresSolver::kWearSmoothing * CeresSolver::kWearSmoothing;
   EXPECT_NEAR(0.5 * residuals.squaredNorm() - smoothing, cost, 1e-12 * cost);
   // Every term is in play: wear and tracking both contribute.
-  EXPECT_GT(s.problem.evaluate(inputs, states).wear, 1e-3 * cost);
-  EXPECT_GT(s.problem.evaluate(inputs, states).tracking, 1e-3 * cost);
+  EXPECT_GT(testing::evaluate_once(s.problem, inputs, states).wear, 1e-3 * cost);
+  EXPECT_GT(testing::evaluate_once(s.problem, inputs, states).tracking, 1e-3 * cost);
 }
 
 TEST(CeresSolver, StepPenaltyIsZeroOnFeasiblePlansAndPositiveOnInfeasibleOnes) {
@@ -82,10 +83,10 @@ TEST(CeresSolver, StepPenaltyIsZeroOnFeasiblePlansAndPositiveOnInfeasibleOnes) {
   Eigen::MatrixXd inputs = s.jittered_inputs(0.05, 3);
   ASSERT_FALSE(s.problem.is_feasible(inputs));
   ASSERT_TRUE(solver.evaluate_residuals(s.problem, inputs, residuals, nullptr));
-  EXPECT_GT(0.5 * residuals.squaredNorm() - smoothing, s.problem.rollout(inputs, 0, states, stage_costs) + 1.0);
+  EXPECT_GT(0.5 * residuals.squaredNorm() - smoothing, testing::rollout_once(s.problem, inputs, 0, states, stage_costs) + 1.0);
   s.problem.project(inputs);
   ASSERT_TRUE(solver.evaluate_residuals(s.problem, inputs, residuals, nullptr));
-  const double cost = s.problem.rollout(inputs, 0, states, stage_costs);
+  const double cost = testing::rollout_once(s.problem, inputs, 0, states, stage_costs);
   EXPECT_NEAR(0.5 * residuals.squaredNorm() - smoothing, cost, 1e-12 * cost);
 }
 
@@ -124,7 +125,7 @@ TEST(CeresSolver, WithATrackingTubeTheResidualsStillSumToTheCostAndTheJacobianMa
   ASSERT_TRUE(solver.evaluate_residuals(s.problem, inputs, residuals, &jacobian));
   Eigen::MatrixXd states(s.model.state_size(), 11);
   Eigen::VectorXd stage_costs(10);
-  const double cost = s.problem.rollout(inputs, 0, states, stage_costs);
+  const double cost = testing::rollout_once(s.problem, inputs, 0, states, stage_costs);
   const double smoothing = 10 * CeresSolver::kWearSmoothing * CeresSolver::kWearSmoothing;
   EXPECT_NEAR(0.5 * residuals.squaredNorm() - smoothing, cost, 1e-12 * cost);
   ASSERT_GT(s.problem.tube_excess(states).maxCoeff(), 0.0);  // the tube term is in play
@@ -238,15 +239,15 @@ class FailingModel final : public PredictionModel {
   explicit FailingModel(double failing_speed) : failing_speed_(failing_speed) {}
   int state_size() const noexcept override { return 6; }
   int input_size() const noexcept override { return 3; }
-  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+  bool step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
             Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override {
-    return healthy_.step(x, u, dt, x_next, stage_wear) && x_next.segment<3>(3).norm() < failing_speed_;
+    return healthy_.step(data, x, u, dt, x_next, stage_wear) && x_next.segment<3>(3).norm() < failing_speed_;
   }
   bool has_jacobians() const noexcept override { return true; }
-  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+  bool step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
                       Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b,
                       double* stage_wear, Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override {
-    return healthy_.step_jacobians(x, u, dt, x_next, a, b, stage_wear, wear_gradient) &&
+    return healthy_.step_jacobians(data, x, u, dt, x_next, a, b, stage_wear, wear_gradient) &&
            x_next.segment<3>(3).norm() < failing_speed_;
   }
 

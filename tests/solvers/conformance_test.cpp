@@ -18,6 +18,7 @@
 #include "swerve/ocp/twist_prediction_model.hpp"
 #include "swerve/sim/metrics.hpp"
 #include "swerve/solvers/solver_factory.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -58,7 +59,7 @@ TEST_P(BackendConformance, ReachesTheClosedFormOptimumOfALinearQuadraticProblem)
   const OcpProblem problem = testing::make_lq_problem(model, 6);
   const Eigen::MatrixXd optimum = testing::double_integrator_optimum(problem, model);
   Eigen::MatrixXd states(6, 7);
-  const double optimal_cost = problem.evaluate(optimum, states).total();
+  const double optimal_cost = testing::evaluate_once(problem, optimum, states).total();
   std::unique_ptr<Solver> solver = make_solver(config_for(GetParam()), problem);
   Solution solution;
   solution.resize(6, 3, 6);
@@ -132,7 +133,7 @@ TEST_P(BackendConformance, ImprovesOnItsStartOnTheSwerveProblemAndNeverReturnsWo
   ASSERT_TRUE(has_solution(solver->solve(*problem, guesses, Deadline(clock.now() + 200ms, clock), &solution, &summary)))
       << summary.reason;
   Eigen::MatrixXd states(10, 21);
-  const double start_cost = s.problem.evaluate(cruise, states).total();
+  const double start_cost = testing::evaluate_once(s.problem, cruise, states).total();
   EXPECT_LT(solution.cost, 0.9 * start_cost) << "start " << start_cost;
   EXPECT_NEAR(summary.cost.total(), solution.cost, 1e-9 * solution.cost);
 }
@@ -201,7 +202,7 @@ TEST_P(BackendConformance, ReachesTheIpoptReferenceOnTheSwerveProblemWithExactDy
     best_cost = std::min(best_cost, solution.cost);
     // Dynamics respected: the plan's states are the model's rollout of its inputs (defect 0 <= 1e-6).
     Eigen::MatrixXd states(10, 21);
-    s.problem.evaluate(solution.inputs, states);
+    testing::evaluate_once(s.problem, solution.inputs, states);
     EXPECT_LE((states - solution.states).cwiseAbs().maxCoeff(), 1e-6);
     EXPECT_TRUE(s.problem.is_feasible(solution.inputs, 1e-9));
   }

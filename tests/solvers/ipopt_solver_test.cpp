@@ -15,6 +15,7 @@
 #include "support/swerve_problems.hpp"
 #include "support/time_scale.hpp"
 #include "swerve/core/config_error.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -33,7 +34,7 @@ TEST(IpoptSolver, ReachesTheLinearQuadraticOptimumToOneMicroRelative) {
   const OcpProblem problem = testing::make_lq_problem(model, 8);
   const Eigen::MatrixXd optimum = testing::double_integrator_optimum(problem, model);
   Eigen::MatrixXd states(6, 9);
-  const double optimal_cost = problem.evaluate(optimum, states).total();
+  const double optimal_cost = testing::evaluate_once(problem, optimum, states).total();
   IpoptSolver solver(problem, tight());
   Solution solution;
   solution.resize(6, 3, 8);
@@ -59,7 +60,7 @@ TEST(IpoptSolver, ExactHessianSolvesTheLinearQuadraticProblemInAFewInteriorPoint
   const OcpProblem problem = testing::make_lq_problem(model, 8);
   const Eigen::MatrixXd optimum = testing::double_integrator_optimum(problem, model);
   Eigen::MatrixXd states(6, 9);
-  const double optimal_cost = problem.evaluate(optimum, states).total();
+  const double optimal_cost = testing::evaluate_once(problem, optimum, states).total();
   int iterations[2] = {0, 0};
   const char* hessians[2] = {"exact", "limited-memory"};
   for (int h = 0; h < 2; ++h) {

@@ -16,6 +16,7 @@
 #include "support/linear_models.hpp"
 #include "support/swerve_problems.hpp"
 #include "swerve/core/config_error.hpp"
+#include "support/one_off_steps.hpp"
 
 namespace swerve {
 namespace {
@@ -28,7 +29,7 @@ Deadline far_deadline() { return SolverClock::now() + 60s; }
 
 double cost_of(const OcpProblem& problem, const Eigen::MatrixXd& inputs) {
   Eigen::MatrixXd states(problem.state_size(), problem.horizon() + 1);
-  return problem.evaluate(inputs, states).total();
+  return testing::evaluate_once(problem, inputs, states).total();
 }
 
 TEST(SimulatedAnnealing, ReachesTheClosedFormOptimumOfALinearQuadraticProblem) {
@@ -86,9 +87,10 @@ class StepsOnly final : public PredictionModel {
   explicit StepsOnly(const PredictionModel& model) : model_(model) {}
   int state_size() const noexcept override { return model_.state_size(); }
   int input_size() const noexcept override { return model_.input_size(); }
-  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+  std::unique_ptr<PredictionData> create_data() const override { return model_.create_data(); }
+  bool step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
             Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override {
-    return model_.step(x, u, dt, x_next, stage_wear);
+    return model_.step(data, x, u, dt, x_next, stage_wear);
   }
 
  private:
@@ -164,10 +166,10 @@ TEST(SimulatedAnnealing, TheKnotPolishReachesTheBestPlanOfItsKnotsAndNeverRaises
 }
 
 // Batched proposals (threads = 2): the worker rolls out its proposal on scratch of its own. On the
-// swerve prediction (a model with scratch), the answer is the same bit for bit on every run, and the
-// same as when the batch is rolled out on the calling thread alone (a problem on another model
-// instance, for which the worker's scratch was not made): no data race reaches the result.
-TEST(SimulatedAnnealing, BatchedProposalsOnAWorkerGiveTheAnswerOfTheSameBatchOnOneThread) {
+// swerve prediction (a model with scratch), the answer is the same bit for bit on every run, and on
+// a problem over another model instance of the same vehicle, for which the solver makes its
+// threads' scratch anew: no data race, and no scratch of the wrong model, reaches the result.
+TEST(SimulatedAnnealing, BatchedProposalsOnAWorkerGiveTheSameAnswerOnEveryRunAndOnAnotherModelInstance) {
   testing::SwerveTestProblem shape(testing::SwerveScene::kTurn, 20);
   testing::SwerveTestProblem other_model(testing::SwerveScene::kTurn, 20);
   ASSERT_NE(&shape.problem.model(), &other_model.problem.model());
@@ -189,7 +191,7 @@ TEST(SimulatedAnnealing, BatchedProposalsOnAWorkerGiveTheAnswerOfTheSameBatchOnO
     rollouts[run] = summary.rollouts;
   }
   EXPECT_EQ(answers[1], answers[0]) << "two runs on the worker differ";
-  EXPECT_EQ(answers[2], answers[0]) << "the worker's batch differs from the same batch on one thread";
+  EXPECT_EQ(answers[2], answers[0]) << "the answer on another model instance differs";
   EXPECT_EQ(rollouts[1], rollouts[0]);
   EXPECT_EQ(rollouts[2], rollouts[0]);
   // Two proposals per step (some undone by the projection), so well over one rollout per step.
@@ -197,9 +199,9 @@ TEST(SimulatedAnnealing, BatchedProposalsOnAWorkerGiveTheAnswerOfTheSameBatchOnO
 }
 
 // With workers the exact polish's gradient is linearised in shares of stages, one per thread. The
-// answer is the same bit for bit as the same shares on the calling thread alone (a problem on
-// another model instance), and the polish does lower the cost.
-TEST(SimulatedAnnealing, ThePolishsGradientInSharesOnWorkersGivesTheAnswerOfOneThread) {
+// answer is the same bit for bit on a problem over another model instance (the threads' scratch
+// made anew for it), and the polish does lower the cost.
+TEST(SimulatedAnnealing, ThePolishsGradientInSharesOnWorkersGivesTheSameAnswerOnAnotherModelInstance) {
   testing::SwerveTestProblem shape(testing::SwerveScene::kTurn, 20);
   testing::SwerveTestProblem other_model(testing::SwerveScene::kTurn, 20);
   SaOptions options;
@@ -221,7 +223,7 @@ TEST(SimulatedAnnealing, ThePolishsGradientInSharesOnWorkersGivesTheAnswerOfOneT
     answers[run] = solution.inputs;
     costs[run] = solution.cost;
   }
-  EXPECT_EQ(answers[1], answers[0]) << "the shares on the worker differ from the same shares on one thread";
+  EXPECT_EQ(answers[1], answers[0]) << "the shares on another model instance differ";
   EXPECT_EQ(costs[1], costs[0]);
   options.polish_share = 0.0;
   SimulatedAnnealingSolver annealer(shape.problem, options);
@@ -487,18 +489,19 @@ class DearAboveSpeedModel final : public PredictionModel {
       : model_(model), clock_(clock), speed_(speed), cheap_(to_duration(cheap_s)), dear_(to_duration(dear_s)) {}
   int state_size() const noexcept override { return model_.state_size(); }
   int input_size() const noexcept override { return model_.input_size(); }
+  std::unique_ptr<PredictionData> create_data() const override { return model_.create_data(); }
   bool has_jacobians() const noexcept override { return model_.has_jacobians(); }
-  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
+  bool step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
             Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override {
     clock_->advance(x.segment<3>(3).norm() > speed_ ? dear_ : cheap_);
-    return model_.step(x, u, dt, x_next, stage_wear);
+    return model_.step(data, x, u, dt, x_next, stage_wear);
   }
-  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+  bool step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                       double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                       Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                       Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override {
     clock_->advance(4 * (x.segment<3>(3).norm() > speed_ ? dear_ : cheap_));
-    return model_.step_jacobians(x, u, dt, x_next, a, b, stage_wear, wear_gradient);
+    return model_.step_jacobians(data, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
   }
 
  private:
@@ -534,7 +537,7 @@ TEST(SimulatedAnnealing, ReturnsByTheDeadlineWhenItsAnswerRollsOutDearerThanItsS
       EXPECT_TRUE(solution.valid);
       // The reported cost is the answer's.
       Eigen::MatrixXd states(6, 41);
-      EXPECT_NEAR(summary.cost.total(), problem.evaluate(solution.inputs, states).total(), 1e-9 * summary.cost.total());
+      EXPECT_NEAR(summary.cost.total(), testing::evaluate_once(problem, solution.inputs, states).total(), 1e-9 * summary.cost.total());
       ASSERT_GT(solution.states.col(40).segment<3>(3).norm(), 0.5) << "the answer must be a dear plan";
     }
   }
@@ -565,7 +568,7 @@ TEST(SimulatedAnnealing, ReturnsByTheDeadlineWhenItsInitialGuessesRollOutDear) {
   EXPECT_TRUE(solution.valid);
   EXPECT_EQ(solution.inputs, accelerate) << "the one guess there was time for";
   Eigen::MatrixXd states(6, 41);
-  EXPECT_NEAR(summary.cost.total(), problem.evaluate(solution.inputs, states).total(), 1e-9 * summary.cost.total());
+  EXPECT_NEAR(summary.cost.total(), testing::evaluate_once(problem, solution.inputs, states).total(), 1e-9 * summary.cost.total());
 }
 
 TEST(SimulatedAnnealing, WarmStartReachesATargetCostInFewerIterationsThanCold) {
@@ -581,7 +584,7 @@ TEST(SimulatedAnnealing, WarmStartReachesATargetCostInFewerIterationsThanCold) {
   // Next cycle: the state advanced by the first input, the reference window moved on by one.
   Eigen::VectorXd x1(6);
   double wear = 0.0;
-  model.step(problem.initial_state(), previous.inputs.col(0), problem.dt(), x1, &wear);
+  testing::step_once(model, problem.initial_state(), previous.inputs.col(0), problem.dt(), x1, &wear);
   problem.set_initial_state(x1);
   problem.set_previous_input(previous.inputs.col(0));
   for (int k = 1; k <= 15; ++k) problem.set_reference(k, {0.1 * (k + 1), 0.05 * (k + 1), 0.01 * (k + 1)}, {0, 0, 0});
@@ -611,7 +614,7 @@ class FailingModel final : public PredictionModel {
  public:
   int state_size() const noexcept override { return 6; }
   int input_size() const noexcept override { return 2; }
-  bool step(const Eigen::Ref<const Eigen::VectorXd>&, const Eigen::Ref<const Eigen::VectorXd>&, double,
+  bool step(PredictionData&, const Eigen::Ref<const Eigen::VectorXd>&, const Eigen::Ref<const Eigen::VectorXd>&, double,
             Eigen::Ref<Eigen::VectorXd> x_next, double*) const noexcept override {
     x_next.setConstant(std::numeric_limits<double>::quiet_NaN());
     return false;

@@ -37,19 +37,20 @@ class ClockedModel final : public PredictionModel {
   int input_group_size() const noexcept override { return model_.input_group_size(); }
   bool has_jacobians() const noexcept override { return model_.has_jacobians(); }
 
-  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
-            Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override {
+  std::unique_ptr<PredictionData> create_data() const override { return model_.create_data(); }
+  bool step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+            double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override {
     clock_->advance(step_cost_);
     ++steps_;
-    return model_.step(x, u, dt, x_next, stage_wear);
+    return model_.step(data, x, u, dt, x_next, stage_wear);
   }
-  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
-                      double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
-                      Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+  bool step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                      const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+                      Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                       Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override {
     clock_->advance(jacobian_cost_);
     ++jacobian_steps_;
-    return model_.step_jacobians(x, u, dt, x_next, a, b, stage_wear, wear_gradient);
+    return model_.step_jacobians(data, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
   }
   long steps() const noexcept { return steps_; }
   long jacobian_steps() const noexcept { return jacobian_steps_; }

@@ -17,23 +17,24 @@ class DoubleIntegratorModel final : public PredictionModel {
   explicit DoubleIntegratorModel(double wear_scale = 0.0) : wear_scale_(wear_scale) {}
   int state_size() const noexcept override { return 6; }
   int input_size() const noexcept override { return 3; }
-  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
-            Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override {
+  bool step(PredictionData&, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
+            double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override {
     x_next.head<3>() = x.head<3>() + dt * x.segment<3>(3) + 0.5 * dt * dt * u;
     x_next.segment<3>(3) = x.segment<3>(3) + dt * u;
     if (stage_wear != nullptr) *stage_wear = wear_scale_ * dt * u.squaredNorm();
     return x_next.allFinite();
   }
   bool has_jacobians() const noexcept override { return true; }
-  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
-                      Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b,
-                      double* stage_wear, Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override {
+  bool step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
+                      const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
+                      Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
+                      Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override {
     if (a.rows() != 6 || a.cols() != 6 || b.rows() != 6 || b.cols() != 3 || wear_gradient.size() != 9) return false;
     a = a_matrix(dt);
     b = b_matrix(dt);
     wear_gradient.head<6>().setZero();
     wear_gradient.tail<3>() = 2.0 * wear_scale_ * dt * u;
-    return step(x, u, dt, x_next, stage_wear);
+    return step(data, x, u, dt, x_next, stage_wear);
   }
   Eigen::Matrix<double, 6, 6> a_matrix(double dt) const {
     Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Identity();
@@ -56,8 +57,8 @@ class ModelWithoutJacobians final : public PredictionModel {
  public:
   int state_size() const noexcept override { return 6; }
   int input_size() const noexcept override { return 1; }
-  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>&, double,
-            Eigen::Ref<Eigen::VectorXd> x_next, double*) const noexcept override {
+  bool step(PredictionData&, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>&,
+            double, Eigen::Ref<Eigen::VectorXd> x_next, double*) const noexcept override {
     x_next = x;
     return true;
   }

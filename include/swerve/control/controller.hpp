@@ -205,6 +205,7 @@ class Controller final : public TrackingController {
   std::unique_ptr<PredictionModel> model_;
   const TwistPredictionModel* twist_model_ = nullptr;  // model_ when parameterised by the body twist
   std::unique_ptr<OcpProblem> problem_;
+  std::unique_ptr<PredictionData> model_data_;  // the scratch of the baseline plan's rollouts
   std::unique_ptr<Solver> solver_;
   std::shared_ptr<const Reference> reference_;
   KinematicBaseline baseline_;

@@ -3,8 +3,8 @@
 // and of the stage wear (from PredictionModel::step_jacobians, i.e. ceres::Jet), the analytic
 // gradients of the quadratic stage costs, and from both the single-shooting gradient of the total
 // cost by the adjoint (reverse) recursion. Sized once for a problem's shape; no allocation after.
-// It linearises on scratch of its own (PredictionModel::create_data() of the shape's model), so two
-// OcpDerivatives may work on separate threads.
+// It linearises on scratch of its own (a PredictionWorkspace), so two OcpDerivatives may work on
+// separate threads.
 #pragma once
 
 #include <Eigen/Core>
@@ -45,14 +45,14 @@ class OcpDerivatives {
 
   // The same gradient in two parts, for a plan whose rollout is known, so that its stages may be
   // linearised on several threads. linearize_stages linearises stages [first, last) at `states`
-  // (the rollout of `inputs`, nx x N+1) on `data` (the model's create_data(); nullptr: this
-  // object's own scratch), writing each next state to `x_next` (nx) only; it returns the stages
+  // (the rollout of `inputs`, nx x N+1) on `data` (the problem's model's create_data()), writing
+  // each next state to `x_next` (nx) only; it returns the stages
   // done, fewer than asked when the model fails (then -1) or when, with `stop`, a stage costing
   // what the last did would end past it. Calls on disjoint stage ranges, each on its own data and
   // x_next, may run on separate threads. gradient_of_stages then runs the adjoint recursion over
   // all N linearised stages and returns the total cost.
   int linearize_stages(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
-                       const Eigen::Ref<const Eigen::MatrixXd>& states, int first, int last, PredictionData* data,
+                       const Eigen::Ref<const Eigen::MatrixXd>& states, int first, int last, PredictionData& data,
                        Eigen::Ref<Eigen::VectorXd> x_next, const Deadline* stop = nullptr) noexcept;
   double gradient_of_stages(const OcpProblem& problem, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
                             const Eigen::Ref<const Eigen::MatrixXd>& states, Eigen::Ref<Eigen::MatrixXd> gradient) noexcept;
@@ -72,10 +72,8 @@ class OcpDerivatives {
  private:
   int horizon_, nx_, nu_;
   int completed_stages_ = 0;
-  const PredictionModel* data_model_;         // the model data_ was made by
-  std::unique_ptr<PredictionData> data_;      // its step scratch (null: a model without any)
-  // Stage k on `data` (nullptr: data_ when the problem's model made it, else the model's own).
-  bool linearize_stage_on(PredictionData* data, const OcpProblem& problem, int k,
+  PredictionWorkspace workspace_;  // the step scratch of linearize_stage and cost_and_gradient
+  bool linearize_stage_on(PredictionData& data, const OcpProblem& problem, int k,
                           const Eigen::Ref<const Eigen::VectorXd>& x_k, const Eigen::Ref<const Eigen::VectorXd>& u_k,
                           Eigen::Ref<Eigen::VectorXd> x_next) noexcept;
 

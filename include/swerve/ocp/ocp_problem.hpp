@@ -106,13 +106,11 @@ class OcpProblem {
   // Rolls out a (feasible) input sequence from step `first_step`, reusing states(:, 0..first_step)
   // and stage_costs(0..first_step-1) computed earlier for the same prefix; writes states
   // (nx x N+1) and per-stage costs (N). Returns the total cost, or +inf when the model failed.
-  double rollout(const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step, Eigen::Ref<Eigen::MatrixXd> states,
-                 Eigen::Ref<Eigen::VectorXd> stage_costs) const noexcept;
-  // The same on the model's scratch `data` (model().create_data()): the problem holds no scratch
-  // of its own, so rollouts on separate data may run on separate threads (batched proposals).
-  // With `stage_wear` (N entries, or null), each rolled stage's wear is written there too, so
-  // breakdown() can report the plan's cost without stepping the model again.
-  double rollout(PredictionData* data, const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
+  // The model steps on `data` (model().create_data()): the problem holds no scratch of its own, so
+  // rollouts on separate data may run on separate threads (batched proposals). With `stage_wear`
+  // (N entries, or null), each rolled stage's wear is written there too, so breakdown() can report
+  // the plan's cost without stepping the model again.
+  double rollout(PredictionData& data, const Eigen::Ref<const Eigen::MatrixXd>& inputs, int first_step,
                  Eigen::Ref<Eigen::MatrixXd> states, Eigen::Ref<Eigen::VectorXd> stage_costs,
                  double* stage_wear = nullptr) const noexcept;
 
@@ -145,8 +143,10 @@ class OcpProblem {
                                  const Eigen::Ref<const Eigen::VectorXd>& u_before, Eigen::Ref<Eigen::VectorXd> d_x_next,
                                  Eigen::Ref<Eigen::VectorXd> d_u, Eigen::Ref<Eigen::VectorXd> d_u_before) const noexcept;
 
-  // One full evaluation with the cost split into its parts (for reports, not the hot loop).
-  CostBreakdown evaluate(const Eigen::Ref<const Eigen::MatrixXd>& inputs, Eigen::Ref<Eigen::MatrixXd> states) const noexcept;
+  // One full evaluation (a rollout on `data`) with the cost split into its parts (for reports, not
+  // the hot loop).
+  CostBreakdown evaluate(PredictionData& data, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
+                         Eigen::Ref<Eigen::MatrixXd> states) const noexcept;
   // The same split for a plan already rolled out: `states` (nx x N+1) and `stage_wear` (N) as
   // rollout() wrote them for `inputs`. No model step, so a solver on a deadline can report its
   // answer's cost for the price of the cost terms alone (a rollout near standstill costs 10x one in

@@ -110,6 +110,7 @@ class StartPlan {
   bool found_ = false;
   int rollouts_ = 0, skipped_ = 0;
   Duration longest_rollout_{};
+  PredictionWorkspace workspace_;  // the candidates' step scratch
 };
 
 class Solver {
@@ -125,15 +126,20 @@ class Solver {
                     SolveSummary* summary) noexcept;
 
  protected:
-  // Every backend is built for one problem shape (its buffers are sized for it).
-  explicit Solver(const OcpProblem& shape) noexcept
-      : state_size_(shape.state_size()), input_size_(shape.input_size()), horizon_(shape.horizon()) {}
+  // Every backend is built for one problem shape (its buffers are sized for it), with the model's
+  // scratch for `threads` threads.
+  explicit Solver(const OcpProblem& shape, int threads = 1)
+      : state_size_(shape.state_size()), input_size_(shape.input_size()), horizon_(shape.horizon()),
+        workspace_(shape.model(), threads) {}
+  // Thread `thread`'s scratch for the model of the problem being solved (solve() binds it).
+  PredictionData& model_data(int thread = 0) noexcept { return workspace_.data(thread); }
 
  private:
   virtual SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
                                Solution* out, SolveSummary* summary) noexcept = 0;
 
   int state_size_, input_size_, horizon_;
+  PredictionWorkspace workspace_;
 };
 
 }  // namespace swerve

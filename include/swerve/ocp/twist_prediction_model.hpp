@@ -20,19 +20,13 @@ class TwistPredictionModel final : public PredictionModel {
 
   int state_size() const noexcept override { return modules_.state_size(); }
   int input_size() const noexcept override { return 3; }
-  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& twist_body,
-            double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override;
   std::unique_ptr<PredictionData> create_data() const override { return modules_.create_data(); }
-  bool step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+  bool step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
             const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
             double* stage_wear) const noexcept override;
   void charge_work_to(const Clock* clock) noexcept override { modules_.charge_work_to(clock); }
   bool has_jacobians() const noexcept override { return true; }
-  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& twist_body,
-                      double dt, Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
-                      Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
-                      Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override;
-  bool step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+  bool step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                       const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
                       Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                       Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override;

@@ -56,22 +56,8 @@ class VehiclePredictionModel final : public PredictionModel {
   // and the replayed twist solve) costs in double evaluations of one module, as
   // BM_Models_PredictionStep measures the two on the reference machine.
   static double module_evaluations_per_jet_chunk() noexcept;
-  bool step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
-            Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept override;
   bool has_jacobians() const noexcept override { return true; }
-  bool step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
-                      Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b,
-                      double* stage_wear, Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override;
 
-  // The same step with the body twist (vx, vy, r) as its input, mapped to module inputs by
-  // module_inputs() first (TwistPredictionModel is this as a PredictionModel), and its Jacobians
-  // (b: nx x 3, wear_gradient: nx + 3).
-  bool twist_step(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
-                  Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
-  bool twist_step_jacobians(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
-                            Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
-                            Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
-                            Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept;
   // The module inputs (2n: steering rate, wheel speed per module) that carry out `twist_body` over
   // the next `dt` from state `x`: inverse kinematics, the 180 deg choice nearest the current
   // steering angle, the steering-rate limit, and the wheel speed scaled by the cosine of the
@@ -79,10 +65,8 @@ class VehiclePredictionModel final : public PredictionModel {
   void module_inputs(const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body, double dt,
                      Eigen::Ref<Eigen::VectorXd> inputs) const noexcept;
 
-  // Scratch owned by the caller, for the steps and their Jacobians. The model itself is immutable:
-  // rollouts and linearisations that each pass a Data of their own (made once, by create_data();
-  // allocation-free after) may run on threads of their own, bit for bit as on one. The overloads
-  // without one use the model's own, so they are not re-entrant.
+  // Scratch owned by the caller, for the steps and their Jacobians (made once, by create_data();
+  // allocation-free after).
   class Data final : public PredictionData {
    public:
     Data(Data&&) noexcept;
@@ -96,26 +80,28 @@ class VehiclePredictionModel final : public PredictionModel {
     std::unique_ptr<Impl> impl_;
   };
   std::unique_ptr<PredictionData> create_data() const override;  // a Data
-  bool step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+  bool step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
             const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
             double* stage_wear) const noexcept override;
-  bool twist_step(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
-                  double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
-  bool step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+  bool step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                       const Eigen::Ref<const Eigen::VectorXd>& u, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
                       Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                       Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept override;
-  bool twist_step_jacobians(PredictionData* data, const Eigen::Ref<const Eigen::VectorXd>& x,
+  // The same step with the body twist (vx, vy, r) as its input, mapped to module inputs by
+  // module_inputs() first (TwistPredictionModel is this as a PredictionModel), and its Jacobians
+  // (b: nx x 3, wear_gradient: nx + 3).
+  bool twist_step(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Vector3d& twist_body,
+                  double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
+  bool twist_step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                             const Eigen::Vector3d& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,
                             Eigen::Ref<Eigen::MatrixXd> a, Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                             Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept;
 
   const VehicleModel<double>& vehicle() const noexcept;
   // Evaluations of the vehicle model (each with the twist Jacobian, or in double for the final
-  // values) by the double steps through `data` (default: the model's own) since it was made: the
-  // rollout's cost driver (BM_Prediction_Rollout reports them per stage).
-  long model_evaluations() const noexcept;
-  static long model_evaluations(const PredictionData& data) noexcept;  // `data`: a Data
+  // values) by the double steps on `data` (a Data) since it was made: the rollout's cost driver
+  // (BM_Prediction_Rollout reports them per stage).
+  static long model_evaluations(const PredictionData& data) noexcept;
   const PredictionOptions& options() const noexcept { return options_; }
   // The state's lagged actuators (see SemiImplicitStep::state_size): n wheel speeds from index
   // 6 + n with drive_lag on a plant whose drives lag, else none; then n steering rates likewise.
@@ -127,12 +113,11 @@ class VehiclePredictionModel final : public PredictionModel {
   int modules_, state_size_, input_size_;
   std::unique_ptr<SemiImplicitStep<double>> values_;
   std::unique_ptr<SemiImplicitStepJacobian> jacobian_;  // the step's derivatives (models/)
-  std::unique_ptr<Data> data_;                     // the scratch of the overloads without a Data
   const Clock* work_clock_ = nullptr;              // charged with the work of every step (not owned)
   double module_jacobian_work_ = 0.0, twist_jacobian_work_ = 0.0;  // module evaluations per Jacobian
   bool charged_step(Data::Impl& own, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                     double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
-  Data::Impl& scratch(PredictionData* data) const noexcept;  // *data's, or the model's own for nullptr
+  static Data::Impl& scratch(PredictionData& data) noexcept;  // data's, which must be a Data
 };
 
 }  // namespace swerve

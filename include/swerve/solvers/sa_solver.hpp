@@ -44,7 +44,7 @@ struct SaOptions {
   bool knot_polish = false;
   // Proposals drawn and rolled out together per annealing step, one per thread: the calling thread
   // and threads - 1 workers started with the solver, each rolling out on scratch of its own
-  // (PredictionModel::create_data). The cheapest of each batch meets the Metropolis test. 1: one
+  // (a PredictionWorkspace). The cheapest of each batch meets the Metropolis test. 1: one
   // proposal per step, no worker. The workers also linearise the polish's gradient, a share of the
   // stages each. For targets with a core to spare; the answer depends on the seed and the budget,
   // never on the threads' timing.
@@ -153,7 +153,6 @@ class SimulatedAnnealingSolver final : public Solver {
     Eigen::VectorXd stage_costs, stage_wear, x_next;
     int changed = 0;
     double cost = 0.0;
-    std::unique_ptr<PredictionData> data;
     int first_stage = 0, last_stage = 0, done_stages = 0;
   };
   class Workers;
@@ -168,7 +167,7 @@ class SimulatedAnnealingSolver final : public Solver {
   // Rolls `inputs` out from step `changed` on, sharing the current plan's prefix (its states,
   // stage costs and wear before `changed`); returns the cost. Reads only the current plan, so
   // proposals may roll out this way on several threads, each on its own `data` and buffers.
-  double roll_out_from(const OcpProblem& problem, PredictionData* data, int changed, const Eigen::MatrixXd& inputs,
+  double roll_out_from(const OcpProblem& problem, PredictionData& data, int changed, const Eigen::MatrixXd& inputs,
                        Eigen::MatrixXd& states, Eigen::VectorXd& stage_costs,
                        Eigen::VectorXd& stage_wear) const noexcept;
   // The polish's exact gradient at `inputs`. One thread: OcpDerivatives::cost_and_gradient (which
@@ -214,11 +213,10 @@ class SimulatedAnnealingSolver final : public Solver {
   Eigen::MatrixXd knot_gradient_, candidate_knot_gradient_, knot_direction_, previous_knots_;
   Duration longest_knot_gradient_{0};
 
-  // Batched proposals (SaOptions::threads): their buffers, the model their scratch was made for
-  // (another model's problem is rolled out on the calling thread), the workers, and the problem of
-  // the batch in flight.
+  // Batched proposals (SaOptions::threads): their buffers, the workers, and the problem of the batch
+  // in flight. Every thread steps the model on its own data: model_data(0) this thread's,
+  // model_data(w + 1) worker w's.
   std::vector<Proposal> proposals_;
-  const PredictionModel* proposal_model_ = nullptr;
   std::unique_ptr<Workers> workers_;
   const OcpProblem* batch_problem_ = nullptr;
   // The job in flight, and what a gradient's shares read: the plan, its rollout, the give-up time.
