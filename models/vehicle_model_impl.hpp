@@ -122,24 +122,12 @@ Eigen::VectorXd VehicleModel<T>::complete_state(const Eigen::VectorXd& prefix) c
   return x;
 }
 
-// One module's contribution: wheel-frame slip (docs/paper.md, assumption 3), Magic Formula forces,
-// rotation wheel -> body by delta_i, yaw moment about the CoM, wear (assumption 5), and the
-// module's own state derivatives (steering angle, actuator and transient-slip states).
 template <typename T>
-void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, const double* steering_cos,
-                                    const double* steering_sin, ForceSums* sums, ModuleDiagnostics<T>* diag,
-                                    T* x_dot) const noexcept {
-  using std::cos;
-  using std::sin;
-  using std::sqrt;
+void VehicleModel<T>::module_actuators(const T* x, const T* u, int i, T* x_dot, T* steer_rate_out,
+                                       T* omega_out) const noexcept {
   const ModuleLimits& limits = params_.layout.limits();
   const double radius = params_.layout.wheel_radius();
-  const Eigen::Vector2d& p = params_.layout.position_body(i);
-  const T& vx = x[StateIndex::kVx];
-  const T& vy = x[StateIndex::kVy];
-  const T& r = x[StateIndex::kYawRate];
   const T& delta = x[StateIndex::steering(i)];
-
   // Steering: delta_dot = commanded (ideal) or lagged rate; the plant clamps and stops at the ends.
   T steer_command = u[InputIndex::steering_rate(i)];
   T wheel_command = u[InputIndex::wheel_speed(i)];
@@ -170,6 +158,29 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
       steer_rate = T(0.0);
     }
   }
+  *steer_rate_out = steer_rate;
+  *omega_out = omega;
+}
+
+// One module's contribution: wheel-frame slip (docs/paper.md, assumption 3), Magic Formula forces,
+// rotation wheel -> body by delta_i, yaw moment about the CoM, wear (assumption 5), and the
+// module's own state derivatives (steering angle, actuator and transient-slip states).
+template <typename T>
+void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, const double* steering_cos,
+                                    const double* steering_sin, ForceSums* sums, ModuleDiagnostics<T>* diag,
+                                    T* x_dot) const noexcept {
+  using std::cos;
+  using std::sin;
+  using std::sqrt;
+  const double radius = params_.layout.wheel_radius();
+  const Eigen::Vector2d& p = params_.layout.position_body(i);
+  const T& vx = x[StateIndex::kVx];
+  const T& vy = x[StateIndex::kVy];
+  const T& r = x[StateIndex::kYawRate];
+  const T& delta = x[StateIndex::steering(i)];
+
+  T steer_rate, omega;
+  module_actuators(x, u, i, x_dot, &steer_rate, &omega);
   x_dot[StateIndex::steering(i)] = steer_rate;
 
   // Contact-point velocity: body frame v + r z x p (zero scrub radius: steering does not move the
@@ -230,6 +241,49 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
 }
 
 template <typename T>
+void VehicleModel<T>::add_caster_forces(const T* x, const T* ax_ay, ForceSums* sums) const noexcept {
+  using std::sqrt;
+  const T& vx = x[StateIndex::kVx];
+  const T& vy = x[StateIndex::kVy];
+  const T& r = x[StateIndex::kYawRate];
+  const double eps = params_.tire.slip_speed_epsilon;
+  for (std::size_t j = 0; j < params_.casters.size(); ++j) {
+    const CasterParams& caster = params_.casters[j];
+    const auto contact = static_cast<std::size_t>(modules_) + j;
+    T fz = T(static_loads_[contact]);
+    if (ax_ay != nullptr) {
+      fz = fz + transfer_per_ax_[contact] * ax_ay[0] + transfer_per_ay_[contact] * ax_ay[1];
+      if (scalar_value(fz) < 0.0) fz = T(0.0);
+    }
+    const Eigen::Matrix<T, 2, 1> v_caster = point_velocity<T>(vx, vy, r, caster.position_body);
+    const T scale = -caster.rolling_resistance * fz / sqrt(v_caster.squaredNorm() + T(eps * eps));
+    const T fx = scale * v_caster.x();
+    const T fy = scale * v_caster.y();
+    sums->fx_body += fx;
+    sums->fy_body += fy;
+    sums->mz += (caster.position_body.x() - params_.center_of_mass_body.x()) * fy -
+                (caster.position_body.y() - params_.center_of_mass_body.y()) * fx;
+  }
+}
+
+template <typename T>
+ModelStatus VehicleModel<T>::check_finite(const T* x, const T* u, Eigen::Ref<Vector> x_dot) const noexcept {
+  for (int k = 0; k < state_size_; ++k) {
+    if (!detail::is_finite(x[k])) {
+      x_dot.setConstant(T(detail::kQuietNaN));
+      return ModelStatus::kNonFiniteState;
+    }
+  }
+  for (int k = 0; k < input_size(); ++k) {
+    if (!detail::is_finite(u[k])) {
+      x_dot.setConstant(T(detail::kQuietNaN));
+      return ModelStatus::kNonFiniteInput;
+    }
+  }
+  return ModelStatus::kOk;
+}
+
+template <typename T>
 ModelStatus VehicleModel<T>::derivative(const Eigen::Ref<const Vector>& x_in, const Eigen::Ref<const Vector>& u_in,
                                         Eigen::Ref<Vector> x_dot_out, ModuleDiagnostics<T>* diagnostics,
                                         T* total_wear_rate) const noexcept {
@@ -251,18 +305,8 @@ ModelStatus VehicleModel<T>::derivative_at_steering(const Eigen::Ref<const Vecto
   T* x_dot = x_dot_out.data();
   const T* x = x_in.data();
   const T* u = u_in.data();
-  for (int k = 0; k < state_size_; ++k) {
-    if (!detail::is_finite(x[k])) {
-      x_dot_out.setConstant(T(detail::kQuietNaN));
-      return ModelStatus::kNonFiniteState;
-    }
-  }
-  for (int k = 0; k < input_size(); ++k) {
-    if (!detail::is_finite(u[k])) {
-      x_dot_out.setConstant(T(detail::kQuietNaN));
-      return ModelStatus::kNonFiniteInput;
-    }
-  }
+  const ModelStatus inputs = check_finite(x, u, x_dot_out);
+  if (inputs != ModelStatus::kOk) return inputs;
 
   const T& psi = x[StateIndex::kPsi];
   const T& vx = x[StateIndex::kVx];
@@ -274,35 +318,13 @@ ModelStatus VehicleModel<T>::derivative_at_steering(const Eigen::Ref<const Vecto
   x_dot[StateIndex::kY] = sin_psi * vx + cos_psi * vy;
   x_dot[StateIndex::kPsi] = r;
 
-  const int casters = static_cast<int>(params_.casters.size());
-  const double eps = params_.tire.slip_speed_epsilon;
-  auto add_casters = [&](ForceSums* sums, const T* ax_ay) {
-    for (int j = 0; j < casters; ++j) {
-      const CasterParams& caster = params_.casters[static_cast<std::size_t>(j)];
-      const auto contact = static_cast<std::size_t>(modules_ + j);
-      T fz = T(static_loads_[contact]);
-      if (ax_ay != nullptr) {
-        fz = fz + transfer_per_ax_[contact] * ax_ay[0] + transfer_per_ay_[contact] * ax_ay[1];
-        if (scalar_value(fz) < 0.0) fz = T(0.0);
-      }
-      const Eigen::Matrix<T, 2, 1> v_caster = point_velocity<T>(vx, vy, r, caster.position_body);
-      const T scale = -caster.rolling_resistance * fz / sqrt(v_caster.squaredNorm() + T(eps * eps));
-      const T fx = scale * v_caster.x();
-      const T fy = scale * v_caster.y();
-      sums->fx_body += fx;
-      sums->fy_body += fy;
-      sums->mz += (caster.position_body.x() - params_.center_of_mass_body.x()) * fy -
-                  (caster.position_body.y() - params_.center_of_mass_body.y()) * fx;
-    }
-  };
-
   ForceSums sums;
   if (!load_transfer_) {
     for (int i = 0; i < modules_; ++i) {
       module_forces(x, u, i, T(static_loads_[static_cast<std::size_t>(i)]), steering_cos, steering_sin, &sums,
                     diagnostics != nullptr ? diagnostics + i : nullptr, x_dot);
     }
-    add_casters(&sums, nullptr);
+    add_caster_forces(x, nullptr, &sums);
   } else {
     // One fixed-point pass resolves the algebraic loop loads -> forces -> acceleration -> loads:
     // forces at the static loads give the CoM acceleration a = F / m (body frame), which sets the
@@ -312,7 +334,7 @@ ModelStatus VehicleModel<T>::derivative_at_steering(const Eigen::Ref<const Vecto
       module_forces(x, u, i, T(static_loads_[static_cast<std::size_t>(i)]), steering_cos, steering_sin, &first, nullptr,
                     x_dot);
     }
-    add_casters(&first, nullptr);
+    add_caster_forces(x, nullptr, &first);
     const T accel[2] = {first.fx_body / params_.mass, first.fy_body / params_.mass};
     for (int i = 0; i < modules_; ++i) {
       const auto k = static_cast<std::size_t>(i);
@@ -320,7 +342,7 @@ ModelStatus VehicleModel<T>::derivative_at_steering(const Eigen::Ref<const Vecto
       if (scalar_value(fz) < 0.0) fz = T(0.0);
       module_forces(x, u, i, fz, steering_cos, steering_sin, &sums, diagnostics != nullptr ? diagnostics + i : nullptr, x_dot);
     }
-    add_casters(&sums, accel);
+    add_caster_forces(x, accel, &sums);
   }
 
   // Rigid body about the CoM c, velocity states of the body origin (see the header):

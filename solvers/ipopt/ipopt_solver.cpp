@@ -599,7 +599,92 @@ struct IpoptSolver::Impl {
   StartPlan start;
   Eigen::MatrixXd inputs, best_inputs, states, best_states;
   Eigen::VectorXd stage_costs, stage_wear, best_stage_wear;
+
+  // Whether Ipopt's first iterate and one iteration fit before the deadline, by the estimates of
+  // past solves (before the first: multiples of this solve's rollout time). When they do not,
+  // lowers the estimates (see the definition) and returns false.
+  bool first_iterate_fits(const OcpProblem& problem, const Deadline& deadline) noexcept;
+  // Runs Ipopt from the best guess, warm as `options` ask, and updates the estimates from its
+  // callbacks; *abandoned when it stopped inside its Hessian at the deadline.
+  Ipopt::ApplicationReturnStatus optimize(const OcpProblem& problem, PredictionData& data, const Deadline& deadline,
+                                          const IpoptOptions& options, bool* abandoned);
 };
+
+bool IpoptSolver::Impl::first_iterate_fits(const OcpProblem& problem, const Deadline& deadline) noexcept {
+  const TimePoint now = deadline.now();
+  // Ipopt's startup: the first Jacobians and a factorisation (no Hessian yet).
+  if (startup_estimate == Duration::zero()) startup_estimate = (kJacobianRolloutCost + 2) * start.longest_rollout();
+  // An iteration: the Jacobians again and, with the exact Hessian, one more linearisation per
+  // state and input coordinate (forward differences), plus a few rollouts of the line search.
+  const int linearisations = exact_hessian ? 2 + problem.state_size() + problem.input_size() : 1;
+  const Duration modelled_iteration = (kJacobianRolloutCost * linearisations + 2) * start.longest_rollout();
+  if (iteration_estimate == Duration::zero()) iteration_estimate = modelled_iteration;
+  if (now + startup_estimate + iteration_estimate < deadline.at()) return true;
+  // Halved on every skip: one slow start (the very first solve pays Ipopt's one-time setup,
+  // ~25 ms) or one stalled iteration must not keep Ipopt from ever running again. The
+  // iteration estimate falls by a quarter, and no lower than this solve's model of it, so a
+  // vehicle whose iteration never fits the budget skips Ipopt every cycle instead of missing
+  // the deadline every few, and one whose model is too low probes every third cycle or so (an
+  // iteration that then does not fit is abandoned inside its Hessian, on time).
+  startup_estimate /= 2;
+  iteration_estimate = std::max(modelled_iteration, iteration_estimate * 3 / 4);
+  return false;
+}
+
+Ipopt::ApplicationReturnStatus IpoptSolver::Impl::optimize(const OcpProblem& problem, PredictionData& data,
+                                                           const Deadline& deadline, const IpoptOptions& options,
+                                                           bool* abandoned) {
+  // Warm: after a solve on this solver, the primal start (the best guess, normally the shifted
+  // plan) is near the optimum, so the barrier starts small; the shifted multipliers too if asked.
+  const bool warm = options.warm_start && have_multipliers;
+  const bool warm_duals = warm && options.warm_start_multipliers;
+  if (warm_duals) nlp->shift_multipliers();
+  nlp->prepare(problem, data, best_inputs, best_states, deadline, warm_duals, iteration_estimate);
+  Ipopt::OptionsList& ipopt_options = *app->Options();
+  ipopt_options.SetStringValue("warm_start_init_point", warm_duals ? "yes" : "no");
+  ipopt_options.SetNumericValue("mu_init", warm ? options.warm_mu_init : 0.1);
+  if (warm_duals) {
+    ipopt_options.SetNumericValue("warm_start_bound_push", 1e-9);
+    ipopt_options.SetNumericValue("warm_start_mult_bound_push", 1e-9);
+  }
+  // Ipopt's own CPU-time limit backs up the intermediate callback on the steady clock; on an
+  // injected clock only the callback may stop it (CPU time would make the result nondeterministic).
+  const double remaining = deadline.on_steady_clock() ? to_seconds(deadline.remaining()) : kNoCpuTimeLimit;
+  ipopt_options.SetNumericValue("max_cpu_time", std::max(1e-6, remaining));
+  const TimePoint optimize_start = deadline.now();
+  const Ipopt::ApplicationReturnStatus status = app->OptimizeTNLP(Ipopt::SmartPtr<Ipopt::TNLP>(GetRawPtr(nlp)));
+  if (nlp->first_callback() > optimize_start) {
+    startup_estimate = updated_estimate(startup_estimate, nlp->first_callback() - optimize_start);
+  }
+  if (nlp->longest_step() > Duration::zero()) iteration_estimate = updated_estimate(iteration_estimate, nlp->longest_step());
+  *abandoned = nlp->abandoned_iteration() > Duration::zero();
+  if (*abandoned) iteration_estimate = std::max(iteration_estimate, nlp->abandoned_iteration());
+  return status;
+}
+
+namespace {
+
+// Ipopt's return status as the solve's, with the reason; `improved`: its answer beat the best guess.
+SolveStatus status_of(Ipopt::ApplicationReturnStatus status, bool improved, SolveSummary* summary) noexcept {
+  switch (status) {
+    case Ipopt::Solve_Succeeded:
+    case Ipopt::Solved_To_Acceptable_Level:
+      summary->reason = improved ? "ipopt converged" : "ipopt converged, no better than the initial guess";
+      return SolveStatus::kConverged;
+    case Ipopt::User_Requested_Stop:
+    case Ipopt::Maximum_CpuTime_Exceeded:
+      summary->reason = "ipopt stopped at the deadline; the rollout of its last iterate or the best guess";
+      return SolveStatus::kBudgetExhausted;
+    case Ipopt::Maximum_Iterations_Exceeded:
+      summary->reason = "ipopt stopped at max_iterations; the rollout of its last iterate or the best guess";
+      return SolveStatus::kBudgetExhausted;
+    default:
+      summary->reason = "ipopt failed (restoration, infeasibility or evaluation error)";
+      return status == Ipopt::Infeasible_Problem_Detected ? SolveStatus::kInfeasible : SolveStatus::kNumericalError;
+  }
+}
+
+}  // namespace
 
 IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options)
     : Solver(problem), options_(std::move(options)) {
@@ -651,55 +736,14 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
     summary->cost = s.start.breakdown(problem);
     // Ipopt cannot be stopped before its first iterate: when that would overrun the deadline, the
     // best guess is the answer (a usable plan, as the deadline contract asks).
-    const TimePoint now = deadline.now();
-    // Ipopt's startup: the first Jacobians and a factorisation (no Hessian yet).
-    if (s.startup_estimate == Duration::zero()) s.startup_estimate = (kJacobianRolloutCost + 2) * s.start.longest_rollout();
-    // An iteration: the Jacobians again and, with the exact Hessian, one more linearisation per
-    // state and input coordinate (forward differences), plus a few rollouts of the line search.
-    const int linearisations = s.exact_hessian ? 2 + problem.state_size() + problem.input_size() : 1;
-    const Duration modelled_iteration = (kJacobianRolloutCost * linearisations + 2) * s.start.longest_rollout();
-    if (s.iteration_estimate == Duration::zero()) s.iteration_estimate = modelled_iteration;
-    if (now + s.startup_estimate + s.iteration_estimate >= deadline.at()) {
-      // Halved on every skip: one slow start (the very first solve pays Ipopt's one-time setup,
-      // ~25 ms) or one stalled iteration must not keep Ipopt from ever running again. The
-      // iteration estimate falls by a quarter, and no lower than this solve's model of it, so a
-      // vehicle whose iteration never fits the budget skips Ipopt every cycle instead of missing
-      // the deadline every few, and one whose model is too low probes every third cycle or so (an
-      // iteration that then does not fit is abandoned inside its Hessian, on time).
-      s.startup_estimate /= 2;
-      s.iteration_estimate = std::max(modelled_iteration, s.iteration_estimate * 3 / 4);
+    if (!s.first_iterate_fits(problem, deadline)) {
       summary->iterations = 0;
       summary->rollouts = rollouts;
       summary->reason = "no time for Ipopt's first iterate and one iteration before the deadline; the best initial guess";
       return SolveStatus::kBudgetExhausted;
     }
-    // Warm: after a solve on this solver, the primal start (the best guess, normally the shifted
-    // plan) is near the optimum, so the barrier starts small; the shifted multipliers too if asked.
-    const bool warm = options_.warm_start && s.have_multipliers;
-    const bool warm_duals = warm && options_.warm_start_multipliers;
-    if (warm_duals) s.nlp->shift_multipliers();
-    s.nlp->prepare(problem, model_data(), s.best_inputs, s.best_states, deadline, warm_duals, s.iteration_estimate);
-    Ipopt::OptionsList& options = *s.app->Options();
-    options.SetStringValue("warm_start_init_point", warm_duals ? "yes" : "no");
-    options.SetNumericValue("mu_init", warm ? options_.warm_mu_init : 0.1);
-    if (warm_duals) {
-      options.SetNumericValue("warm_start_bound_push", 1e-9);
-      options.SetNumericValue("warm_start_mult_bound_push", 1e-9);
-    }
-    // Ipopt's own CPU-time limit backs up the intermediate callback on the steady clock; on an
-    // injected clock only the callback may stop it (CPU time would make the result nondeterministic).
-    const double remaining = deadline.on_steady_clock() ? to_seconds(deadline.remaining()) : kNoCpuTimeLimit;
-    options.SetNumericValue("max_cpu_time", std::max(1e-6, remaining));
-    const TimePoint optimize_start = deadline.now();
-    const Ipopt::ApplicationReturnStatus status = s.app->OptimizeTNLP(Ipopt::SmartPtr<Ipopt::TNLP>(GetRawPtr(s.nlp)));
-    if (s.nlp->first_callback() > optimize_start) {
-      s.startup_estimate = updated_estimate(s.startup_estimate, s.nlp->first_callback() - optimize_start);
-    }
-    if (s.nlp->longest_step() > Duration::zero()) {
-      s.iteration_estimate = updated_estimate(s.iteration_estimate, s.nlp->longest_step());
-    }
-    const bool abandoned = s.nlp->abandoned_iteration() > Duration::zero();
-    if (abandoned) s.iteration_estimate = std::max(s.iteration_estimate, s.nlp->abandoned_iteration());
+    bool abandoned = false;
+    const Ipopt::ApplicationReturnStatus status = s.optimize(problem, model_data(), deadline, options_, &abandoned);
     summary->iterations = s.nlp->iterations();
     summary->rollouts = s.nlp->evaluations();
     // The final iterate's inputs, rolled out: states that satisfy the dynamics exactly.
@@ -727,25 +771,11 @@ SolveStatus IpoptSolver::do_solve(const OcpProblem& problem, const InitialGuesse
       summary->reason = "ipopt stopped inside its Hessian at the deadline; the rollout of its last iterate or the best guess";
       return SolveStatus::kBudgetExhausted;
     }
-    switch (status) {
-      case Ipopt::Solve_Succeeded:
-      case Ipopt::Solved_To_Acceptable_Level:
-        summary->reason = improved ? "ipopt converged" : "ipopt converged, no better than the initial guess";
-        return SolveStatus::kConverged;
-      case Ipopt::User_Requested_Stop:
-      case Ipopt::Maximum_CpuTime_Exceeded:
-        summary->reason = "ipopt stopped at the deadline; the rollout of its last iterate or the best guess";
-        return SolveStatus::kBudgetExhausted;
-      case Ipopt::Maximum_Iterations_Exceeded:
-        summary->reason = "ipopt stopped at max_iterations; the rollout of its last iterate or the best guess";
-        return SolveStatus::kBudgetExhausted;
-      default:
-        // Restoration failure, infeasibility, evaluation errors: no trustworthy optimum, so the
-        // controller falls back rather than act on it.
-        s.have_multipliers = false;
-        summary->reason = "ipopt failed (restoration, infeasibility or evaluation error)";
-        return status == Ipopt::Infeasible_Problem_Detected ? SolveStatus::kInfeasible : SolveStatus::kNumericalError;
-    }
+    const SolveStatus solved = status_of(status, improved, summary);
+    // Restoration failure, infeasibility, evaluation errors: no trustworthy optimum, so the
+    // controller falls back rather than act on it, and the next solve starts cold.
+    if (!has_solution(solved)) s.have_multipliers = false;
+    return solved;
   } catch (const std::exception&) {
     summary->reason = "ipopt threw an exception";
     return SolveStatus::kNumericalError;

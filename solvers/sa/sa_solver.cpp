@@ -1,18 +1,13 @@
 #include "swerve/solvers/sa_solver.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <condition_variable>
 #include <limits>
-#include <mutex>
-#include <sstream>
-#include <thread>
 #include <utility>
 
+#include "projected_lbfgs.hpp"
 #include "swerve/core/config_error.hpp"
-#include "swerve/core/constants.hpp"
-#include "swerve/core/random.hpp"
+#include "worker_pool.hpp"
 
 namespace swerve {
 namespace {
@@ -20,11 +15,8 @@ namespace {
 // The owner every rule of this file names (throw_invalid_field: "<owner>.<field> = <value>: <rule>").
 constexpr const char* kOwner = "SaOptions";
 
-std::uint64_t rotate_left(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
-
 constexpr int kProbeMoves = 16;  // greedy probes whose uphill steps calibrate T0
 constexpr int kPolishMemory = 5;  // L-BFGS pairs kept
-constexpr int kLineSearchTrials = 8;
 // The knot polish's forward-difference step, per unit of each input's reference step (its
 // half-range): large enough that the prediction's Newton tolerance (1e-10 on the twist) stays ~1e-5
 // of a slope, small enough that the curvature's bias is as small.
@@ -33,137 +25,7 @@ constexpr int kMaxThreads = 16;
 // polish()'s answer when not even its first gradient fits before its stop.
 constexpr int kGradientDoesNotFit = -1;
 
-// Backtracking from the full step (x0.3 a trial, at most kLineSearchTrials) until the true cost
-// falls by the Armijo condition f(step) <= f + 1e-4 g'(x(step) - x) (Nocedal & Wright, eq. 3.6a).
-// `trial(step, &cost, &decrease)` makes and rolls out the candidate at `step`, writing its cost and
-// g'(x(step) - x); false when there is no candidate (the search ends). Each trial's time raises
-// *rollout, and no further trial starts when one more would end past `stop`. True with
-// *accepted_cost when a candidate is accepted (it is the last one the trial made).
-template <typename Trial>
-bool armijo_backtracking(double cost, const Deadline& deadline, TimePoint stop, Duration* rollout, long* rollouts,
-                         Trial&& trial, double* accepted_cost) noexcept {
-  double step = 1.0;
-  for (int t = 0; t < kLineSearchTrials; ++t, step *= 0.3) {
-    const TimePoint start = deadline.now();
-    double candidate_cost = 0.0, decrease = 0.0;
-    if (!trial(step, &candidate_cost, &decrease)) return false;
-    *rollout = std::max(*rollout, deadline.now() - start);
-    ++*rollouts;
-    if (candidate_cost <= cost + 1e-4 * decrease && candidate_cost < cost) {
-      *accepted_cost = candidate_cost;
-      return true;
-    }
-    if (deadline.now() + *rollout >= stop) return false;
-  }
-  return false;
-}
-
 }  // namespace
-
-// The batch's workers: threads that each roll out one further proposal per batch. Between batches
-// of a solve a worker spins (yielding) for the next one; outside a solve, after ~kSpinYields idle
-// yields, it sleeps on a condition variable, so an idle solver costs no core. Nothing here
-// allocates after construction.
-class SimulatedAnnealingSolver::Workers {
- public:
-  Workers(SimulatedAnnealingSolver* solver, int count) : solver_(solver) {
-    threads_.reserve(static_cast<std::size_t>(count));
-    try {
-      for (int w = 0; w < count; ++w) threads_.emplace_back([this, w] { loop(static_cast<std::size_t>(w)); });
-    } catch (...) {  // a thread the system refused: stop those already started, then report
-      stop_and_join();
-      throw;
-    }
-  }
-  ~Workers() { stop_and_join(); }
-  Workers(const Workers&) = delete;
-  Workers& operator=(const Workers&) = delete;
-
-  // Every worker runs its part of the solver's job (run_worker_job).
-  void start() noexcept {
-    finished_.store(0, std::memory_order_relaxed);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      generation_.fetch_add(1, std::memory_order_release);
-    }
-    wake_.notify_all();
-  }
-  void wait() const noexcept {
-    while (finished_.load(std::memory_order_acquire) < threads_.size()) std::this_thread::yield();
-  }
-  // Between these the workers never sleep: woken at a solve's start, they are spinning by its first
-  // batch, while the calling thread rolls out the initial guesses.
-  void begin_solve() noexcept {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      solving_.store(true, std::memory_order_release);
-    }
-    wake_.notify_all();
-  }
-  void end_solve() noexcept { solving_.store(false, std::memory_order_release); }
-
- private:
-  static constexpr int kSpinYields = 20000;  // ~ms of idle yields outside a solve before sleeping
-
-  void stop_and_join() noexcept {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_.store(true, std::memory_order_release);
-    }
-    wake_.notify_all();
-    for (std::thread& t : threads_) t.join();
-  }
-
-  void loop(std::size_t index) {
-    unsigned long seen = 0;
-    for (;;) {
-      int spins = 0;
-      unsigned long generation = generation_.load(std::memory_order_acquire);
-      while (generation == seen && !stop_.load(std::memory_order_acquire)) {
-        if (solving_.load(std::memory_order_acquire) || ++spins < kSpinYields) {
-          std::this_thread::yield();
-        } else {
-          std::unique_lock<std::mutex> lock(mutex_);
-          wake_.wait(lock, [&] {
-            return generation_.load(std::memory_order_acquire) != seen || stop_.load(std::memory_order_acquire) ||
-                   solving_.load(std::memory_order_acquire);
-          });
-          spins = 0;
-        }
-        generation = generation_.load(std::memory_order_acquire);
-      }
-      if (stop_.load(std::memory_order_acquire)) return;
-      seen = generation;
-      solver_->run_worker_job(index);
-      finished_.fetch_add(1, std::memory_order_acq_rel);
-    }
-  }
-
-  SimulatedAnnealingSolver* solver_;
-  std::vector<std::thread> threads_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::atomic<unsigned long> generation_{0};
-  std::atomic<std::size_t> finished_{0};
-  std::atomic<bool> stop_{false};
-  std::atomic<bool> solving_{false};
-};
-
-// The workers spin from a solve's start to its end, so the first batch does not wait for a wake-up.
-class SimulatedAnnealingSolver::SolvingWorkers {
- public:
-  explicit SolvingWorkers(Workers* workers) noexcept : workers_(workers) {
-    if (workers_ != nullptr) workers_->begin_solve();
-  }
-  ~SolvingWorkers() {
-    if (workers_ != nullptr) workers_->end_solve();
-  }
-  SolvingWorkers(const SolvingWorkers&) = delete;
-  SolvingWorkers& operator=(const SolvingWorkers&) = delete;
-
- private:
-  Workers* workers_;
-};
 
 const OptionFields<SaOptions>& SaOptions::fields() {
   static const OptionFields<SaOptions> table{
@@ -199,12 +61,11 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
       nx_(problem.state_size()),
       nu_(problem.input_size()),
       horizon_(problem.horizon()),
+      random_(options.seed),
       start_(problem) {
   options_.validate();
   knot_count_ = (options_.knots == 0 || options_.knots > horizon_) ? horizon_ : options_.knots;
   group_size_ = problem.model().input_group_size();
-  std::uint64_t seed_state = options_.seed;
-  for (auto& word : rng_state_) word = splitmix64(&seed_state);
 
   // Knot k sits at step tau_k = k (N-1)/(K-1); steps between knots interpolate linearly.
   const auto n = static_cast<std::size_t>(horizon_);
@@ -255,13 +116,12 @@ SimulatedAnnealingSolver::SimulatedAnnealingSolver(const OcpProblem& problem, Sa
     p.x_next = Eigen::VectorXd::Zero(nx_);
   }
   x_next_ = Eigen::VectorXd::Zero(nx_);
-  if (!proposals_.empty()) workers_ = std::make_unique<Workers>(this, options_.threads - 1);
+  if (!proposals_.empty()) workers_ = std::make_unique<WorkerPool>(options_.threads - 1, [this](std::size_t w) { run_worker_job(w); });
   if (options_.polish_share > 0.0 && options_.polish_iterations > 0) {
     if (problem.model().has_jacobians()) derivatives_ = std::make_unique<OcpDerivatives>(problem);
     gradient_ = candidate_gradient_ = direction_ = Eigen::MatrixXd::Zero(nu_, horizon_);
     knot_gradient_ = candidate_knot_gradient_ = knot_direction_ = previous_knots_ = Eigen::MatrixXd::Zero(nu_, knot_count_);
-    memory_s_ = memory_y_ = Eigen::MatrixXd::Zero(nu_ * horizon_, kPolishMemory);
-    memory_rho_ = memory_alpha_ = Eigen::VectorXd::Zero(kPolishMemory);
+    lbfgs_ = std::make_unique<LbfgsMemory>(static_cast<Eigen::Index>(nu_) * horizon_, kPolishMemory);
   }
 }
 
@@ -354,22 +214,22 @@ int SimulatedAnnealingSolver::propose(const OcpProblem& problem, Eigen::MatrixXd
   // Perturb knot offsets: one group at one knot, all inputs at one knot, or everything.
   const int groups = nu_ / group_size_;
   *knots = knots_;
-  const double choice = uniform();
+  const double choice = random_.uniform();
   int first_step = 0, last_step = horizon_ - 1;
   if (choice < options_.probability_one_group + options_.probability_one_knot) {
-    const int knot = std::min(static_cast<int>(uniform() * knot_count_), knot_count_ - 1);
+    const int knot = std::min(static_cast<int>(random_.uniform() * knot_count_), knot_count_ - 1);
     int first_input = 0, count = nu_;
     if (choice < options_.probability_one_group) {
-      first_input = std::min(static_cast<int>(uniform() * groups), groups - 1) * group_size_;
+      first_input = std::min(static_cast<int>(random_.uniform() * groups), groups - 1) * group_size_;
       count = group_size_;
     }
-    for (int i = first_input; i < first_input + count; ++i) (*knots)(i, knot) += sigma_[i] * gaussian();
+    for (int i = first_input; i < first_input + count; ++i) (*knots)(i, knot) += sigma_[i] * random_.gaussian();
     first_step = knot_first_step_[static_cast<std::size_t>(knot)];
     last_step = knot_last_step_[static_cast<std::size_t>(knot)];
   } else {
     const double shrink = 1.0 / std::sqrt(static_cast<double>(knot_count_));
     for (int j = 0; j < knot_count_; ++j) {
-      for (int i = 0; i < nu_; ++i) (*knots)(i, j) += shrink * sigma_[i] * gaussian();
+      for (int i = 0; i < nu_; ++i) (*knots)(i, j) += shrink * sigma_[i] * random_.gaussian();
     }
   }
   *raw = raw_;
@@ -380,21 +240,12 @@ int SimulatedAnnealingSolver::propose(const OcpProblem& problem, Eigen::MatrixXd
   return first_changed_step(*inputs, 0, horizon_ - 1);
 }
 
-bool SimulatedAnnealingSolver::lbfgs_direction(const Eigen::MatrixXd& gradient, Eigen::MatrixXd* direction, int* stored,
-                                               int newest) noexcept {
+bool SimulatedAnnealingSolver::lbfgs_direction(const Eigen::MatrixXd& gradient, Eigen::MatrixXd* direction) noexcept {
   const Eigen::Index n = gradient.size();
   const Eigen::Map<const Eigen::VectorXd> g(gradient.data(), n);
   Eigen::Map<Eigen::VectorXd> d(direction->data(), n);
-  // Two-loop recursion: d = -H g.
   d = -g;
-  for (int back = 0; back < *stored; ++back) {
-    const int j = (newest - back + kPolishMemory) % kPolishMemory;
-    memory_alpha_[j] = memory_rho_[j] * memory_s_.col(j).head(n).dot(d);
-    d -= memory_alpha_[j] * memory_y_.col(j).head(n);
-  }
-  if (*stored > 0) {
-    d *= memory_s_.col(newest).head(n).dot(memory_y_.col(newest).head(n)) / memory_y_.col(newest).head(n).squaredNorm();
-  } else {
+  if (lbfgs_->empty()) {
     // No curvature yet: a first step of 2 % of the largest input range along the gradient.
     // In inputs scaled by their ranges the gradient is g_i r_i; a step of 2 % of the largest
     // scaled input is r_i^2 g_i times 0.02 / max |g_i r_i| in the inputs themselves.
@@ -403,36 +254,7 @@ bool SimulatedAnnealingSolver::lbfgs_direction(const Eigen::MatrixXd& gradient, 
     d *= 0.02 / largest;
     for (int i = 0; i < nu_; ++i) direction->row(i) *= reference_step_[i] * reference_step_[i];
   }
-  for (int back = *stored - 1; back >= 0; --back) {
-    const int j = (newest - back + kPolishMemory) % kPolishMemory;
-    const double beta = memory_rho_[j] * memory_y_.col(j).head(n).dot(d);
-    d += (memory_alpha_[j] - beta) * memory_s_.col(j).head(n);
-  }
-  if (g.dot(d) < 0.0) return true;
-  *stored = 0;  // not a descent direction: forget the memory
-  return false;
-}
-
-void SimulatedAnnealingSolver::remember_pair(const Eigen::Ref<const Eigen::VectorXd>& x_new,
-                                             const Eigen::Ref<const Eigen::VectorXd>& x_old,
-                                             const Eigen::Ref<const Eigen::VectorXd>& g_new,
-                                             const Eigen::Ref<const Eigen::VectorXd>& g_old, int* stored,
-                                             int* newest) noexcept {
-  // The differences go straight into the next slot: an expression bound to a Ref<const VectorXd>
-  // is evaluated into a heap temporary, and the polish then allocated on every step it took.
-  const int slot = (*newest + 1) % kPolishMemory;
-  const Eigen::Index n = x_new.size();
-  auto s = memory_s_.col(slot).head(n);
-  auto y = memory_y_.col(slot).head(n);
-  s = x_new - x_old;
-  y = g_new - g_old;
-  // A pair enters the memory only with positive curvature (else H would not stay positive definite);
-  // otherwise the slot is scratch and the memory is unchanged.
-  const double curvature = s.dot(y);
-  if (!(curvature > 1e-12 * s.norm() * y.norm())) return;
-  *newest = slot;
-  memory_rho_[slot] = 1.0 / curvature;
-  *stored = std::min(*stored + 1, kPolishMemory);
+  return lbfgs_->apply_inverse_hessian(g, d);
 }
 
 int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadline, TimePoint stop,
@@ -469,11 +291,12 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
   record_gradient_time(gradient_start);
   ++*rollouts;
   if (!std::isfinite(cost)) return 0;
-  int stored = 0, newest = -1, steps = 0;
+  lbfgs_->clear();
+  int steps = 0;
   for (int iteration = 0; iteration < options_.polish_iterations; ++iteration) {
     if (deadline.now() + 2 * full_rollout >= stop) break;
-    const bool had_memory = stored > 0;
-    if (!lbfgs_direction(gradient_, &direction_, &stored, newest)) {
+    const bool had_memory = !lbfgs_->empty();
+    if (!lbfgs_direction(gradient_, &direction_)) {
       if (had_memory) continue;  // retried along the steepest descent
       break;                     // a zero gradient
     }
@@ -499,7 +322,7 @@ int SimulatedAnnealingSolver::polish(const OcpProblem& problem, Deadline deadlin
     record_gradient_time(gradient_start);
     ++*rollouts;
     if (!std::isfinite(new_cost)) break;
-    remember_pair(flat(candidate_inputs_), flat(inputs_), flat(candidate_gradient_), flat(gradient_), &stored, &newest);
+    lbfgs_->remember(flat(candidate_inputs_), flat(inputs_), flat(candidate_gradient_), flat(gradient_));
     std::swap(inputs_, candidate_inputs_);
     std::swap(states_, candidate_states_);
     std::swap(gradient_, candidate_gradient_);
@@ -577,11 +400,12 @@ int SimulatedAnnealingSolver::knot_polish(const OcpProblem& problem, Deadline de
   };
   if (deadline.now() + gradient_time() + 2 * proposal >= stop) return 0;
   if (!timed_gradient(cost, &knot_gradient_)) return 0;
-  int stored = 0, newest = -1, steps = 0;
+  lbfgs_->clear();
+  int steps = 0;
   for (int iteration = 0; iteration < options_.polish_iterations; ++iteration) {
     if (deadline.now() + 2 * proposal >= stop) break;
-    const bool had_memory = stored > 0;
-    if (!lbfgs_direction(knot_gradient_, &knot_direction_, &stored, newest)) {
+    const bool had_memory = !lbfgs_->empty();
+    if (!lbfgs_direction(knot_gradient_, &knot_direction_)) {
       if (had_memory) continue;  // retried along the steepest descent
       break;                     // a zero gradient
     }
@@ -616,37 +440,10 @@ int SimulatedAnnealingSolver::knot_polish(const OcpProblem& problem, Deadline de
     knots_ = candidate_knots_;
     if (deadline.now() + gradient_time() >= stop) break;
     if (!timed_gradient(cost, &candidate_knot_gradient_)) break;
-    remember_pair(flat(knots_), flat(previous_knots_), flat(candidate_knot_gradient_), flat(knot_gradient_), &stored,
-                  &newest);
+    lbfgs_->remember(flat(knots_), flat(previous_knots_), flat(candidate_knot_gradient_), flat(knot_gradient_));
     std::swap(knot_gradient_, candidate_knot_gradient_);
   }
   return steps;
-}
-
-double SimulatedAnnealingSolver::uniform() noexcept {
-  // xoshiro256** (Blackman & Vigna): fast, and the same stream on every platform for a seed.
-  const std::uint64_t result = rotate_left(rng_state_[1] * 5, 7) * 9;
-  const std::uint64_t t = rng_state_[1] << 17;
-  rng_state_[2] ^= rng_state_[0];
-  rng_state_[3] ^= rng_state_[1];
-  rng_state_[1] ^= rng_state_[2];
-  rng_state_[0] ^= rng_state_[3];
-  rng_state_[2] ^= t;
-  rng_state_[3] = rotate_left(rng_state_[3], 45);
-  return static_cast<double>(result >> 11) * 0x1.0p-53;
-}
-
-double SimulatedAnnealingSolver::gaussian() noexcept {
-  if (has_spare_gaussian_) {
-    has_spare_gaussian_ = false;
-    return spare_gaussian_;
-  }
-  const double u1 = 1.0 - uniform();  // (0, 1]: log is finite
-  const double u2 = uniform();
-  const double radius = std::sqrt(-2.0 * std::log(u1));
-  spare_gaussian_ = radius * std::sin(2.0 * kPi * u2);
-  has_spare_gaussian_ = true;
-  return radius * std::cos(2.0 * kPi * u2);
 }
 
 void SimulatedAnnealingSolver::interpolate(const Eigen::MatrixXd& knots, int first, int last,
@@ -826,7 +623,7 @@ const char* SimulatedAnnealingSolver::solve_reason(bool deadline_hit, const Poli
 
 SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses,
                                                Deadline deadline, Solution* out, SolveSummary* summary) noexcept {
-  SolvingWorkers solving(workers_.get());
+  const WorkerPool::Solving solving(workers_.get());
   const double start_cost = start_from_guesses(problem, guesses, deadline);
   long rollouts = start_.rollouts();
   if (!std::isfinite(start_cost)) {
@@ -885,7 +682,7 @@ SolveStatus SimulatedAnnealingSolver::do_solve(const OcpProblem& problem, const 
     const double delta = candidate_cost - current_cost;
     const bool needs_draw = schedule.probes >= kProbeMoves && delta > 0.0 && std::isfinite(delta);
     const bool accept = schedule.accepts(delta, progress, options_.initial_acceptance,
-                                         options_.final_temperature_ratio, needs_draw ? uniform() : 0.0);
+                                         options_.final_temperature_ratio, needs_draw ? random_.uniform() : 0.0);
     ++window_proposed;
     if (accept) {
       ++window_accepted;

@@ -53,7 +53,7 @@ class DrawRandom {
     std::uint64_t mixed = seed;
     state_ = splitmix64(&mixed) ^ (0xD1B54A32D192ED03ull * (static_cast<std::uint64_t>(index) + 1u));
   }
-  double uniform() { return std::ldexp(static_cast<double>(splitmix64(&state_) >> 11), -53); }
+  double uniform() { return unit_interval(splitmix64(&state_)); }
   double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
   double log_uniform(double lo, double hi) { return lo * std::exp(std::log(hi / lo) * uniform()); }
   int integer(int lo, int hi) {  // inclusive
@@ -310,189 +310,205 @@ bool is_curved(ReferenceFamily family) {
          family == ReferenceFamily::kHeadingChange;
 }
 
+// What every family draws first (in this order, so a seed gives the same draw), and the limits its
+// shape keeps to.
+struct ReferenceBasis {
+  const VehicleDraw& v;
+  double duration, speed, acceleration, direction;
+  double radius;   // the vehicle's
+  double lateral;  // the lateral acceleration allowed, m/s^2
+
+  Trapezoid profile() const { return trapezoid(duration, speed, acceleration, v.drive_acceleration); }
+  // The smallest path radius: twice the vehicle's (the inner wheels keep turning forwards) and the
+  // one the lateral-acceleration share allows; lowers the cruise speed to what the wheels allow.
+  double min_path_radius() {
+    const double geometric = 2.0 * radius + 0.5;
+    speed = std::min(speed, kWheelSpeedShare * v.drive_speed / (1.0 + radius / geometric));
+    return std::max(geometric, speed * speed / lateral);
+  }
+};
+
+ReferenceDraw draw_arc(ReferenceBasis b, DrawRandom& rng) {
+  const double min_radius = b.min_path_radius();
+  const Trapezoid tz = b.profile();
+  const double turn = rng.sign() * rng.uniform(kPi / 3.0, 1.5 * kPi);
+  ReferenceDraw r;
+  r.type = "arc";
+  r.direction = b.direction;
+  r.radius = round_to(std::max(tz.length / std::abs(turn), min_radius), 100.0);
+  r.sweep = std::copysign(round_to(tz.length / r.radius, 1e4), turn);
+  r.speed = tz.speed;
+  r.acceleration = tz.acceleration;
+  r.summary = "arc R=" + fixed(r.radius, 2) + " m, sweep " + fixed(r.sweep / kDegree, 1) + " deg at " +
+              speed_text(tz.speed);
+  return r;
+}
+
+ReferenceDraw draw_figure_eight(ReferenceBasis b) {
+  const double min_radius = b.min_path_radius();
+  const Trapezoid tz = b.profile();
+  double unit_curvature = 0.0, unit_length = 0.0;
+  figure_eight_unit(&unit_curvature, &unit_length);
+  ReferenceDraw r;
+  r.type = "figure_eight";
+  r.direction = 0.0;
+  r.size = round_to(std::max(tz.length / unit_length, unit_curvature * min_radius), 100.0);
+  r.speed = tz.speed;
+  r.acceleration = tz.acceleration;
+  r.summary = "figure-eight " + fixed(r.size, 2) + " m at " + speed_text(tz.speed);
+  return r;
+}
+
+// A lane change or an S-curve: one smooth bump of the path angle.
+ReferenceDraw draw_bump(bool lane_change, const ReferenceBasis& b, DrawRandom& rng) {
+  const Trapezoid tz = b.profile();
+  Motion m;
+  m.knots = trapezoid_knots(tz);
+  m.direction = b.direction;
+  m.heading_follows_path = rng.chance(0.5);
+  double peak = 0.0;
+  if (lane_change) {
+    m.bump_start = rng.uniform(0.15, 0.35) * tz.length;
+    m.bump_length = rng.uniform(0.3, 0.5) * tz.length;
+    const double shift = rng.uniform(1.0, 1.5) * b.v.footprint_width;
+    peak = std::min(2.0 * shift / m.bump_length, 35.0 * kDegree);  // small-angle shift = peak L / 2
+  } else {
+    m.bump_start = 0.1 * tz.length;
+    m.bump_length = 0.8 * tz.length;
+    peak = rng.uniform(60.0, 120.0) * kDegree;
+  }
+  // Curvature within the lateral-acceleration share, and within the wheel speeds (heading
+  // along the path) or the steering rate (heading held: the modules steer with the path).
+  double max_curvature = b.lateral / (tz.speed * tz.speed);
+  max_curvature = std::min(max_curvature, m.heading_follows_path
+                                              ? (kWheelSpeedShare * b.v.drive_speed / tz.speed - 1.0) / b.radius
+                                              : 0.5 * b.v.steering_rate / tz.speed);
+  peak = std::min(peak, max_curvature * m.bump_length / kPi);
+  m.bump_peak = rng.sign() * peak;
+  ReferenceDraw r = csv_reference(m, std::string(lane_change ? "lane change" : "s-curve") + ", peak path angle " +
+                                         fixed(m.bump_peak / kDegree, 1) + " deg, heading " +
+                                         (m.heading_follows_path ? "along the path" : "held") + ", " +
+                                         fixed(tz.length, 2) + " m at " + speed_text(tz.speed));
+  r.speed = tz.speed;
+  r.acceleration = tz.acceleration;
+  r.length = tz.length;
+  return r;
+}
+
+ReferenceDraw draw_heading_change(const ReferenceBasis& b, DrawRandom& rng) {
+  const Trapezoid tz = b.profile();
+  Motion m;
+  m.knots = trapezoid_knots(tz);
+  m.direction = b.direction;
+  m.heading_follows_path = false;
+  const double cruise = tz.length / tz.speed - tz.ramp();
+  m.turn_time = rng.uniform(0.5, 0.9) * cruise;
+  m.turn_start = tz.ramp() + rng.uniform(0.0, cruise - m.turn_time);
+  double turn = rng.uniform(45.0, 180.0) * kDegree;
+  // Yaw rate within the wheel speeds the translation leaves and half the steering rate.
+  const double max_yaw_rate =
+      std::min((kWheelSpeedShare * b.v.drive_speed - tz.speed) / b.radius, 0.5 * b.v.steering_rate);
+  turn = std::min(turn, max_yaw_rate * m.turn_time / kSmootherstepPeakRate);
+  m.turn = rng.sign() * turn;
+  ReferenceDraw r = csv_reference(m, "heading change " + fixed(m.turn / kDegree, 1) + " deg over " +
+                                         fixed(m.turn_time, 1) + " s, " + fixed(tz.length, 2) + " m at " +
+                                         speed_text(tz.speed));
+  r.speed = tz.speed;
+  r.acceleration = tz.acceleration;
+  r.length = tz.length;
+  return r;
+}
+
+// The acceleration and cruise speed that fit ramps up and down into `room` seconds.
+void fit_ramps(double room, double max_acceleration, double* acceleration, double* cruise_speed) {
+  if (2.0 * *cruise_speed / *acceleration > room) *acceleration = 2.0 * *cruise_speed / room;
+  if (*acceleration > max_acceleration) {
+    *acceleration = max_acceleration;
+    *cruise_speed = 0.5 * *acceleration * room;
+  }
+}
+
+ReferenceDraw draw_creep_to_stop(const ReferenceBasis& b, DrawRandom& rng) {
+  const double creep = rng.uniform(0.02, 0.08);
+  const double creep_time = rng.uniform(2.0, 4.0);
+  double a = b.acceleration;
+  double cruise_speed = b.speed;
+  fit_ramps(b.duration - creep_time - 1.0, b.v.drive_acceleration, &a, &cruise_speed);  // >= 1 s of room
+  const double cruise_time = b.duration - creep_time - 2.0 * cruise_speed / a;
+  Motion m;
+  m.direction = b.direction;
+  double t = cruise_speed / a;
+  m.knots = {{0.0, 0.0}, {t, cruise_speed}};
+  t += cruise_time;
+  m.knots.push_back({t, cruise_speed});
+  t += (cruise_speed - creep) / a;
+  m.knots.push_back({t, creep});
+  t += creep_time;
+  m.knots.push_back({t, creep});
+  t += creep / a;
+  m.knots.push_back({t, 0.0});
+  ReferenceDraw r = csv_reference(m, "creep to stop: " + speed_text(cruise_speed) + ", then " +
+                                         fixed(creep * 100.0, 1) + " cm/s for " + fixed(creep_time, 1) + " s");
+  r.speed = cruise_speed;
+  r.acceleration = a;
+  return r;
+}
+
+ReferenceDraw draw_stop_and_go(const ReferenceBasis& b, DrawRandom& rng) {
+  const int cycles = b.duration < 10.0 ? 2 : 3;
+  const double dwell = rng.uniform(0.5, 2.0);
+  const double period = b.duration / cycles;
+  double a = b.acceleration;
+  double cruise_speed = b.speed;
+  fit_ramps(period - dwell - 0.5, b.v.drive_acceleration, &a, &cruise_speed);  // at least 0.5 s of cruise
+  const double ramp = cruise_speed / a;
+  const double cruise_time = period - dwell - 2.0 * ramp;
+  Motion m;
+  m.direction = b.direction;
+  m.knots = {{0.0, 0.0}};
+  for (int c = 0; c < cycles; ++c) {
+    const double t0 = c * period;
+    if (c > 0) m.knots.push_back({t0, 0.0});
+    m.knots.push_back({t0 + ramp, cruise_speed});
+    m.knots.push_back({t0 + ramp + cruise_time, cruise_speed});
+    m.knots.push_back({t0 + 2.0 * ramp + cruise_time, 0.0});
+  }
+  m.knots.push_back({cycles * period, 0.0});
+  ReferenceDraw r = csv_reference(m, "stop and go: " + std::to_string(cycles) + " x " + speed_text(cruise_speed) +
+                                         ", stops of " + fixed(dwell, 1) + " s");
+  r.speed = cruise_speed;
+  r.acceleration = a;
+  return r;
+}
+
 ReferenceDraw draw_reference(ReferenceFamily family, const VehicleDraw& v, DrawRandom& rng) {
   const double duration = rng.uniform(6.0, 20.0);
   // Curved families leave part of the drive speed for the yaw's share of the wheel speeds.
-  double speed = rng.uniform(0.3, is_curved(family) ? 0.6 : 0.8) * v.drive_speed;
+  const double speed = rng.uniform(0.3, is_curved(family) ? 0.6 : 0.8) * v.drive_speed;
   const double acceleration = rng.uniform(0.3, 0.8) * v.drive_acceleration;
   const double direction = round_to(rng.uniform(-kPi, kPi), 1000.0);
-  const double radius = v.radius();
-  const double lateral = kLateralFrictionShare * v.mu * kGravity;
-  // The smallest path radius: twice the vehicle's (the inner wheels keep turning forwards) and
-  // the one the lateral-acceleration share allows.
-  const auto min_path_radius = [&](double* cruise) {
-    const double geometric = 2.0 * radius + 0.5;
-    *cruise = std::min(*cruise, kWheelSpeedShare * v.drive_speed / (1.0 + radius / geometric));
-    return std::max(geometric, *cruise * *cruise / lateral);
-  };
+  const ReferenceBasis b{v, duration, speed, acceleration, direction, v.radius(), kLateralFrictionShare * v.mu * kGravity};
   ReferenceDraw r;
   switch (family) {
-    case ReferenceFamily::kLine:
-      r = line_reference(trapezoid(duration, speed, acceleration, v.drive_acceleration), direction, 0.0,
-                         "straight");
-      break;
+    case ReferenceFamily::kLine: r = line_reference(b.profile(), direction, 0.0, "straight"); break;
     case ReferenceFamily::kHeadingOffset: {
       const double offset = round_to(rng.uniform(0.0, 0.5 * kPi), 1000.0);
-      r = line_reference(trapezoid(duration, speed, acceleration, v.drive_acceleration), direction, offset,
-                         "heading offset " + fixed(offset / kDegree, 1) + " deg");
+      r = line_reference(b.profile(), direction, offset, "heading offset " + fixed(offset / kDegree, 1) + " deg");
       break;
     }
     case ReferenceFamily::kCrab: {
       const double offset = rng.sign() * 0.5 * kPi;
-      r = line_reference(trapezoid(duration, speed, acceleration, v.drive_acceleration), direction, offset,
-                         "crab " + fixed(offset / kDegree, 0) + " deg");
+      r = line_reference(b.profile(), direction, offset, "crab " + fixed(offset / kDegree, 0) + " deg");
       break;
     }
-    case ReferenceFamily::kReverse:
-      r = line_reference(trapezoid(duration, speed, acceleration, v.drive_acceleration), direction, kPi,
-                         "reverse");
-      break;
-    case ReferenceFamily::kArc: {
-      const double min_radius = min_path_radius(&speed);
-      const Trapezoid tz = trapezoid(duration, speed, acceleration, v.drive_acceleration);
-      const double turn = rng.sign() * rng.uniform(kPi / 3.0, 1.5 * kPi);
-      r.type = "arc";
-      r.direction = direction;
-      r.radius = round_to(std::max(tz.length / std::abs(turn), min_radius), 100.0);
-      r.sweep = std::copysign(round_to(tz.length / r.radius, 1e4), turn);
-      r.speed = tz.speed;
-      r.acceleration = tz.acceleration;
-      r.summary = "arc R=" + fixed(r.radius, 2) + " m, sweep " + fixed(r.sweep / kDegree, 1) + " deg at " +
-                  speed_text(tz.speed);
-      break;
-    }
-    case ReferenceFamily::kFigureEight: {
-      const double min_radius = min_path_radius(&speed);
-      const Trapezoid tz = trapezoid(duration, speed, acceleration, v.drive_acceleration);
-      double unit_curvature = 0.0, unit_length = 0.0;
-      figure_eight_unit(&unit_curvature, &unit_length);
-      r.type = "figure_eight";
-      r.direction = 0.0;
-      r.size = round_to(std::max(tz.length / unit_length, unit_curvature * min_radius), 100.0);
-      r.speed = tz.speed;
-      r.acceleration = tz.acceleration;
-      r.summary = "figure-eight " + fixed(r.size, 2) + " m at " + speed_text(tz.speed);
-      break;
-    }
-    case ReferenceFamily::kLaneChange:
-    case ReferenceFamily::kSCurve: {
-      const Trapezoid tz = trapezoid(duration, speed, acceleration, v.drive_acceleration);
-      Motion m;
-      m.knots = trapezoid_knots(tz);
-      m.direction = direction;
-      m.heading_follows_path = rng.chance(0.5);
-      double peak = 0.0;
-      if (family == ReferenceFamily::kLaneChange) {
-        m.bump_start = rng.uniform(0.15, 0.35) * tz.length;
-        m.bump_length = rng.uniform(0.3, 0.5) * tz.length;
-        const double shift = rng.uniform(1.0, 1.5) * v.footprint_width;
-        peak = std::min(2.0 * shift / m.bump_length, 35.0 * kDegree);  // small-angle shift = peak L / 2
-      } else {
-        m.bump_start = 0.1 * tz.length;
-        m.bump_length = 0.8 * tz.length;
-        peak = rng.uniform(60.0, 120.0) * kDegree;
-      }
-      // Curvature within the lateral-acceleration share, and within the wheel speeds (heading
-      // along the path) or the steering rate (heading held: the modules steer with the path).
-      double max_curvature = lateral / (tz.speed * tz.speed);
-      max_curvature = std::min(
-          max_curvature, m.heading_follows_path ? (kWheelSpeedShare * v.drive_speed / tz.speed - 1.0) / radius
-                                                : 0.5 * v.steering_rate / tz.speed);
-      peak = std::min(peak, max_curvature * m.bump_length / kPi);
-      m.bump_peak = rng.sign() * peak;
-      r = csv_reference(m, std::string(family == ReferenceFamily::kLaneChange ? "lane change" : "s-curve") +
-                               ", peak path angle " + fixed(m.bump_peak / kDegree, 1) + " deg, heading " +
-                               (m.heading_follows_path ? "along the path" : "held") + ", " +
-                               fixed(tz.length, 2) + " m at " + speed_text(tz.speed));
-      r.speed = tz.speed;
-      r.acceleration = tz.acceleration;
-      r.length = tz.length;
-      break;
-    }
-    case ReferenceFamily::kHeadingChange: {
-      const Trapezoid tz = trapezoid(duration, speed, acceleration, v.drive_acceleration);
-      Motion m;
-      m.knots = trapezoid_knots(tz);
-      m.direction = direction;
-      m.heading_follows_path = false;
-      const double cruise = tz.length / tz.speed - tz.ramp();
-      m.turn_time = rng.uniform(0.5, 0.9) * cruise;
-      m.turn_start = tz.ramp() + rng.uniform(0.0, cruise - m.turn_time);
-      double turn = rng.uniform(45.0, 180.0) * kDegree;
-      // Yaw rate within the wheel speeds the translation leaves and half the steering rate.
-      const double max_yaw_rate =
-          std::min((kWheelSpeedShare * v.drive_speed - tz.speed) / radius, 0.5 * v.steering_rate);
-      turn = std::min(turn, max_yaw_rate * m.turn_time / kSmootherstepPeakRate);
-      m.turn = rng.sign() * turn;
-      r = csv_reference(m, "heading change " + fixed(m.turn / kDegree, 1) + " deg over " +
-                               fixed(m.turn_time, 1) + " s, " + fixed(tz.length, 2) + " m at " +
-                               speed_text(tz.speed));
-      r.speed = tz.speed;
-      r.acceleration = tz.acceleration;
-      r.length = tz.length;
-      break;
-    }
-    case ReferenceFamily::kCreepToStop: {
-      const double creep = rng.uniform(0.02, 0.08);
-      const double creep_time = rng.uniform(2.0, 4.0);
-      double a = acceleration;
-      double cruise_speed = speed;
-      const double room = duration - creep_time - 1.0;  // >= 1 s: duration >= 6, creep_time <= 4
-      if (2.0 * cruise_speed / a > room) a = 2.0 * cruise_speed / room;
-      if (a > v.drive_acceleration) {
-        a = v.drive_acceleration;
-        cruise_speed = 0.5 * a * room;
-      }
-      const double cruise_time = duration - creep_time - 2.0 * cruise_speed / a;
-      Motion m;
-      m.direction = direction;
-      double t = cruise_speed / a;
-      m.knots = {{0.0, 0.0}, {t, cruise_speed}};
-      t += cruise_time;
-      m.knots.push_back({t, cruise_speed});
-      t += (cruise_speed - creep) / a;
-      m.knots.push_back({t, creep});
-      t += creep_time;
-      m.knots.push_back({t, creep});
-      t += creep / a;
-      m.knots.push_back({t, 0.0});
-      r = csv_reference(m, "creep to stop: " + speed_text(cruise_speed) + ", then " +
-                               fixed(creep * 100.0, 1) + " cm/s for " + fixed(creep_time, 1) + " s");
-      r.speed = cruise_speed;
-      r.acceleration = a;
-      break;
-    }
-    case ReferenceFamily::kStopAndGo: {
-      const int cycles = duration < 10.0 ? 2 : 3;
-      const double dwell = rng.uniform(0.5, 2.0);
-      const double period = duration / cycles;
-      const double room = period - dwell - 0.5;  // ramps; at least 0.5 s of cruise
-      double a = acceleration;
-      double cruise_speed = speed;
-      if (2.0 * cruise_speed / a > room) a = 2.0 * cruise_speed / room;
-      if (a > v.drive_acceleration) {
-        a = v.drive_acceleration;
-        cruise_speed = 0.5 * a * room;
-      }
-      const double ramp = cruise_speed / a;
-      const double cruise_time = period - dwell - 2.0 * ramp;
-      Motion m;
-      m.direction = direction;
-      m.knots = {{0.0, 0.0}};
-      for (int c = 0; c < cycles; ++c) {
-        const double t0 = c * period;
-        if (c > 0) m.knots.push_back({t0, 0.0});
-        m.knots.push_back({t0 + ramp, cruise_speed});
-        m.knots.push_back({t0 + ramp + cruise_time, cruise_speed});
-        m.knots.push_back({t0 + 2.0 * ramp + cruise_time, 0.0});
-      }
-      m.knots.push_back({cycles * period, 0.0});
-      r = csv_reference(m, "stop and go: " + std::to_string(cycles) + " x " + speed_text(cruise_speed) +
-                               ", stops of " + fixed(dwell, 1) + " s");
-      r.speed = cruise_speed;
-      r.acceleration = a;
-      break;
-    }
+    case ReferenceFamily::kReverse: r = line_reference(b.profile(), direction, kPi, "reverse"); break;
+    case ReferenceFamily::kArc: r = draw_arc(b, rng); break;
+    case ReferenceFamily::kFigureEight: r = draw_figure_eight(b); break;
+    case ReferenceFamily::kLaneChange: r = draw_bump(true, b, rng); break;
+    case ReferenceFamily::kSCurve: r = draw_bump(false, b, rng); break;
+    case ReferenceFamily::kHeadingChange: r = draw_heading_change(b, rng); break;
+    case ReferenceFamily::kCreepToStop: r = draw_creep_to_stop(b, rng); break;
+    case ReferenceFamily::kStopAndGo: r = draw_stop_and_go(b, rng); break;
   }
   r.duration = r.type == "csv" ? r.rows.back()[0] : built_in_duration(r);
   return r;

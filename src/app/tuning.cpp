@@ -1,18 +1,16 @@
 #include "swerve/app/tuning.hpp"
 
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
-#include <charconv>
 #include <cmath>
-#include <fstream>
-#include <numeric>
+#include <cstdint>
 #include <optional>
-#include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "swerve/app/scenario_runner.hpp"
 #include "swerve/core/constants.hpp"
 #include "swerve/solvers/solver_factory.hpp"
+#include "tuning_runs.hpp"
 
 namespace swerve {
 namespace {
@@ -24,14 +22,6 @@ void require_each_in_range(const char* owner, const std::string& field, const st
     if (value < 1 || value > upper) {
       throw_invalid_field(owner, field + "[]", value, "must be in [1, " + std::to_string(upper) + "]");
     }
-  }
-}
-
-// Tuning and the real-time report are about the wear-aware controller.
-void require_wear_mpc(const ControllerConfig& controller, const char* command) {
-  if (controller.kind != ControllerKind::kWearMpc) {
-    throw ConfigError(std::string(command) + ": controller '" + controller.name + "' is a " + to_string(controller.kind) +
-                      "; it needs the wear_mpc controller");
   }
 }
 
@@ -222,35 +212,6 @@ int closest_candidate(const std::vector<CandidateScore>& candidates, std::size_t
 
 namespace {
 
-// The scenario at a control period.
-ScenarioConfig at_period(const ScenarioConfig& scenario, double period) {
-  ScenarioConfig copy = scenario;
-  copy.simulator.control_period = period;
-  return copy;
-}
-
-// One run, and the misses that count: a run with a miss is run again (same seed), and the fewer of
-// the two runs' miss counts count (a count, not matched step by step; the first run is kept). A
-// scheduling stall of the machine misses at random and seldom in both runs; a controller too slow
-// for its budget misses in both. The tuner and the real-time report count them alike.
-struct CountedRun {
-  ControllerRun run;
-  int misses = 0;       // those that recurred
-  int unconfirmed = 0;  // the first run's others
-};
-CountedRun run_counting_recurring_misses(const ScenarioConfig& scenario, const ScenarioController& entry,
-                                         const Clock* clock) {
-  CountedRun counted{run_controller(scenario, entry, {}, 0, clock)};
-  counted.misses = counted.run.metrics.deadline_misses;
-  if (counted.misses > 0) {
-    const ControllerRun again = run_controller(scenario, entry, {}, 0, clock);
-    const int recurring = std::min(counted.misses, again.metrics.deadline_misses);
-    counted.unconfirmed = counted.misses - recurring;
-    counted.misses = recurring;
-  }
-  return counted;
-}
-
 const ScenarioController& baseline_of(const ScenarioConfig& scenario) {
   for (const ScenarioController& c : scenario.controllers) {
     if (c.config.kind == ControllerKind::kKinematicBaseline) return c;
@@ -319,100 +280,70 @@ QualityCandidates quality_candidates(const ControllerConfig& controller, const Q
   return out;
 }
 
-QualityTuningResult tune_by_quality(const ControllerConfig& controller, const TargetConfig& target,
-                                    const std::vector<ScenarioConfig>& scenarios, const QualityTuningOptions& options,
-                                    const TuningProgress& progress) {
-  options.validate();
-  target.validate();
-  require_wear_mpc(controller, "tune");
-  if (scenarios.empty()) throw ConfigError("tune: no scenario to score the candidates on");
-  QualityTuningResult result;
-  result.budget_here_s = target.solve_budget / target.cpu_slowdown;
+std::vector<double> QualityTuningOptions::periods_tried(const TargetConfig& target) const {
+  validate();
   const double period = target.control_period;
-  // The periods tried, the target's own first (every wear ratio is against its baseline).
-  std::vector<double> periods{period};
-  for (const double p : options.periods) {
+  std::vector<double> tried{period};
+  for (const double p : periods) {
     if (!target.budget_at(p)) {
       throw_invalid_field("QualityTuningOptions", "periods[]", p,
                           "is not a control period target " + target.name + " allows (" + target.periods_text() +
-                              " s; TargetConfig::other_periods)");
+                              " s; its file's other_periods)");
     }
-    if (std::abs(p - period) >= 1e-9) periods.push_back(p);
+    if (std::abs(p - period) >= 1e-9) tried.push_back(p);
   }
-  const double shortest_tried =
-      options.periods.empty() ? period : *std::min_element(options.periods.begin(), options.periods.end());
-  for (const double dt : options.dts) {
-    if (dt < shortest_tried - 1e-9) {
+  const double shortest = periods.empty() ? period : *std::min_element(periods.begin(), periods.end());
+  for (const double dt : dts) {
+    if (dt < shortest - 1e-9) {
       throw_invalid_field("QualityTuningOptions", "dts[]", dt,
-                          "must be at least the shortest control period tried (" + std::to_string(shortest_tried) +
-                              " s)");
+                          "is shorter than the " + std::string(periods.empty() ? "" : "shortest tried ") +
+                              "control period of target " + target.name + " (" + Bound::number(shortest) +
+                              " s): a cycle must not skip a prediction step");
     }
   }
-  const auto period_index = [&](const TuningCandidate& c) {
-    const double p = c.period_at(period);
-    for (std::size_t i = 0; i < periods.size(); ++i) {
-      if (std::abs(periods[i] - p) < 1e-9) return i;
-    }
-    return std::size_t{0};  // not reached: every candidate's period is one of `periods`
-  };
+  return tried;
+}
 
-  // Every scenario once per seed (the scenario's own when none is given), and its baseline at
-  // each period tried, run once.
-  std::vector<std::vector<ScenarioConfig>> runs;                    // [scenario][seed], at the target's period
-  std::vector<std::vector<std::vector<RunMetrics>>> baselines;      // [period][scenario][seed]
-  baselines.resize(periods.size());
-  for (const ScenarioConfig& scenario : scenarios) {
-    runs.emplace_back();
-    const std::vector<std::uint64_t> seeds =
-        options.seeds.empty() ? std::vector<std::uint64_t>{scenario.simulator.seed} : options.seeds;
-    for (const std::uint64_t seed : seeds) {
-      runs.back().push_back(at_period(scenario, period));
-      runs.back().back().simulator.seed = seed;
-    }
-    for (std::size_t p = 0; p < periods.size(); ++p) {
-      baselines[p].emplace_back();
-      ScenarioController baseline = baseline_of(scenario);
-      baseline.config.set_sampling(baseline.config.baseline.horizon, periods[p]);
-      for (const ScenarioConfig& run_config : runs.back()) {
-        const ControllerRun run = run_controller(at_period(run_config, periods[p]), baseline, {}, 0, options.clock);
-        if (!run.completed) {
-          throw ConfigError("tune: the baseline failed on '" + scenario.name + "' (seed " +
-                            std::to_string(run_config.simulator.seed) + ", period " + std::to_string(periods[p]) +
-                            " s): " + run.failure);
-        }
-        baselines[p].back().push_back(run.metrics);
-      }
-    }
+namespace {
+
+// Scores candidates: every scenario once per seed (the scenario's own when none is given) at the
+// target's period, against its kinematic baseline run once at each period tried.
+class CandidateScorer {
+ public:
+  CandidateScorer(const ControllerConfig& controller, const TargetConfig& target,
+                  const std::vector<ScenarioConfig>& scenarios, std::vector<double> periods,
+                  const QualityTuningOptions& options)
+      : controller_(controller), target_(target), scenarios_(scenarios), periods_(std::move(periods)),
+        options_(options) {
+    baselines_.resize(periods_.size());
+    for (const ScenarioConfig& scenario : scenarios_) run_baselines(scenario);
   }
 
   // A candidate on one scenario: the median over the seeds of each ratio and error (a run's noise
   // is larger than many candidates' differences), the misses and fallbacks summed.
-  const auto median = [](std::vector<double> values) {
-    std::sort(values.begin(), values.end());
-    const std::size_t n = values.size();
-    return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-  };
-  const auto score_on = [&](const TuningCandidate& candidate, std::size_t index) {
-    ScenarioController entry{"wear_mpc", "", controller};
+  ScenarioScore score(const TuningCandidate& candidate, std::size_t index) const {
+    const double period = target_.control_period;
+    ScenarioController entry{"wear_mpc", "", controller_};
     const double candidate_period = candidate.period_at(period);
     const std::size_t own = period_index(candidate);
     entry.config.set_sampling(candidate.horizon, candidate.step_at(period));
     entry.config.mpc.control_period = candidate_period;
-    entry.config.mpc.solve_budget = target.budget_at(candidate_period).value_or(target.solve_budget) / target.cpu_slowdown;
+    entry.config.mpc.solve_budget =
+        target_.budget_at(candidate_period).value_or(target_.solve_budget) / target_.cpu_slowdown;
     entry.config.solver.backend = candidate.backend;
     if (candidate.backend == "sa") entry.config.solver.sa.knots = candidate.knots;
     entry.config.mpc.deadline_margin = candidate.deadline_margin;
     ScenarioScore s;
-    s.scenario = scenarios[index].name;
+    s.scenario = scenarios_[index].name;
     s.completed = true;
     std::vector<double> wear, rmse, baseline_rmse, heading, baseline_heading, step_p99, target_period_rmse;
-    for (std::size_t k = 0; k < runs[index].size(); ++k) {
+    for (std::size_t k = 0; k < runs_[index].size(); ++k) {
       const CountedRun counted =
-          run_counting_recurring_misses(at_period(runs[index][k], candidate_period), entry, options.clock);
+          run_counting_recurring_misses(at_period(runs_[index][k], candidate_period), entry, options_.clock);
       const ControllerRun& run = counted.run;
       s.unconfirmed_misses += counted.unconfirmed;
-      const RunMetrics& b = baselines[0][index][k];           // the target's period: the wear yardstick
-      const RunMetrics& b_own = baselines[own][index][k];     // the candidate's period
+      const RunMetrics& b = baselines_[0][index][k];        // the target's period: the wear yardstick
+      const RunMetrics& b_own = baselines_[own][index][k];  // the candidate's period
       s.completed = s.completed && run.completed;
       wear.push_back(b.wear_total > 0.0 ? run.metrics.wear_total / b.wear_total : 1.0);
       rmse.push_back(run.metrics.tracking_rmse_m);
@@ -432,10 +363,78 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     s.baseline_heading_rmse_rad = median(baseline_heading);
     s.step_p99_ms = *std::max_element(step_p99.begin(), step_p99.end());
     return s;
-  };
+  }
+
+ private:
+  void run_baselines(const ScenarioConfig& scenario) {
+    runs_.emplace_back();
+    const std::vector<std::uint64_t> seeds =
+        options_.seeds.empty() ? std::vector<std::uint64_t>{scenario.simulator.seed} : options_.seeds;
+    for (const std::uint64_t seed : seeds) {
+      runs_.back().push_back(at_period(scenario, target_.control_period));
+      runs_.back().back().simulator.seed = seed;
+    }
+    for (std::size_t p = 0; p < periods_.size(); ++p) {
+      baselines_[p].emplace_back();
+      ScenarioController baseline = baseline_of(scenario);
+      baseline.config.set_sampling(baseline.config.baseline.horizon, periods_[p]);
+      for (const ScenarioConfig& run_config : runs_.back()) {
+        const ControllerRun run = run_controller(at_period(run_config, periods_[p]), baseline, {}, 0, options_.clock);
+        if (!run.completed) {
+          throw ConfigError("tune: the baseline failed on '" + scenario.name + "' (seed " +
+                            std::to_string(run_config.simulator.seed) + ", period " + std::to_string(periods_[p]) +
+                            " s): " + run.failure);
+        }
+        baselines_[p].back().push_back(run.metrics);
+      }
+    }
+  }
+
+  std::size_t period_index(const TuningCandidate& c) const {
+    const double p = c.period_at(target_.control_period);
+    for (std::size_t i = 0; i < periods_.size(); ++i) {
+      if (std::abs(periods_[i] - p) < 1e-9) return i;
+    }
+    return 0;  // not reached: every candidate's period is one of periods_
+  }
+
+  static double median(std::vector<double> values) {
+    std::sort(values.begin(), values.end());
+    const std::size_t n = values.size();
+    return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+  }
+
+  const ControllerConfig& controller_;
+  const TargetConfig& target_;
+  const std::vector<ScenarioConfig>& scenarios_;
+  std::vector<double> periods_;
+  const QualityTuningOptions& options_;
+  std::vector<std::vector<ScenarioConfig>> runs_;                // [scenario][seed], at the target's period
+  std::vector<std::vector<std::vector<RunMetrics>>> baselines_;  // [period][scenario][seed]
+};
+
+// Scores `score`'s candidate on every scenario after the first, which round 1 scored.
+void score_on_the_rest(const CandidateScorer& scorer, std::size_t scenarios, CandidateScore* score) {
+  for (std::size_t index = 1; index < scenarios; ++index) score->scenarios.push_back(scorer.score(score->candidate, index));
+  score->finalist = true;
+  summarise(score);
+}
+
+}  // namespace
+
+QualityTuningResult tune_by_quality(const ControllerConfig& controller, const TargetConfig& target,
+                                    const std::vector<ScenarioConfig>& scenarios, const QualityTuningOptions& options,
+                                    const TuningProgress& progress) {
+  target.validate();
+  std::vector<double> periods = options.periods_tried(target);
+  require_wear_mpc(controller, "tune");
+  if (scenarios.empty()) throw ConfigError("tune: no scenario to score the candidates on");
+  QualityTuningResult result;
+  result.budget_here_s = target.solve_budget / target.cpu_slowdown;
+  const CandidateScorer scorer(controller, target, scenarios, std::move(periods), options);
 
   // Round 1: every candidate on the first scenario; the controller's own setting is one of them.
-  const QualityCandidates listed = quality_candidates(controller, options, period);
+  const QualityCandidates listed = quality_candidates(controller, options, target.control_period);
   for (const TuningCandidate& candidate : listed.candidates) {
     CandidateScore score;
     score.candidate = candidate;
@@ -445,7 +444,7 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   const int total = static_cast<int>(result.candidates.size());
   for (int i = 0; i < total; ++i) {
     CandidateScore& score = result.candidates[static_cast<std::size_t>(i)];
-    score.scenarios.push_back(score_on(score.candidate, 0));
+    score.scenarios.push_back(scorer.score(score.candidate, 0));
     summarise(&score);
     if (progress) progress(i + 1, total, 1);
   }
@@ -457,14 +456,10 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
     finalists.push_back(result.incumbent);
   }
   for (std::size_t rank = 0; rank < finalists.size(); ++rank) {
-    CandidateScore& score = result.candidates[static_cast<std::size_t>(finalists[rank])];
-    for (std::size_t index = 1; index < scenarios.size(); ++index) score.scenarios.push_back(score_on(score.candidate, index));
-    score.finalist = true;
-    summarise(&score);
+    score_on_the_rest(scorer, scenarios.size(), &result.candidates[static_cast<std::size_t>(finalists[rank])]);
     if (progress) progress(static_cast<int>(rank) + 1, static_cast<int>(finalists.size()), 2);
   }
-  const auto choose = [&] { result.best = best_candidate(result.candidates, result.incumbent); };
-  choose();
+  result.best = best_candidate(result.candidates, result.incumbent);
   // Round 3, only when no finalist was acceptable everywhere (one scenario is a rough predictor of
   // the others): the rest, in round 1's order, on every scenario, until one is.
   const int rest = total - static_cast<int>(finalists.size());
@@ -472,109 +467,12 @@ QualityTuningResult tune_by_quality(const ControllerConfig& controller, const Ta
   for (std::size_t rank = 0; rank < order.size() && result.best < 0; ++rank) {
     CandidateScore& score = result.candidates[static_cast<std::size_t>(order[rank])];
     if (score.finalist) continue;
-    for (std::size_t index = 1; index < scenarios.size(); ++index) score.scenarios.push_back(score_on(score.candidate, index));
-    score.finalist = true;
-    summarise(&score);
+    score_on_the_rest(scorer, scenarios.size(), &score);
     if (progress) progress(++done, rest, 3);
-    choose();
+    result.best = best_candidate(result.candidates, result.incumbent);
   }
   if (result.best < 0) result.closest = closest_candidate(result.candidates, scenarios.size());
   return result;
-}
-
-namespace {
-
-// The shortest text that reads back as `value`: 0.05, not the 17 digits yaml-cpp writes for a
-// double (0.050000000000000003), which a user then reads in the tuned file.
-YAML::Node shortest_number(double value) {
-  char text[32];
-  const char* end = std::to_chars(text, text + sizeof text, value).ptr;
-  return YAML::Node(std::string(static_cast<const char*>(text), end));
-}
-
-}  // namespace
-
-void write_tuned_controller(const std::string& base_file, const TuningCandidate& candidate, const TargetConfig& target,
-                            const std::string& header, const std::string& path) {
-  YAML::Node document;
-  try {
-    document = YAML::LoadFile(base_file);
-  } catch (const YAML::Exception& error) {
-    throw ConfigError(base_file + ": cannot read the controller to tune: " + error.what());
-  }
-  YAML::Node controller = document["controller"];
-  if (!controller.IsMap()) throw ConfigError(base_file + ": no controller: map to tune");
-  const double period = candidate.period_at(target.control_period);
-  const std::optional<double> budget = target.budget_at(period);
-  if (!budget) {
-    throw ConfigError(path + ": the candidate's control period " + std::to_string(period) + " s is not one target " +
-                      target.name + " allows (" + target.periods_text() + " s)");
-  }
-  controller["horizon"] = candidate.horizon;
-  const double dt = candidate.step_at(target.control_period);
-  controller["dt"] = shortest_number(dt);
-  if (std::abs(dt - period) < 1e-9) {
-    controller.remove("control_period");
-  } else {
-    controller["control_period"] = shortest_number(period);
-  }
-  controller["solve_budget"] = shortest_number(*budget);
-  controller["solver"]["backend"] = candidate.backend;
-  if (candidate.backend == "sa") controller["solver"]["sa"]["knots"] = candidate.knots;
-  controller["deadline_margin"] = shortest_number(candidate.deadline_margin);
-  controller["description"] = "wear-aware MPC tuned for " + target.name + " (swerve-mpc tune)";
-  YAML::Emitter emitter;
-  emitter << document;
-  {
-    std::ofstream out(path);
-    if (!out) throw std::runtime_error(path + ": cannot write the tuned controller");
-    out << header << emitter.c_str() << "\n";
-    if (!out) throw std::runtime_error(path + ": cannot write the tuned controller");
-  }
-  (void)load_controller_config_file(path);  // what was written loads as a controller
-}
-
-bool RealTimeRow::passes() const { return completed && deadline_misses == 0 && step_p99_ms <= budget_ms; }
-
-std::vector<RealTimeRow> measure_real_time(const ControllerConfig& controller, const TargetConfig& target,
-                                           const std::vector<ScenarioConfig>& scenarios, const Clock* clock) {
-  target.validate();
-  require_wear_mpc(controller, "bench-targets");
-  std::vector<RealTimeRow> rows;
-  for (const ScenarioConfig& scenario : scenarios) {
-    ScenarioController entry{"wear_mpc", "", controller};
-    // At the file's own period where the target allows it; else at the target's, the prediction
-    // step in the same ratio to it as in the file.
-    const std::optional<double> own_budget = target.budget_at(controller.mpc.period());
-    const double period = own_budget ? controller.mpc.period() : target.control_period;
-    const double budget = own_budget ? *own_budget : target.solve_budget;
-    const bool longer_step = controller.mpc.dt > controller.mpc.period();
-    entry.config.set_sampling(controller.mpc.horizon,
-                              longer_step ? controller.mpc.dt * (period / controller.mpc.period()) : period);
-    entry.config.mpc.control_period = period;
-    entry.config.mpc.solve_budget = budget / target.cpu_slowdown;
-    const CountedRun counted = run_counting_recurring_misses(at_period(scenario, period), entry, clock);
-    const ControllerRun& run = counted.run;
-    std::vector<double> steps_ms, proposals;
-    for (const StepRecord& record : run.log) {
-      if (record.step_time_s >= 0.0) steps_ms.push_back(1e3 * record.step_time_s * target.cpu_slowdown);
-      if (record.solve_time_s >= 0.0) proposals.push_back(std::max(0, record.solve_iterations));
-    }
-    RealTimeRow row;
-    row.scenario = scenario.name;
-    row.period_ms = 1e3 * period;
-    row.budget_ms = 1e3 * budget;
-    row.step_p50_ms = percentile(steps_ms, 50.0);
-    row.step_p99_ms = percentile(steps_ms, 99.0);
-    row.step_max_ms = steps_ms.empty() ? 0.0 : *std::max_element(steps_ms.begin(), steps_ms.end());
-    row.proposals_median = percentile(proposals, 50.0);
-    row.deadline_misses = counted.misses;
-    row.unconfirmed_misses = counted.unconfirmed;
-    row.fallbacks = run.metrics.fallbacks;
-    row.completed = run.completed;
-    rows.push_back(row);
-  }
-  return rows;
 }
 
 }  // namespace swerve

@@ -116,7 +116,8 @@ nlohmann::json to_json(const QualityTuningResult& result, const TargetConfig& ta
           {"candidates", rows}};
 }
 
-int tune_by_quality_command(const TuneArguments& a) {
+// The tuner's options from the command line, its controllers on `clock` (nullptr: the steady clock).
+QualityTuningOptions quality_options_of(const TuneArguments& a, const Clock* clock) {
   QualityTuningOptions options;
   options.horizons = a.horizons_given ? a.options.horizons : std::vector<int>{10, 15, 20, 30};
   options.knots = a.knots;
@@ -125,47 +126,18 @@ int tune_by_quality_command(const TuneArguments& a) {
   options.seeds = a.seeds;
   options.dts = a.dts;
   options.periods = a.periods;
-  std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
-  if (work_clock) options.clock = &*work_clock;
-  try {
-    options.validate();
-  } catch (const ConfigError& error) {
-    throw UsageError(std::string("tune: ") + error.what());
-  }
-  if (!a.write_file.empty()) check_write_file(a.write_file, a.force);
-  if (!a.out_dir.empty()) {
-    try {
-      prepare_output_directory(a.out_dir);
-    } catch (const std::runtime_error& error) {
-      throw std::runtime_error(std::string("--out ") + error.what() + "; nothing was run");
-    }
-  }
-  std::vector<ScenarioConfig> scenarios;
-  for (const std::string& file : a.scenario_files) scenarios.push_back(load_scenario_config_file(file));
-  const ControllerConfig controller = load_controller_config_file(a.controller_file);
-  const TargetConfig target = load_target_config_file(a.target_file);
-  double shortest_period = target.control_period;
-  if (!options.periods.empty()) shortest_period = options.periods.front();
-  for (const double period : options.periods) {
-    if (!target.budget_at(period)) {
-      throw UsageError("tune: --periods: " + Bound::number(period) + " s is not a control period target " +
-                       target.name + " allows (" + target.periods_text() + " s; its file's other_periods)");
-    }
-    shortest_period = std::min(shortest_period, period);
-  }
-  for (const double dt : options.dts) {
-    if (dt < shortest_period - 1e-9) {
-      throw UsageError("tune: --dts: " + std::to_string(dt) + " s is shorter than the " +
-                       (options.periods.empty() ? "" : "shortest tried ") + "control period of target " +
-                       target.name + " (" + std::to_string(shortest_period) +
-                       " s): a cycle must not skip a prediction step");
-    }
-  }
+  options.clock = clock;
+  return options;
+}
+
+// What will be tried, on which budget, before the (long) search starts.
+void print_tuning_plan(const ControllerConfig& controller, const TargetConfig& target,
+                       const QualityTuningOptions& options, std::size_t scenarios, const TuneArguments& a) {
   const std::size_t candidates = quality_candidates(controller, options, target.control_period).candidates.size();
   std::printf("tune: controller %s, target %s: %.0f ms of every %.0f ms cycle at %.2fx this machine's time "
               "(%.2f ms here), %zu candidates on %zu scenarios\n",
               controller.name.c_str(), target.name.c_str(), 1e3 * target.solve_budget, 1e3 * target.control_period,
-              target.cpu_slowdown, 1e3 * target.solve_budget / target.cpu_slowdown, candidates, scenarios.size());
+              target.cpu_slowdown, 1e3 * target.solve_budget / target.cpu_slowdown, candidates, scenarios);
   for (const double period : options.periods) {
     if (std::abs(period - target.control_period) < 1e-9) continue;
     std::printf("also at a %.0f ms cycle with %.1f ms (%.2f ms here); every wear ratio is against the baseline at "
@@ -174,17 +146,13 @@ int tune_by_quality_command(const TuneArguments& a) {
                 1e3 * target.control_period);
   }
   if (!options.seeds.empty()) std::printf("each on %zu seeds: medians per scenario\n", options.seeds.size());
-  if (work_clock) std::printf("%s\n", work_clock_notice(a.work_clock).c_str());
+  if (options.clock != nullptr) std::printf("%s\n", work_clock_notice(a.work_clock).c_str());
   std::fflush(stdout);
-  const bool bar = !a.quiet && isatty(STDERR_FILENO);
-  const QualityTuningResult result =
-      tune_by_quality(controller, target, scenarios, options, [bar](int done, int total, int round) {
-        if (!bar) return;
-        std::fprintf(stderr, "\r  round %d: %d/%d candidates", round, done, total);
-        if (done == total) std::fprintf(stderr, "\n");
-        std::fflush(stderr);
-      });
-  // One row per candidate: per scenario wear ratio and RMSE ratio, then the summary.
+}
+
+// One row per candidate: per scenario wear ratio and RMSE ratio, then the summary.
+void print_candidate_table(const QualityTuningResult& result, const std::vector<ScenarioConfig>& scenarios,
+                           const TargetConfig& target) {
   std::printf("%7s %7s %6s %6s %5s %6s", "backend", "horizon", "period", "dt", "knots", "margin");
   for (const ScenarioConfig& s : scenarios) std::printf("  %-22.22s", s.name.c_str());
   std::printf(" %10s %8s %6s %14s\n", "geo. wear", "misses", "once", "unacceptable");
@@ -221,75 +189,117 @@ int tune_by_quality_command(const TuneArguments& a) {
               "once: misses that did not recur when their run was repeated (the machine's stalls; not counted); "
               ">= own: no more wear and no higher position RMSE than the controller file's own on every scenario\n");
   std::printf("rule: %s\n", QualityTuningResult::rule());
+}
+
+// The tuned file's header: how the candidate was chosen and what it scored.
+std::string tuned_file_header(const CandidateScore& chosen, const std::string& how, const QualityTuningResult& result,
+                              const TargetConfig& target, const TuneArguments& a) {
+  std::ostringstream header;
+  const double period = chosen.candidate.period_at(target.control_period);
+  header << "# Tuned by `swerve-mpc tune` for target " << target.name << " (" << target.description
+         << ") from " << a.controller_file << ":\n# backend " << describe(chosen.candidate) << ", control period "
+         << period << " s, deadline margin " << chosen.candidate.deadline_margin << ", solve budget "
+         << target.budget_at(period).value_or(target.solve_budget) << " s; geometric-mean wear "
+         << chosen.geomean_wear_ratio << " of the kinematic baseline's (at " << target.control_period << " s) on";
+  for (const ScenarioScore& s : chosen.scenarios) header << " " << s.scenario;
+  if (!a.seeds.empty()) {
+    header << " (medians over simulator seeds";
+    for (const std::uint64_t seed : a.seeds) header << " " << seed;
+    header << ")";
+  }
+  const CandidateScore& own = result.candidates[static_cast<std::size_t>(result.incumbent)];
+  header << "\n# (the controller file's own " << describe(own.candidate) << ": " << own.geomean_wear_ratio
+         << "), at " << target.cpu_slowdown << "x this machine's time.\n# Rule: " << how << ".\n";
+  for (const ScenarioScore& s : chosen.scenarios) {
+    if (s.acceptable()) continue;
+    header << "# Outside the tracking bounds on " << s.scenario << ": position RMSE " << s.rmse_m << " m against "
+           << s.baseline_rmse_m << " m, heading " << s.heading_rmse_rad << " rad against "
+           << s.baseline_heading_rmse_rad << " rad (the baseline's), " << s.tracking_excess() << "x the bound.\n";
+  }
+  return header.str();
+}
+
+// No candidate met the rule: reports the closest, and writes it only with --accept-tracking-loss.
+template <typename Write>
+int report_closest(const QualityTuningResult& result, const TuneArguments& a, Write&& write) {
+  std::printf(
+      "no candidate kept the baseline's tracking without a deadline miss on every scenario: raise the "
+      "budget, or try other backends, horizons and knots\n");
+  if (result.closest < 0) {
+    std::printf("and every candidate missed a deadline on some scenario: nothing fits the budget\n");
+    return kExitFailure;
+  }
+  const CandidateScore& closest = result.candidates[static_cast<std::size_t>(result.closest)];
+  const ScenarioScore* worst = &closest.scenarios.front();
+  for (const ScenarioScore& s : closest.scenarios) {
+    if (s.tracking_excess() > worst->tracking_excess()) worst = &s;
+  }
+  std::printf(
+      "closest: %s, deadline margin %.2f (worst: %s at %.2fx its RMSE bound)\n"
+      "closest rule: %s\n",
+      describe(closest.candidate).c_str(), closest.candidate.deadline_margin, worst->scenario.c_str(),
+      worst->tracking_excess(), QualityTuningResult::closest_rule());
+  if (a.write_file.empty()) return kExitFailure;
+  if (!a.accept_tracking_loss) {
+    std::printf("not written: it does not keep the baseline's tracking; --accept-tracking-loss writes it\n");
+    return kExitFailure;
+  }
+  write(closest, std::string(QualityTuningResult::closest_rule()) + " (no candidate met the rule: " +
+                     QualityTuningResult::rule() + ")");
+  return kExitOk;
+}
+
+int tune_by_quality_command(const TuneArguments& a) {
+  const std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
+  const QualityTuningOptions options = quality_options_of(a, work_clock ? &*work_clock : nullptr);
+  try {
+    options.validate();
+  } catch (const ConfigError& error) {
+    throw UsageError(std::string("tune: ") + error.what());
+  }
+  if (!a.write_file.empty()) check_write_file(a.write_file, a.force);
+  if (!a.out_dir.empty()) {
+    try {
+      prepare_output_directory(a.out_dir);
+    } catch (const std::runtime_error& error) {
+      throw std::runtime_error(std::string("--out ") + error.what() + "; nothing was run");
+    }
+  }
+  std::vector<ScenarioConfig> scenarios;
+  for (const std::string& file : a.scenario_files) scenarios.push_back(load_scenario_config_file(file));
+  const ControllerConfig controller = load_controller_config_file(a.controller_file);
+  const TargetConfig target = load_target_config_file(a.target_file);
+  try {
+    (void)options.periods_tried(target);
+  } catch (const ConfigError& error) {
+    throw UsageError(std::string("tune: ") + error.what());
+  }
+  print_tuning_plan(controller, target, options, scenarios.size(), a);
+  const bool bar = !a.quiet && isatty(STDERR_FILENO);
+  const QualityTuningResult result =
+      tune_by_quality(controller, target, scenarios, options, [bar](int done, int total, int round) {
+        if (!bar) return;
+        std::fprintf(stderr, "\r  round %d: %d/%d candidates", round, done, total);
+        if (done == total) std::fprintf(stderr, "\n");
+        std::fflush(stderr);
+      });
+  print_candidate_table(result, scenarios, target);
   if (!a.out_dir.empty()) {
     std::ofstream(a.out_dir + "/tune.json") << to_json(result, target).dump(2) << "\n";
     std::printf("written: %s/tune.json\n", a.out_dir.c_str());
   }
-  // The chosen candidate's YAML, headed by how it was chosen and what it scored.
   const auto write = [&](const CandidateScore& chosen, const std::string& how) {
-    std::ostringstream header;
-    const double period = chosen.candidate.period_at(target.control_period);
-    header << "# Tuned by `swerve-mpc tune` for target " << target.name << " (" << target.description
-           << ") from " << a.controller_file << ":\n# backend " << describe(chosen.candidate) << ", control period "
-           << period << " s, deadline margin " << chosen.candidate.deadline_margin << ", solve budget "
-           << target.budget_at(period).value_or(target.solve_budget) << " s; geometric-mean wear "
-           << chosen.geomean_wear_ratio << " of the kinematic baseline's (at " << target.control_period << " s) on";
-    for (const ScenarioScore& s : chosen.scenarios) header << " " << s.scenario;
-    if (!a.seeds.empty()) {
-      header << " (medians over simulator seeds";
-      for (const std::uint64_t seed : a.seeds) header << " " << seed;
-      header << ")";
-    }
-    const CandidateScore& own = result.candidates[static_cast<std::size_t>(result.incumbent)];
-    header << "\n# (the controller file's own " << describe(own.candidate) << ": " << own.geomean_wear_ratio
-           << "), at " << target.cpu_slowdown
-           << "x this machine's time.\n# Rule: " << how << ".\n";
-    for (const ScenarioScore& s : chosen.scenarios) {
-      if (s.acceptable()) continue;
-      header << "# Outside the tracking bounds on " << s.scenario << ": position RMSE " << s.rmse_m
-             << " m against " << s.baseline_rmse_m << " m, heading " << s.heading_rmse_rad << " rad against "
-             << s.baseline_heading_rmse_rad << " rad (the baseline's), " << s.tracking_excess()
-             << "x the bound.\n";
-    }
-    write_tuned_controller(a.controller_file, chosen.candidate, target, header.str(), a.write_file);
+    write_tuned_controller(a.controller_file, chosen.candidate, target,
+                           tuned_file_header(chosen, how, result, target, a), a.write_file);
     std::printf("written: %s\n", a.write_file.c_str());
   };
-  if (result.best < 0) {
-    std::printf(
-        "no candidate kept the baseline's tracking without a deadline miss on every scenario: raise the "
-        "budget, "
-        "or try other backends, horizons and knots\n");
-    if (result.closest < 0) {
-      std::printf("and every candidate missed a deadline on some scenario: nothing fits the budget\n");
-      return kExitFailure;
-    }
-    const CandidateScore& closest = result.candidates[static_cast<std::size_t>(result.closest)];
-    const ScenarioScore* worst = &closest.scenarios.front();
-    for (const ScenarioScore& s : closest.scenarios) {
-      if (s.tracking_excess() > worst->tracking_excess()) worst = &s;
-    }
-    std::printf(
-        "closest: %s, deadline margin %.2f (worst: %s at %.2fx its RMSE bound)\n"
-        "closest rule: %s\n",
-        describe(closest.candidate).c_str(), closest.candidate.deadline_margin,
-        worst->scenario.c_str(), worst->tracking_excess(), QualityTuningResult::closest_rule());
-    if (a.write_file.empty()) return kExitFailure;
-    if (!a.accept_tracking_loss) {
-      std::printf(
-          "not written: it does not keep the baseline's tracking; --accept-tracking-loss writes it\n");
-      return kExitFailure;
-    }
-    write(closest, std::string(QualityTuningResult::closest_rule()) +
-                       " (no candidate met the rule: " + QualityTuningResult::rule() + ")");
-    return kExitOk;
-  }
+  if (result.best < 0) return report_closest(result, a, write);
   const CandidateScore& best = result.candidates[static_cast<std::size_t>(result.best)];
   std::printf(
       "best: %s (%.2f s of lookahead at %.0f ms), deadline margin %.2f: geometric-mean "
       "wear %.3f of the baseline's\n",
       describe(best.candidate).c_str(), best.candidate.horizon * best.candidate.step_at(target.control_period),
-      1e3 * best.candidate.period_at(target.control_period),
-      best.candidate.deadline_margin, best.geomean_wear_ratio);
+      1e3 * best.candidate.period_at(target.control_period), best.candidate.deadline_margin, best.geomean_wear_ratio);
   if (!a.write_file.empty()) write(best, QualityTuningResult::rule());
   return kExitOk;
 }

@@ -299,23 +299,8 @@ py::dict sweep_file(const std::string& path, std::optional<std::vector<double>> 
   return out;
 }
 
-}  // namespace
-}  // namespace swerve::python
 
-PYBIND11_MODULE(swervempc, m) {
-  using namespace swerve;
-  using namespace swerve::python;
-  m.doc() = "SwerveMPC: tire-wear-aware model-predictive trajectory tracking for swerve-drive vehicles";
-  m.attr("__version__") = kVersion;
-  // The library's own message, unchanged: "file.yaml: controller.horizon = 0: must be in [1, 1000]".
-  py::register_exception_translator([](std::exception_ptr error) {
-    try {
-      if (error) std::rethrow_exception(error);
-    } catch (const ConfigError& e) {
-      PyErr_SetString(PyExc_ValueError, e.what());
-    }
-  });
-
+void bind_vehicle(py::module_& m) {
   py::class_<VehicleParams>(m, "Vehicle", "A vehicle: mass, inertia and the module layout (load_vehicle)")
       .def_readonly("name", &VehicleParams::name)
       .def_readonly("mass", &VehicleParams::mass, "kg")
@@ -336,7 +321,9 @@ PYBIND11_MODULE(swervempc, m) {
       .def_property_readonly("max_drive_speed",
                              [](const VehicleParams& v) { return v.layout.limits().max_drive_speed; });
   m.def("load_vehicle", &load_vehicle_config_file, py::arg("path"), "Loads a vehicle file (its `vehicle:` section)");
+}
 
+void bind_controller_config(py::module_& m) {
   py::class_<ControllerConfig>(m, "ControllerConfig",
                                "A controller file's settings; change them, then make_controller validates them")
       .def_readonly("name", &ControllerConfig::name)
@@ -375,7 +362,9 @@ PYBIND11_MODULE(swervempc, m) {
       .def("validate", &ControllerConfig::validate, "Raises ValueError naming the field and value");
   m.def("load_controller_config", &load_controller_config_file, py::arg("path"),
         "Loads a controller file (its `controller:` section)");
+}
 
+void bind_reference(py::module_& m) {
   py::class_<TrajectoryReference, std::shared_ptr<TrajectoryReference>>(
       m, "TrajectoryReference", "A planner-fed reference: publish time-stamped samples, the controller tracks the newest")
       .def(py::init<int, double>(), py::arg("capacity"), py::arg("max_age") = std::numeric_limits<double>::infinity())
@@ -397,7 +386,9 @@ PYBIND11_MODULE(swervempc, m) {
           "Rows (t, x, y, psi[, vx, vy, r]) on the controller's clock; ValueError naming the sample if refused "
           "(the previous trajectory stays active)")
       .def_property_readonly("duration", &TrajectoryReference::duration);
+}
 
+void bind_controller(py::module_& m) {
   py::class_<PyControlOutput>(m, "ControlOutput", "One controller step's module commands and status")
       .def_readonly("steering_angle", &PyControlOutput::steering_angle, "rad, per module")
       .def_readonly("steering_rate", &PyControlOutput::steering_rate, "rad/s, per module")
@@ -438,7 +429,9 @@ PYBIND11_MODULE(swervempc, m) {
       },
       py::arg("config"), py::arg("vehicle"), py::arg("reference"),
       "A controller from loaded (and possibly changed) settings");
+}
 
+void bind_simulator(py::module_& m) {
   py::class_<Simulator>(m, "Simulator", "The plant: rigid body, Magic Formula tires, wear, actuator lags")
       .def(py::init([](const VehicleParams& vehicle, double control_period, std::uint64_t seed) {
              SimulatorOptions options;
@@ -469,7 +462,9 @@ PYBIND11_MODULE(swervempc, m) {
       .def_property_readonly("time", &Simulator::time)
       .def_property_readonly("module_wear", [](const Simulator& plant) { return array_of(plant.module_wear()); })
       .def_property_readonly("module_count", &Simulator::modules);
+}
 
+void bind_runs(py::module_& m) {
   m.def("run_scenario", &run_scenario_file, py::arg("path"), py::arg("controllers") = py::none(),
         py::arg("seed") = py::none(), py::arg("backend") = py::none(), py::arg("wear_weight") = py::none(),
         "Runs a scenario file's controllers on the plant: {name: {metrics, log, ...}} (swerve-mpc run)");
@@ -477,4 +472,28 @@ PYBIND11_MODULE(swervempc, m) {
         py::arg("tolerances") = py::none(), py::arg("heading_tolerance") = 0.5 * kPi / 180.0,
         py::arg("seed") = py::none(), py::arg("backend") = py::none(), py::arg("logs") = false,
         "The baseline once, then the wear-aware controller at each wear weight or tolerance (swerve-mpc sweep)");
+}
+
+}  // namespace
+}  // namespace swerve::python
+
+PYBIND11_MODULE(swervempc, m) {
+  using namespace swerve;
+  using namespace swerve::python;
+  m.doc() = "SwerveMPC: tire-wear-aware model-predictive trajectory tracking for swerve-drive vehicles";
+  m.attr("__version__") = kVersion;
+  // The library's own message, unchanged: "file.yaml: controller.horizon = 0: must be in [1, 1000]".
+  py::register_exception_translator([](std::exception_ptr error) {
+    try {
+      if (error) std::rethrow_exception(error);
+    } catch (const ConfigError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    }
+  });
+  bind_vehicle(m);
+  bind_controller_config(m);
+  bind_reference(m);
+  bind_controller(m);
+  bind_simulator(m);
+  bind_runs(m);
 }

@@ -84,9 +84,9 @@ void Simulator::reset(const Eigen::VectorXd& initial_prefix) {
 
 double Simulator::gaussian() noexcept {
   // Box-Muller on our own generator: the same numbers on every platform and standard library.
-  const double u1 = (static_cast<double>(splitmix64(&rng_state_) >> 11) + 0.5) * 0x1.0p-53;
-  const double u2 = static_cast<double>(splitmix64(&rng_state_) >> 11) * 0x1.0p-53;
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+  const double u1 = (static_cast<double>(splitmix64(&rng_state_) >> 11) + 0.5) * 0x1.0p-53;  // (0, 1)
+  const double u2 = unit_interval(splitmix64(&rng_state_));
+  return box_muller(u1, u2).first;
 }
 
 void Simulator::update_measurement() noexcept {

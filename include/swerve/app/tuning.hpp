@@ -80,6 +80,10 @@ struct QualityTuningOptions {
   std::vector<std::uint64_t> seeds;      // simulator seeds per scenario (medians over them); empty: the scenario's
   const Clock* clock = nullptr;  // the controllers' clock (nullptr: the steady clock; tests inject one)
   void validate() const;         // ConfigError naming the field and value
+  // validate(), then against the target tuned for: every period one it allows, and every dt at
+  // least the shortest period tried (a cycle must not skip a prediction step). Returns the periods
+  // tried, the target's own first (every wear ratio is against its baseline).
+  std::vector<double> periods_tried(const TargetConfig& target) const;
 };
 
 // One candidate on one scenario, against the scenario's kinematic baseline at the same seeds:

@@ -127,6 +127,15 @@ class VehicleModel {
   // steering_cos/sin: as derivative_at_steering, or null (computed from x).
   void module_forces(const T* x, const T* u, int module, const T& fz, const double* steering_cos,
                      const double* steering_sin, ForceSums* sums, ModuleDiagnostics<T>* diag, T* x_dot) const noexcept;
+  // The steering rate and wheel speed (rad/s) module `module` applies: its commands (clamped to the
+  // limits when saturating) or its lagged actuator states, whose derivatives it writes to x_dot;
+  // a steering at an end stop does not move further into it.
+  void module_actuators(const T* x, const T* u, int module, T* x_dot, T* steer_rate, T* omega) const noexcept;
+  // The casters' rolling resistance added to `sums`, at their static loads or, with `ax_ay` (the
+  // body-frame acceleration; null: none), with the load transfer.
+  void add_caster_forces(const T* x, const T* ax_ay, ForceSums* sums) const noexcept;
+  // kOk when x and u are finite; otherwise x_dot is NaN and the status says which was not.
+  ModelStatus check_finite(const T* x, const T* u, Eigen::Ref<Vector> x_dot) const noexcept;
 
   VehicleParams params_;
   Fidelity fidelity_;

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "swerve/core/option_fields.hpp"
+#include "swerve/core/random.hpp"
 #include "swerve/ocp/ocp_derivatives.hpp"
 #include "swerve/ocp/solver.hpp"
 
@@ -56,6 +57,9 @@ struct SaOptions {
   void validate() const;  // the table, and the two move probabilities' sum
 };
 
+class LbfgsMemory;  // solvers/sa/projected_lbfgs.hpp
+class WorkerPool;   // solvers/sa/worker_pool.hpp
+
 class SimulatedAnnealingSolver final : public Solver {
  public:
   // Sizes every buffer for the problem's shape; solve() then allocates nothing.
@@ -68,7 +72,6 @@ class SimulatedAnnealingSolver final : public Solver {
   SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                        SolveSummary* summary) noexcept override;
 
-  class SolvingWorkers;  // the workers spin while it lives (a solve)
   // Chooses the start among the guesses (StartPlan) and makes it the current plan; returns its
   // cost (not finite: the model failed on every guess).
   double start_from_guesses(const OcpProblem& problem, const InitialGuesses& guesses, const Deadline& deadline) noexcept;
@@ -131,17 +134,11 @@ class SimulatedAnnealingSolver final : public Solver {
   // The L-BFGS direction -H g over the first n entries of the memory (Nocedal & Wright Alg. 7.4),
   // g and the direction nu x columns; with no pair stored, a first step of 2 % of the largest input
   // range along -g. false when it is no descent direction (the memory is then forgotten).
-  bool lbfgs_direction(const Eigen::MatrixXd& gradient, Eigen::MatrixXd* direction, int* stored, int newest) noexcept;
-  // Stores the pair (s, y) = (x_new - x_old, g_new - g_old) when its curvature is positive.
-  void remember_pair(const Eigen::Ref<const Eigen::VectorXd>& x_new, const Eigen::Ref<const Eigen::VectorXd>& x_old,
-                     const Eigen::Ref<const Eigen::VectorXd>& g_new, const Eigen::Ref<const Eigen::VectorXd>& g_old,
-                     int* stored, int* newest) noexcept;
+  bool lbfgs_direction(const Eigen::MatrixXd& gradient, Eigen::MatrixXd* direction) noexcept;
   // Draws a proposal around the current plan (knots_, raw_, inputs_) into *knots, *raw and
   // *inputs (projected); returns the first step whose input changed (N: the projection undid it).
   int propose(const OcpProblem& problem, Eigen::MatrixXd* knots, Eigen::MatrixXd* raw,
               Eigen::MatrixXd* inputs) noexcept;
-  double uniform() noexcept;   // [0, 1)
-  double gaussian() noexcept;  // N(0, 1)
   // Rebuilds raw inputs = base + interpolated knot offsets on steps [first, last].
   void interpolate(const Eigen::MatrixXd& knots, int first, int last, Eigen::MatrixXd* raw) const noexcept;
 
@@ -155,7 +152,6 @@ class SimulatedAnnealingSolver final : public Solver {
     double cost = 0.0;
     int first_stage = 0, last_stage = 0, done_stages = 0;
   };
-  class Workers;
   enum class WorkerJob { kProposal, kLinearise };
   // A worker's part of the job in flight: roll out its proposal, or linearise its share of stages.
   void run_worker_job(std::size_t index) noexcept;
@@ -180,9 +176,7 @@ class SimulatedAnnealingSolver final : public Solver {
 
   SaOptions options_;
   int nx_, nu_, horizon_, knot_count_, group_size_;
-  std::uint64_t rng_state_[4];
-  bool has_spare_gaussian_ = false;
-  double spare_gaussian_ = 0.0;
+  RandomStream random_;  // the proposals' and the Metropolis test's draws, from options_.seed
 
   std::vector<int> knot_left_;        // per step: the knot at or before it
   std::vector<double> knot_weight_;   // per step: weight of the knot after it
@@ -206,8 +200,7 @@ class SimulatedAnnealingSolver final : public Solver {
   std::unique_ptr<OcpDerivatives> derivatives_;          // null: the model has no Jacobians
   Eigen::MatrixXd gradient_, candidate_gradient_;       // nu x N
   Eigen::MatrixXd direction_;                            // nu x N
-  Eigen::MatrixXd memory_s_, memory_y_;                  // nu N x m
-  Eigen::VectorXd memory_rho_, memory_alpha_;            // m
+  std::unique_ptr<LbfgsMemory> lbfgs_;                   // pairs over up to nu N entries
   Duration longest_gradient_{0};                         // the slowest gradient seen (kept across solves)
   // The knot polish: forward-difference gradients over the offsets (nu x K), and the slowest seen.
   Eigen::MatrixXd knot_gradient_, candidate_knot_gradient_, knot_direction_, previous_knots_;
@@ -217,7 +210,7 @@ class SimulatedAnnealingSolver final : public Solver {
   // in flight. Every thread steps the model on its own data: model_data(0) this thread's,
   // model_data(w + 1) worker w's.
   std::vector<Proposal> proposals_;
-  std::unique_ptr<Workers> workers_;
+  std::unique_ptr<WorkerPool> workers_;
   const OcpProblem* batch_problem_ = nullptr;
   // The job in flight, and what a gradient's shares read: the plan, its rollout, the give-up time.
   WorkerJob worker_job_ = WorkerJob::kProposal;
