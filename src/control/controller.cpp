@@ -6,7 +6,6 @@
 
 #include "swerve/core/config_error.hpp"
 #include "swerve/kinematics/module_commands.hpp"
-#include "swerve/models/drive_response.hpp"
 #include "swerve/control/safe_stop.hpp"
 
 namespace swerve {
@@ -222,19 +221,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   // The prediction carries wheel speeds (PredictionOptions::drive_lag) or steering rates
   // (steering_lag): the controller estimates them from the commands it sent, through the same
   // first-order lags.
-  if (module_model->wheel_speed_states() > 0) {
-    drive_time_constant_ = vehicle.actuators.drive_time_constant;
-    if (vehicle.plant.actuator_saturation) {
-      max_wheel_acceleration_ = layout_.limits().max_drive_acceleration / layout_.wheel_radius();
-    }
-    wheel_speeds_ = Eigen::VectorXd::Zero(modules_);
-    sent_wheel_speeds_ = Eigen::VectorXd::Zero(modules_);
-  }
-  if (module_model->steering_rate_states() > 0) {
-    steering_time_constant_ = vehicle.actuators.steering_time_constant;
-    steering_rates_ = Eigen::VectorXd::Zero(modules_);
-    sent_steering_rates_ = Eigen::VectorXd::Zero(modules_);
-  }
+  actuators_.emplace(vehicle, module_model->wheel_speed_states() > 0, module_model->steering_rate_states() > 0);
 }
 
 void Controller::reset() noexcept {
@@ -243,7 +230,7 @@ void Controller::reset() noexcept {
   applied_input_.setZero();
   applied_decision_.setZero();
   previous_input_known_ = false;
-  actuators_known_ = false;
+  actuators_->forget();
   baseline_.reset();
   monitor_.reset();
   latency_.reset();
@@ -263,45 +250,13 @@ void Controller::apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& mo
   }
 }
 
-double Controller::rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept {
-  const Eigen::Vector3d twist = measured.segment<3>(StateIndex::kVx);
-  const Eigen::Vector2d v_contact = point_velocity<double>(twist, layout_.position_body(module));
-  return rolling_speed<double>(v_contact, measured[StateIndex::steering(module)]) / layout_.wheel_radius();
-}
-
-void Controller::estimate_actuators(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept {
-  const double elapsed = t - actuators_time_;
-  double mean = 0.0;
-  if (actuators_known_ && elapsed > 0.0 && elapsed <= 4.0 * options_.period()) {
-    // The time since the last commands were sent, through the drives' lag and clamp.
-    const DriveLag lag{drive_time_constant_, max_wheel_acceleration_};
-    for (Eigen::Index i = 0; i < wheel_speeds_.size(); ++i) {
-      drive_response(wheel_speeds_[i], sent_wheel_speeds_[i], lag, elapsed, &wheel_speeds_[i], &mean);
-    }
-    const DriveLag steering_lag{steering_time_constant_, std::numeric_limits<double>::infinity()};
-    for (Eigen::Index i = 0; i < steering_rates_.size(); ++i) {
-      drive_response(steering_rates_[i], sent_steering_rates_[i], steering_lag, elapsed, &steering_rates_[i],
-                     &mean);
-    }
-  } else {
-    // No commands of ours to follow (start, reset, a rejected or stale measurement, time that went
-    // back or jumped by more than four periods): rolling with the body, the steering at rest.
-    for (Eigen::Index i = 0; i < wheel_speeds_.size(); ++i) {
-      wheel_speeds_[i] = rolling_wheel_speed(measured, static_cast<int>(i));
-    }
-    steering_rates_.setZero();
-  }
-  actuators_time_ = t;
-  actuators_estimated_ = true;
-}
-
 void Controller::assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
   // Without a command of our own yet (start, reset, after a safe stop), the input the step bounds
   // and the smoothness cost start from is the one that keeps the vehicle doing what it does now:
   // its measured twist, or each wheel rolling at its contact speed with the steering at rest.
   for (int i = 0; i < modules_; ++i) {
     applied_input_[InputIndex::steering_rate(i)] = 0.0;
-    applied_input_[InputIndex::wheel_speed(i)] = rolling_wheel_speed(measured, i);
+    applied_input_[InputIndex::wheel_speed(i)] = rolling_wheel_speed(layout_, measured, i);
   }
   if (twist_model_ != nullptr) {
     applied_decision_ = measured.segment<3>(StateIndex::kVx);
@@ -475,15 +430,7 @@ const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   } else if (!std::isfinite(motion_commanded_since_) && std::isfinite(step_t_)) {
     motion_commanded_since_ = step_t_;
   }
-  if (wheel_speeds_.size() > 0 || steering_rates_.size() > 0) {
-    for (Eigen::Index i = 0; i < wheel_speeds_.size(); ++i) {
-      sent_wheel_speeds_[i] = output_.modules[static_cast<int>(i)].wheel_speed;
-    }
-    for (Eigen::Index i = 0; i < steering_rates_.size(); ++i) {
-      sent_steering_rates_[i] = output_.modules[static_cast<int>(i)].steering_rate;
-    }
-    actuators_known_ = actuators_estimated_;
-  }
+  actuators_->record_sent(output_.modules);
   const TimePoint end = clock().now();
   output_.step_time_s = to_seconds(end - step_start);
   if (solved_) {
@@ -509,10 +456,11 @@ void Controller::set_reference(std::shared_ptr<const Reference> reference) {
 void Controller::update_problem(double t) noexcept {
   // In place: the state (with the actuators' estimate), the last applied input, the reference window.
   prediction_state_.head(6 + modules_) = now_;
-  if (wheel_speeds_.size() > 0 || steering_rates_.size() > 0) {
-    estimate_actuators(now_, t);
-    prediction_state_.segment(6 + modules_, wheel_speeds_.size()) = wheel_speeds_;
-    prediction_state_.tail(steering_rates_.size()) = steering_rates_;
+  if (actuators_->active()) {
+    // Commands more than four periods old are not followed (a gap, or time that jumped).
+    actuators_->estimate(now_, t, 4.0 * options_.period());
+    prediction_state_.segment(6 + modules_, actuators_->wheel_speeds().size()) = actuators_->wheel_speeds();
+    prediction_state_.tail(actuators_->steering_rates().size()) = actuators_->steering_rates();
   }
   problem_->set_initial_state(prediction_state_);
   if (!previous_input_known_) assume_previous_input(now_);
@@ -557,7 +505,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
   const Deadline deadline(step_deadline - solve_margin(), clock());
   solved_ = false;
-  actuators_estimated_ = false;
+  actuators_->begin_step();
   output_.solve = SolveSummary{};
   output_.measurement_stale = false;
   // The previous plan moves on by one cycle whatever happens now (period / dt of its steps).

@@ -49,6 +49,18 @@ Eigen::VectorXd expand(const Eigen::VectorXd& given, int size, double fallback, 
 
 }  // namespace
 
+const OptionFields<CostWeights>& CostWeights::fields() {
+  static const OptionFields<CostWeights> table{
+      {"pose", &CostWeights::pose, Bound::non_negative()},
+      {"twist", &CostWeights::twist, Bound::non_negative()},
+      {"terminal_scale", &CostWeights::terminal_scale, Bound::non_negative()},
+      {"wear", &CostWeights::wear, Bound::non_negative()},
+      {"tube_penalty", &CostWeights::tube_penalty, Bound::non_negative()},
+      {"pose_huber_width", &CostWeights::pose_huber_width, Bound::non_negative()},
+  };
+  return table;
+}
+
 OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, CostWeights weights, InputBounds bounds)
     : model_(&model), horizon_(horizon), nx_(model.state_size()), nu_(model.input_size()), dt_(dt),
       weights_(std::move(weights)), bounds_(std::move(bounds)) {
@@ -59,16 +71,7 @@ OcpProblem::OcpProblem(const PredictionModel& model, int horizon, double dt, Cos
   if (nx_ < 6) throw_invalid_field(kOwner, "state_size", nx_, "must be >= 6 (pose and body twist first)");
   if (nu_ < 1) throw_invalid_field(kOwner, "input_size", nu_, "must be >= 1");
   if (nu_ % model.input_group_size() != 0) throw_invalid_field(kOwner, "input_group_size", model.input_group_size(), "must divide the input size");
-  const char* pose_names[3] = {"weights.pose.x", "weights.pose.y", "weights.pose.psi"};
-  const char* twist_names[3] = {"weights.twist.vx", "weights.twist.vy", "weights.twist.r"};
-  for (int i = 0; i < 3; ++i) {
-    require_non_negative(pose_names[i], weights_.pose[i]);
-    require_non_negative(twist_names[i], weights_.twist[i]);
-  }
-  require_non_negative("weights.terminal_scale", weights_.terminal_scale);
-  require_non_negative("weights.wear", weights_.wear);
-  require_non_negative("weights.tube_penalty", weights_.tube_penalty);
-  require_non_negative("weights.pose_huber_width", weights_.pose_huber_width);
+  check_fields("OcpProblem.weights", weights_, CostWeights::fields());
   weights_.effort = expand(weights_.effort, nu_, 0.0, "weights.effort");
   weights_.rate = expand(weights_.rate, nu_, 0.0, "weights.rate");
   for (int i = 0; i < nu_; ++i) {

@@ -413,6 +413,14 @@ TEST(OcpProblem, ConstructionValidatesEveryField) {
   negative_width.pose_huber_width = -0.1;
   EXPECT_EQ(testing::config_error_of([&] { OcpProblem(model, 5, 0.1, negative_width, {}); }),
             "OcpProblem.weights.pose_huber_width = -0.1: must be finite and >= 0");
+  CostWeights negative_pose;
+  negative_pose.pose = {10.0, -1.0, 5.0};
+  EXPECT_EQ(testing::config_error_of([&] { OcpProblem(model, 5, 0.1, negative_pose, {}); }),
+            "OcpProblem.weights.pose = [10, -1, 5]: must be finite and >= 0 on every axis");
+  CostWeights infinite_twist;
+  infinite_twist.twist = {0.0, std::numeric_limits<double>::infinity(), 0.0};
+  EXPECT_NE(testing::config_error_of([&] { OcpProblem(model, 5, 0.1, infinite_twist, {}); }).find("OcpProblem.weights.twist"),
+            std::string::npos);
   CostWeights wrong_size;
   wrong_size.effort = Eigen::VectorXd::Ones(2);
   EXPECT_NE(testing::config_error_of([&] { OcpProblem(model, 5, 0.1, wrong_size, {}); }).find("weights.effort.size() = 2"),

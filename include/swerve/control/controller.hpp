@@ -12,10 +12,12 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "swerve/core/option_fields.hpp"
 #include "swerve/models/vehicle_params.hpp"
+#include "swerve/control/actuator_estimator.hpp"
 #include "swerve/control/kinematic_baseline.hpp"
 #include "swerve/control/latency_compensator.hpp"
 #include "swerve/control/measurement_monitor.hpp"
@@ -174,12 +176,6 @@ class Controller final : public TrackingController {
   // *policy_guess_usable when its policy, closed through the prediction, is a guess too. false
   // when the baseline cannot plan.
   bool plan_baseline(bool* policy_guess_usable) noexcept;
-  // rad/s: module `module`'s wheel rolling with the measured body twist at its measured angle.
-  double rolling_wheel_speed(const Eigen::Ref<const Eigen::VectorXd>& measured, int module) const noexcept;
-  // The drives' wheel speeds (prediction with drive_lag) and steering rates (steering_lag) at t: the
-  // commands sent last cycle followed through the lags since then, or rolling with the body and the
-  // steering at rest when there were none.
-  void estimate_actuators(const Eigen::Ref<const Eigen::VectorXd>& measured, double t) noexcept;
   void apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& module_inputs,
                            const Eigen::Ref<const Eigen::VectorXd>& steering_angles) noexcept;
   void fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable, const char* why) noexcept;
@@ -226,16 +222,9 @@ class Controller final : public TrackingController {
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
   Eigen::VectorXd prediction_state_;  // nx: now_, then the estimated wheel speeds and steering rates
-  Eigen::VectorXd wheel_speeds_;     // n (empty without drive_lag): estimated at this step's t
-  Eigen::VectorXd sent_wheel_speeds_;  // n: the wheel speeds commanded last cycle
-  Eigen::VectorXd steering_rates_;     // n (empty without steering_lag): estimated at this step's t
-  Eigen::VectorXd sent_steering_rates_;  // n: the steering rates commanded last cycle
-  double drive_time_constant_ = 0.0;  // s: the drives' lag (drive_lag)
-  double steering_time_constant_ = 0.0;  // s: the steering drives' lag (steering_lag)
-  double max_wheel_acceleration_ = std::numeric_limits<double>::infinity();  // rad/s^2: their clamp
-  double actuators_time_ = 0.0;       // s: the t the actuator estimates are for
-  bool actuators_known_ = false;      // whether the actuator estimates continue from commands of ours
-  bool actuators_estimated_ = false;  // this step estimated them (else the chain restarts)
+  // The wheel speeds and steering rates the prediction starts from (made with the model, which
+  // says which it carries).
+  std::optional<ActuatorEstimator> actuators_;
   double overshoot_s_ = 0.0;         // decaying maximum of step end - solver deadline (s)
   TimePoint solve_deadline_{};       // this step's, when a solve ran
   bool solved_ = false;              // whether this step ran the solver

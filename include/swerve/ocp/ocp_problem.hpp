@@ -21,6 +21,7 @@
 
 #include <Eigen/Core>
 
+#include "swerve/core/option_fields.hpp"
 #include "swerve/ocp/prediction_model.hpp"
 
 namespace swerve {
@@ -45,6 +46,9 @@ struct CostWeights {
   // Geometry, 2nd ed., A6.8): Q e^2 becomes 2 Q d^2 (sqrt(1 + (e/d)^2) - 1). The heading's width
   // is the angle that costs what a position error of d costs, d sqrt(Q_xy / Q_psi).
   double pose_huber_width = 0.0;
+  // The rules of the fixed-size weights (each >= 0); the per-input and per-state vectors, whose
+  // sizes the problem decides, OcpProblem checks itself.
+  static const OptionFields<CostWeights>& fields();
 };
 
 // Box bounds on every input and a bound on its change per step (|u_k - u_{k-1}| <= max_step;
