@@ -108,19 +108,6 @@ const char* to_string(InputParameterization parameterization) noexcept {
   return parameterization == InputParameterization::kBodyTwist ? "body_twist" : "module_rates";
 }
 
-const OptionFields<TrackingTolerance>& TrackingTolerance::fields() {
-  static const OptionFields<TrackingTolerance> table{
-      {"position", &TrackingTolerance::position, Bound::positive(), {}, nullptr, "(m)"},
-      {"heading", &TrackingTolerance::heading, Bound::positive(), {}, nullptr, "(rad)"},
-      {"penalty", &TrackingTolerance::penalty, Bound::positive()},
-  };
-  return table;
-}
-
-void TrackingTolerance::validate() const {
-  if (enabled()) check_fields("TrackingTolerance", *this, fields());
-}
-
 const OptionFields<ControllerOptions>& ControllerOptions::sampling_fields() {
   return horizon_and_step_fields<ControllerOptions>();
 }
@@ -210,7 +197,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   baseline_guess_ = Eigen::MatrixXd::Zero(problem_->input_size(), options_.horizon);
   baseline_policy_guess_ = baseline_guess_;
   baseline_states_ = Eigen::MatrixXd::Zero(problem_->state_size(), options_.horizon + 1);
-  baseline_stage_costs_ = Eigen::VectorXd::Zero(options_.horizon);
+  tube_.emplace(options_.tracking_tolerance, *problem_);
   applied_decision_ = Eigen::VectorXd::Zero(problem_->input_size());
   applied_input_ = Eigen::VectorXd::Zero(2 * modules_);
   fallback_input_ = Eigen::VectorXd::Zero(2 * modules_);
@@ -317,10 +304,17 @@ void Controller::steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd
 void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable,
                            const char* why) noexcept {
   output_.reason = why;
-  const bool measured_usable = is_plausible_state(measured, layout_);
-  if (plan_.valid && plan_age_ <= options_.max_plan_age && plan_age_ < options_.horizon) {
-    // The previous plan, already shifted plan_age_ times, still covers this cycle; without a usable
-    // measurement its own predicted steering angles stand in.
+  FallbackSituation situation;
+  situation.plan_valid = plan_.valid;
+  situation.plan_age = plan_age_;
+  situation.max_plan_age = options_.max_plan_age;
+  situation.horizon = options_.horizon;
+  situation.baseline_usable = baseline_usable;
+  situation.measured_usable = is_plausible_state(measured, layout_);
+  const bool measured_usable = situation.measured_usable;
+  const CommandSource rung = choose_fallback(situation);
+  if (rung == CommandSource::kPreviousPlan) {
+    // Without a usable measurement the plan's own predicted steering angles stand in.
     if (measured_usable) {
       apply_decision(plan_.inputs, 0, measured);
     } else {
@@ -329,7 +323,7 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
     output_.source = CommandSource::kPreviousPlan;
     return;
   }
-  if (baseline_usable && measured_usable) {
+  if (rung == CommandSource::kBaseline) {
     // Within one step's change of the last command, then within the drives' limits, as the
     // optimiser's plans are. The limits come last and win: the last command can lie outside them
     // (assumed from a measured twist faster than the drives allow), and a step window around it
@@ -367,18 +361,6 @@ bool Controller::close_baseline_loop() noexcept {
     }
   }
   return baseline_policy_guess_.allFinite();
-}
-
-void Controller::set_tube(bool baseline_usable) noexcept {
-  const TrackingTolerance& tolerance = options_.tracking_tolerance;
-  const bool rolled_out =
-      baseline_usable && std::isfinite(problem_->rollout(*model_data_, baseline_guess_, 0, baseline_states_, baseline_stage_costs_));
-  for (int k = 1; k <= options_.horizon; ++k) {
-    Eigen::Vector2d bound(tolerance.position, tolerance.heading);
-    // Where the baseline's own plan is predicted further off, the tube widens to it.
-    if (rolled_out) bound = bound.cwiseMax(problem_->tracking_error(k, baseline_states_.col(k)));
-    problem_->set_tube(k, bound[0], bound[1]);
-  }
 }
 
 void Controller::send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept {
@@ -539,7 +521,9 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   update_problem(t);
   bool policy_guess_usable = false;
   const bool baseline_usable = plan_baseline(&policy_guess_usable);
-  if (options_.tracking_tolerance.enabled()) set_tube(baseline_usable);
+  if (options_.tracking_tolerance.enabled()) {
+    tube_->set(*problem_, *model_data_, baseline_usable ? &baseline_guess_ : nullptr);
+  }
   if (deadline.passed()) {
     // The plan and the problem update alone used the budget: no time is left to solve.
     fall_back(now_, baseline_usable, "no time left to solve after the baseline plan and the problem update");
@@ -560,15 +544,9 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     plan_.cost = solution_.cost;
     plan_.valid = true;
     plan_age_ = 0;
-    if (options_.tracking_tolerance.enabled() && baseline_usable) {
-      // A quarter of the tolerance of slack: the penalty is exterior, so a kept tube is kept to
-      // within the small excess the penalty's stiffness allows.
-      const Eigen::Vector2d excess = problem_->tube_excess(plan_.states);
-      if (excess[0] > 0.25 * options_.tracking_tolerance.position ||
-          excess[1] > 0.25 * options_.tracking_tolerance.heading) {
-        send_baseline_commands(now_);
-        return finish(step_start);
-      }
+    if (options_.tracking_tolerance.enabled() && baseline_usable && tube_->left(*problem_, plan_.states)) {
+      send_baseline_commands(now_);
+      return finish(step_start);
     }
     apply_decision(plan_.inputs, 0, now_);
     output_.source = CommandSource::kOptimizer;

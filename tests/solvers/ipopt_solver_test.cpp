@@ -46,6 +46,30 @@ TEST(IpoptSolver, ReachesTheLinearQuadraticOptimumToOneMicroRelative) {
   EXPECT_LE(solver.last_details().max_defect, 1e-6);
 }
 
+TEST(IpoptSolver, ResetWarmStartMakesTheNextSolveStartColdAsAFreshSolverWould) {
+  // From the cruise guess of the swerve problem, a warm solve (small barrier, the last solve's
+  // multipliers) takes other iterations than a cold one; after reset_warm_start() the solver takes
+  // exactly the iterations of a fresh one.
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
+  const Eigen::MatrixXd cruise = s.problem.previous_input().replicate(1, 20);
+  Solution solution;
+  solution.resize(10, 3, 20);
+  const auto iterations_of = [&](IpoptSolver& solver) {
+    InitialGuesses guesses;
+    guesses.add(&cruise);
+    SolveSummary summary;
+    EXPECT_EQ(solver.solve(s.problem, guesses, SolverClock::now() + 60s, &solution, &summary), SolveStatus::kConverged)
+        << summary.reason;
+    return summary.iterations;
+  };
+  IpoptSolver solver(s.problem, tight());
+  const int cold = iterations_of(solver);
+  const int warm = iterations_of(solver);
+  ASSERT_NE(warm, cold) << "the warm start should matter here, or this test shows nothing";
+  solver.reset_warm_start();
+  EXPECT_EQ(iterations_of(solver), cold);
+}
+
 IpoptOptions with_hessian(const std::string& hessian) {
   IpoptOptions options = tight();
   options.hessian = hessian;

@@ -18,12 +18,14 @@
 #include "swerve/core/option_fields.hpp"
 #include "swerve/models/vehicle_params.hpp"
 #include "swerve/control/actuator_estimator.hpp"
+#include "swerve/control/fallback_ladder.hpp"
 #include "swerve/control/kinematic_baseline.hpp"
 #include "swerve/control/latency_compensator.hpp"
 #include "swerve/control/measurement_monitor.hpp"
 #include "swerve/ocp/ocp_problem.hpp"
 #include "swerve/control/reference.hpp"
 #include "swerve/control/tracking_controller.hpp"
+#include "swerve/control/tracking_tube.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
 #include "swerve/ocp/vehicle_prediction_model.hpp"
 
@@ -35,22 +37,11 @@ namespace swerve {
 enum class InputParameterization { kBodyTwist, kModuleRates };
 const char* to_string(InputParameterization parameterization) noexcept;  // "body_twist", "module_rates"
 
-// Tracking-tolerance mode: the tracking error the user accepts. The controller then
-// minimises wear inside a tube around the reference whose half-width at each step of the horizon
-// is the tolerance, or the kinematic baseline's own predicted error there where that is larger (a
-// hard start the baseline cannot track either): never planned worse than the baseline, never
-// worse than the tolerance where the baseline manages it. The tube is an exterior penalty
-// (`penalty`, OcpProblem) for every backend; a solved plan that still leaves it by more than a
-// quarter of the tolerance is not sent: the baseline's commands are (CommandSource::kTrackingFirst).
-// Both bounds 0: off (the wear weight alone trades tracking for wear).
-struct TrackingTolerance {
-  double position = 0.0;  // m
-  double heading = 0.0;   // rad
-  double penalty = 1e5;   // per m^2 and rad^2 of excess
-  bool enabled() const noexcept { return position > 0.0 || heading > 0.0; }
-  static const OptionFields<TrackingTolerance>& fields();  // the rules, read by the YAML loader too
-  void validate() const;  // throws ConfigError naming the field and value
-};
+// Tracking-tolerance mode (ControllerOptions::tracking_tolerance): the tracking error the user
+// accepts. The controller then minimises wear inside a tube around the reference (TrackingTube:
+// the tolerance, or the baseline's own predicted error where larger); a solved plan that leaves
+// it is not sent, the baseline's commands are (CommandSource::kTrackingFirst). Both bounds 0: off
+// (the wear weight alone trades tracking for wear).
 
 struct ControllerOptions {
   int horizon = 20;                  // N (docs/paper.md, assumption 7)
@@ -182,8 +173,6 @@ class Controller final : public TrackingController {
   // Body-twist inputs: baseline_policy_guess_ from the baseline's plan run as a policy through the
   // prediction model (baseline_states_ its rollout); false when the model failed.
   bool close_baseline_loop() noexcept;
-  // Tracking tolerance: the tube for this cycle (the baseline plan rolled out when usable).
-  void set_tube(bool baseline_usable) noexcept;
   void send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
   void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   // A stale measurement or an unusable reference: kInvalidInput with `reason`, the plan dropped, a
@@ -217,8 +206,8 @@ class Controller final : public TrackingController {
   InputBounds module_bounds_;        // the drives' limits on module inputs
   bool previous_input_known_ = false;  // false until a command of ours reaches the drives
   MeasurementMonitor monitor_;
-  Eigen::MatrixXd baseline_states_;       // nx x N+1: the baseline plan rolled out (tracking tolerance)
-  Eigen::VectorXd baseline_stage_costs_;  // N
+  Eigen::MatrixXd baseline_states_;  // nx x N+1: the baseline's policy rolled out (close_baseline_loop)
+  std::optional<TrackingTube> tube_;  // tracking_tolerance's (made with the problem)
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
   Eigen::VectorXd prediction_state_;  // nx: now_, then the estimated wheel speeds and steering rates
