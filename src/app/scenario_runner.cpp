@@ -81,7 +81,9 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     record.t = t;
     record.pose_world = plant.state().head<3>();
     record.twist_body = plant.state().segment<3>(StateIndex::kVx);
-    record.reference_pose_world = scenario.reference->sample(t).pose_world;
+    // Judged against the reference where the controller's clock has it (a held start is late, not off).
+    record.reference_delay_s = output.reference_delay_s;
+    record.reference_pose_world = scenario.reference->sample(t - output.reference_delay_s).pose_world;
     record.modules = plant.module_samples();
     record.commands.assign(output.modules.begin(), output.modules.begin() + n);
     record.source = output.source;

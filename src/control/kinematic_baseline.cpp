@@ -43,6 +43,10 @@ const OptionFields<BaselineOptions>& BaselineOptions::fields() {
       {"flip_hysteresis", &BaselineOptions::flip_hysteresis, Bound::right_open(0.0, kPi / 2), {}, nullptr,
        "(pi/2: never flip)"},
       {"steer_speed_threshold", &BaselineOptions::steer_speed_threshold, Bound::non_negative()},
+      {"common_scaling", &BaselineOptions::common_scaling},
+      {"pre_align", &BaselineOptions::pre_align},
+      {"pre_align_tolerance", &BaselineOptions::pre_align_tolerance, Bound::half_open(0.0, kPi / 2), {}, nullptr,
+       "(rad)"},
   };
   return table;
 }
@@ -74,6 +78,8 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
   steer_from_ = Eigen::MatrixXi::Constant(modules_, horizon_, -1);
   angles_ = Eigen::VectorXd::Zero(modules_);
   signs_ = Eigen::VectorXi::Ones(modules_);
+  turn_left_ = signed_speeds_ = Eigen::VectorXd::Zero(modules_);
+  for (int i = 0; i < modules_; ++i) max_module_radius_ = std::max(max_module_radius_, layout.position_body(i).norm());
   directions_ = ModuleArray<DriveDirection<double>>(modules_);
   now_ = Eigen::VectorXd::Zero(6 + modules_);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
@@ -91,6 +97,9 @@ void KinematicBaseline::reset() noexcept {
   planned_memory_.reset();
   twists_.setZero();
   twist_committed_ = false;
+  aligning_ = true;
+  held_ = false;
+  reference_delay_s_ = 0.0;
   latency_.reset();
 }
 
@@ -231,11 +240,34 @@ Eigen::Vector3d KinematicBaseline::policy_twist(int k, const Eigen::Vector3d& po
   return within_drive_limits(k == 0 ? ramp_start_ : previous_twist, u);
 }
 
+void KinematicBaseline::wheel_speeds_at(int k, Eigen::Ref<Eigen::MatrixXd> inputs) const noexcept {
+  const ModuleLimits& limits = kinematics_.layout().limits();
+  const double radius = kinematics_.layout().wheel_radius();
+  const bool common_scaling = options_.cosine_scaling && options_.common_scaling;
+  // The least alignment of the modules the plan drives at speed (common_scaling).
+  double common = 1.0;
+  if (common_scaling) {
+    for (int i = 0; i < modules_; ++i) {
+      if (steer_from_(i, k) == k) common = std::min(common, steering_alignment<double>(turn_left_[i], LimitShape::kHard));
+    }
+  }
+  for (int i = 0; i < modules_; ++i) {
+    // The paper's baseline drives at the planned speed while it steers; but a module left more
+    // than a quarter turn from its direction of travel (a swing between end stops) would push the
+    // vehicle backwards against the others, so it waits (the cosine scaling's zero beyond 90 deg).
+    const double turn_left = turn_left_[i];
+    const bool align = options_.cosine_scaling || std::abs(turn_left) > kPi / 2;
+    inputs(2 * i + 1, k) =
+        common_scaling ? drive_wheel_speed<double>(common * signed_speeds_[i], turn_left, std::abs(turn_left) > kPi / 2,
+                                                   limits, radius, LimitShape::kHard)
+                       : drive_wheel_speed<double>(signed_speeds_[i], turn_left, align, limits, radius, LimitShape::kHard);
+  }
+}
+
 void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& steering_angles,
                                       Eigen::Ref<Eigen::MatrixXd> inputs) noexcept {
   const ModuleLimits& limits = kinematics_.layout().limits();
   const double dt = options_.dt;
-  const double radius = kinematics_.layout().wheel_radius();
   const bool end_stops = limits.has_steering_end_stops();
   const double threshold = std::max(options_.steer_speed_threshold, kinematics_.options().hold_speed_threshold);
   const double band = options_.flip_hysteresis;
@@ -310,21 +342,34 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
       const double angle = end_stops ? angles_[i] + dt * rate : wrap_angle(angles_[i] + dt * rate);
       // At speed the wheel runs the planned speed in the chosen direction; below the threshold it
       // runs the planned velocity's component along its heading (either sign, no flip needed).
-      const double signed_speed = j == k ? signs_[i] * planned_speeds_(i, k)
-                                         : planned_speeds_(i, k) * std::cos(planned_angles_(i, k) - angle);
+      signed_speeds_[i] = j == k ? signs_[i] * planned_speeds_(i, k)
+                                 : planned_speeds_(i, k) * std::cos(planned_angles_(i, k) - angle);
       inputs(2 * i, k) = rate;
-      // The paper's baseline drives at the planned speed while it steers; but a module left more
-      // than a quarter turn from its direction of travel (a swing between end stops) would push the
-      // vehicle backwards against the others, so it waits (the cosine scaling's zero beyond 90 deg).
-      const double turn_left = turn - dt * rate;
-      const bool align = options_.cosine_scaling || std::abs(turn_left) > kPi / 2;
-      inputs(2 * i + 1, k) = drive_wheel_speed<double>(signed_speed, turn_left, align, limits, radius, LimitShape::kHard);
+      turn_left_[i] = j >= 0 ? turn - dt * rate : 0.0;
       angles_[i] = angle;
+    }
+    wheel_speeds_at(k, inputs);
+    if (k == 0) {
+      first_step_misalignment_ = 0.0;
+      for (int i = 0; i < modules_; ++i) {
+        if (steer_from_(i, 0) >= 0) first_step_misalignment_ = std::max(first_step_misalignment_, std::abs(turn_left_[i]));
+      }
     }
     if (k == 0) {
       for (int i = 0; i < modules_; ++i) planned_memory_.remember(i, angles_[i], signs_[i]);
     }
   }
+}
+
+bool KinematicBaseline::pre_align_holds(const Eigen::Vector3d& measured_twist) noexcept {
+  // At rest the next start aligns first; once the wheels drove, the vehicle tracks until it is at
+  // rest again with nothing planned (a stop), so a re-steer under way is not a start.
+  const double rest = std::max(options_.steer_speed_threshold, kHoldSpeed);
+  const bool at_rest = measured_twist.head<2>().norm() < rest && std::abs(measured_twist.z()) * max_module_radius_ < rest;
+  const bool nothing_planned = twists_.col(0).head<2>().norm() < rest && std::abs(twists_(2, 0)) * max_module_radius_ < rest;
+  if (at_rest && nothing_planned) aligning_ = true;
+  if (aligning_ && first_step_misalignment_ <= options_.pre_align_tolerance) aligning_ = false;
+  return aligning_;
 }
 
 void KinematicBaseline::set_reference(std::shared_ptr<const Reference> reference) {
@@ -358,8 +403,12 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
   // steering law acting on a delayed angle would otherwise chase its own past and oscillate. The
   // observer, when on, filters it first.
   latency_.estimate(measured, measured_at, t, now_);
+  // The time since a step that waited for the steering does not count on the reference's clock.
+  if (held_ && t > last_t_) reference_delay_s_ += t - last_t_;
+  last_t_ = t;
+  const double reference_t = t - reference_delay_s_;
   for (int k = 0; k < horizon_; ++k) {
-    const ReferenceSample sample = reference_->sample(t + (k + 1) * options_.dt);
+    const ReferenceSample sample = reference_->sample(reference_t + (k + 1) * options_.dt);
     reference_poses_.col(k) = sample.pose_world;
     reference_twists_.col(k) = sample.twist_body;
   }
@@ -369,7 +418,15 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     return stop_safely(measured, "the kinematic plan failed");
   }
   module_inputs(now_.segment(6, modules_), inputs_);
+  const bool pre_aligning = options_.pre_align && pre_align_holds(measured_twist);
+  held_ = pre_aligning;
   commit_first_step();
+  if (pre_aligning) {
+    // The wheels wait for the steering; the next plan's ramp starts from rest, not from a twist
+    // that was never driven.
+    for (int i = 0; i < modules_; ++i) inputs_(2 * i + 1, 0) = 0.0;
+    committed_twist_.setZero();
+  }
   for (int i = 0; i < modules_; ++i) {
     ModuleCommand& command = output_.modules[i];
     command.steering_rate = inputs_(2 * i, 0);
@@ -378,7 +435,8 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
   }
   latency_.record(output_.modules);
   output_.source = CommandSource::kOptimizer;
-  output_.reason = "kinematic plan";
+  output_.reason = pre_aligning ? "kinematic plan; the wheels wait while the modules pre-align" : "kinematic plan";
+  output_.reference_delay_s = reference_delay_s_;
   output_.solve.status = SolveStatus::kConverged;
   output_.solve.reason = "closed-form Gauss-Newton solve";
   output_.solve.iterations = options_.gauss_newton_iterations;

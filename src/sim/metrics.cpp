@@ -58,6 +58,7 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
       if (record.step_time_s > solve_budget) ++m.deadline_misses;
     }
     if (record.source == CommandSource::kTrackingFirst) ++m.tracking_first_steps;
+    m.reference_delay_s = record.reference_delay_s;
     if (record.source != CommandSource::kOptimizer && record.source != CommandSource::kTrackingFirst) ++m.fallbacks;
   }
   if (!log.empty()) {

@@ -414,6 +414,74 @@ TEST(KinematicBaseline, ModulesJustPastNinetyDegreesInTheFlipBandKeepTheirDriveD
   }
 }
 
+// practical_baseline's common scaling: every module's wheel speed scales by the least aligned
+// module's cosine, so the wheel speeds keep the plan's ratios (a common centre of rotation).
+TEST(KinematicBaseline, CommonScalingSlowsEveryModuleByTheLeastAlignedModulesCosine) {
+  const ModuleLayout layout = small_robot().layout;
+  const auto reference = testing::line_reference(0.5);
+  const Eigen::Vector3d straight(0.5, 0.0, 0.0);
+  // After one 0.05 s step at 3 rad/s, the steering errors left are 0, 0.15, 0.45 and 0.05 rad.
+  const Eigen::Vector4d angles(0.0, 0.3, 0.6, -0.2);
+  const double speed = 0.5 / layout.wheel_radius();
+  for (const bool common : {false, true}) {
+    BaselineOptions options;
+    options.cosine_scaling = true;
+    options.common_scaling = common;
+    KinematicBaseline baseline(layout, reference, options);
+    Eigen::MatrixXd poses, twists;
+    met_reference(Eigen::Vector3d::Zero(), straight, options.horizon, options.dt, &poses, &twists);
+    ASSERT_TRUE(baseline.plan_twists(Eigen::Vector3d::Zero(), straight, straight, poses, twists));
+    Eigen::MatrixXd inputs(2 * layout.size(), options.horizon);
+    baseline.module_inputs(angles, inputs);
+    const Eigen::Vector4d left(0.0, 0.15, 0.45, 0.05);
+    for (int i = 0; i < layout.size(); ++i) {
+      const double expected = speed * std::cos(common ? 0.45 : left[i]);
+      EXPECT_NEAR(inputs(2 * i + 1, 0), expected, 1e-9) << (common ? "common" : "per module") << ", module " << i;
+    }
+  }
+}
+
+// practical_baseline's pre-alignment: from rest with the modules 1 rad off the direction of travel,
+// the wheels wait while the steering turns at its limit, then drive, and the reference is held
+// meanwhile; the paper's baseline drives from the first cycle.
+TEST(KinematicBaseline, WithPreAlignTheWheelsWaitAtRestUntilTheModulesFaceTheirFirstDirection) {
+  const ModuleLayout layout = small_robot().layout;
+  const auto reference = testing::line_reference(0.5);
+  for (const bool pre_align : {false, true}) {
+    BaselineOptions options;
+    options.cosine_scaling = true;
+    options.pre_align = pre_align;
+    options.pre_align_tolerance = 0.12;
+    KinematicBaseline baseline(layout, reference, options);
+    Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
+    state.tail(layout.size()).setConstant(1.0);
+    int waiting_cycles = 0;
+    double reference_delay = 0.0;
+    for (int k = 0; k < 12; ++k) {
+      const ControlOutput& out = baseline.step(state, 0.05 * k);
+      reference_delay = out.reference_delay_s;
+      ASSERT_EQ(out.source, CommandSource::kOptimizer);
+      const double misalignment = state.tail(layout.size()).cwiseAbs().maxCoeff();
+      if (out.modules[0].wheel_speed == 0.0) {
+        ++waiting_cycles;
+        // Waiting only while the steering left after this cycle is beyond the tolerance.
+        EXPECT_GT(misalignment - 3.0 * 0.05, 0.12 - 1e-12) << "cycle " << k;
+        EXPECT_DOUBLE_EQ(out.modules[0].steering_rate, -3.0) << "cycle " << k;
+      }
+      // An ideal steering follows its rate; the body stays at rest (the test is about the wheels).
+      for (int i = 0; i < layout.size(); ++i) state[6 + i] += 0.05 * out.modules[i].steering_rate;
+    }
+    // The reference was held while the wheels waited: the run is late by those cycles.
+    if (pre_align) {
+      EXPECT_EQ(waiting_cycles, 5);  // 1 rad at 3 rad/s: within 0.12 rad after the 6th cycle's turn
+      EXPECT_NEAR(reference_delay, 5 * 0.05, 1e-12);
+    } else {
+      EXPECT_EQ(waiting_cycles, 0);
+      EXPECT_EQ(reference_delay, 0.0);
+    }
+  }
+}
+
 TEST(KinematicBaseline, SafeStopsWithFiniteCommandsOnANaNState) {
   const VehicleParams params = small_robot();
   const auto reference = testing::line_reference(0.5);

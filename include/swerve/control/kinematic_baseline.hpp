@@ -38,6 +38,19 @@ struct BaselineOptions {
   double weights_step = 0.0;
   int gauss_newton_iterations = 3;
   bool cosine_scaling = false;       // the paper's baseline drives at the IK speed
+  // The practical controller's pieces (configs/controllers/practical_baseline.yaml), off for the
+  // paper's baseline:
+  // - common_scaling (with cosine_scaling): every module's wheel speed scales by the cosine of the
+  //   least aligned module's steering error, not by its own, so the modules keep the common centre
+  //   of rotation the plan has while they steer. Team 254's and PathPlanner's setpoint generators
+  //   limit the chassis step for the same reason (SetpointGenerator's body-first mode).
+  // - pre_align: from rest, the wheels wait until every module is within pre_align_tolerance (rad)
+  //   of its first direction of travel, as teams turn the modules before a path starts; the
+  //   reference is held meanwhile, so the run is late by the time it took
+  //   (ControlOutput::reference_delay_s), not off the path.
+  bool common_scaling = false;
+  bool pre_align = false;
+  double pre_align_tolerance = 0.1;
   double flip_hysteresis = 0.1;      // rad around 90 deg, as in KinematicsOptions
   // m/s: a module planned slower than this does not steer toward its planned direction (under
   // sensor noise that direction is noise); it steers toward the next direction planned faster, or
@@ -104,6 +117,13 @@ class KinematicBaseline final : public TrackingController {
   double drive_change_per_step() const noexcept;
   Eigen::Vector3d limit_change(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double most) const noexcept;
   Eigen::Vector3d within_drive_limits(const Eigen::Vector3d& previous, const Eigen::Vector3d& twist) const noexcept;
+  // The wheel speeds of plan step k (inputs' odd rows) from the signed speeds and the steering left
+  // after the step (signed_speeds_, turn_left_): each module's own cosine, or with common_scaling
+  // the least aligned module's for all.
+  void wheel_speeds_at(int k, Eigen::Ref<Eigen::MatrixXd> inputs) const noexcept;
+  // pre_align: whether the wheels wait this step (a start from rest whose modules are still more
+  // than pre_align_tolerance from their first direction of travel).
+  bool pre_align_holds(const Eigen::Vector3d& measured_twist) noexcept;
   // Safe-stop commands with `reason`; the ramp restarts from the measured twist next step.
   const ControlOutput& stop_safely(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
   BaselineOptions options_;
@@ -122,6 +142,13 @@ class KinematicBaseline final : public TrackingController {
   Eigen::VectorXd angles_;                            // n: steering angles along the plan
   ModuleArray<DriveDirection<double>> directions_;    // n: each module's way round at the plan step being built
   Eigen::VectorXi signs_;                             // n: drive directions along the plan
+  Eigen::VectorXd turn_left_, signed_speeds_;         // n: at the plan step being built
+  double max_module_radius_ = 0.0;                    // m: the farthest module from the body origin
+  double first_step_misalignment_ = 0.0;              // rad: the largest steering error left after step 0
+  bool aligning_ = true;                              // pre_align: the wheels wait for the steering
+  bool held_ = false;                                 // the last step waited (its reference was held)
+  double last_t_ = 0.0;                               // s: the last step's t
+  double reference_delay_s_ = 0.0;                    // s: the time the reference was held, in all
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
   using Vector6 = Eigen::Matrix<double, 6, 1>;
   Eigen::VectorXd weights_, target_;                  // 3N: pose weights and targets of steps 1..N

@@ -51,6 +51,10 @@ struct ControlOutput {
   SolveSummary solve;          // of this cycle's solve (status kNotRun when none ran)
   double step_time_s = -1.0;   // the whole step(), on the controller's clock (< 0 before the first)
   bool measurement_stale = false;  // the measurement was judged stale this cycle (see Controller)
+  // s the controller's reference clock runs behind t: it tracks the reference at t - this. 0 except
+  // where a controller holds the reference while it prepares (the practical baseline's
+  // pre-alignment); the delay is the run's completion time lost, and its tracking is judged there.
+  double reference_delay_s = 0.0;
 };
 
 class TrackingController {

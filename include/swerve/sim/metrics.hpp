@@ -17,7 +17,8 @@ struct StepRecord {
   double t = 0.0;
   Eigen::Vector3d pose_world = Eigen::Vector3d::Zero();      // true plant pose (psi unwrapped)
   Eigen::Vector3d twist_body = Eigen::Vector3d::Zero();
-  Eigen::Vector3d reference_pose_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d reference_pose_world = Eigen::Vector3d::Zero();  // at t - reference_delay_s
+  double reference_delay_s = 0.0;                             // ControlOutput::reference_delay_s
   std::vector<PlantModuleSample> modules;                    // plant, at t
   std::vector<ModuleCommand> commands;                       // what the controller sent at t
   CommandSource source = CommandSource::kSafeStop;
@@ -59,6 +60,7 @@ struct RunMetrics {
   int late_solves = 0;
   int fallbacks = 0;               // periods whose command did not come from a successful solve
   int tracking_first_steps = 0;    // periods that sent the baseline's commands because the plan left the tube
+  double reference_delay_s = 0.0;  // the controller's reference clock behind t at the end (ControlOutput)
   double solve_iterations_mean = 0.0;
 };
 
