@@ -1,0 +1,232 @@
+#!/usr/bin/env python3
+"""Writes the warehouse duty-cycle scenarios: one mission per shipped vehicle, as a planner would
+hand it over (a CSV reference of t, x, y, psi and the body twist, 20 samples per second), with the
+phases of every sample in a sidecar CSV for scripts/duty_cycle_report.py.
+
+The mission, from rest at the origin heading +x: an aisle run, a 90 deg crab into a bay, a docking
+creep, a dwell, reversing out, an in-place turn, an aisle run back with a re-orientation under way,
+a crab into the opposite bay, its creep, reversing out, an in-place turn back, and a last aisle run:
+12 legs with stops between them. Every leg starts and ends at rest with a trapezoidal speed profile
+(or a smooth yaw ramp for the in-place turns), within the vehicle's drive limits.
+
+Usage: scripts/warehouse_duty_cycle.py [--out configs/scenarios/duty] [--vehicles configs/vehicles] [--check]
+Regenerate the shipped files with the defaults; the output is deterministic. --check writes nothing
+and fails when a file in --out differs from what it would write (ctest runs it).
+"""
+import argparse
+import math
+import os
+import re
+import sys
+
+DT = 0.05            # s between samples
+ACCELERATION = 0.5   # m/s^2 of every leg's ramp (within every shipped vehicle's drive limit)
+SLOW = 0.3           # m/s: bay moves
+CREEP = 0.05         # m/s: docking
+YAW_RATE = 0.5       # rad/s: in-place turns (peak)
+
+PHASES = ("start", "cruise", "turn", "re-steer", "stop")
+
+
+def vehicle_limits(path):
+    """The drive speed (m/s) and the outermost module's radius (m) from a vehicle YAML, read by
+    pattern so the script needs no YAML package."""
+    text = open(path, encoding="utf-8").read()
+    speed = float(re.search(r"drive_speed:\s*([0-9.eE+-]+)", text).group(1))
+    radius = 0.0
+    for x, y in re.findall(r"position:\s*\[\s*([0-9.eE+-]+)\s*,\s*([0-9.eE+-]+)\s*\]", text):
+        radius = max(radius, math.hypot(float(x), float(y)))
+    name = re.search(r"name:\s*(\S+)", text).group(1)
+    return name, speed, radius
+
+
+def trapezoid(distance, cruise, acceleration):
+    """(duration, speed at time tau) of a rest-to-rest move: a trapezoid, or a triangle when short."""
+    ramp = cruise / acceleration
+    if acceleration * ramp * ramp >= distance:  # never reaches cruise
+        ramp = math.sqrt(distance / acceleration)
+        cruise = acceleration * ramp
+        flat = 0.0
+    else:
+        flat = (distance - acceleration * ramp * ramp) / cruise
+    duration = 2 * ramp + flat
+
+    def at(tau):
+        if tau < ramp:
+            return acceleration * tau, 0.5 * acceleration * tau * tau
+        if tau < ramp + flat:
+            return cruise, 0.5 * acceleration * ramp * ramp + cruise * (tau - ramp)
+        rest = max(0.0, duration - tau)
+        return acceleration * rest, distance - 0.5 * acceleration * rest * rest
+
+    return duration, ramp, at
+
+
+def smoothstep(s):
+    s = min(max(s, 0.0), 1.0)
+    return s * s * (3 - 2 * s)
+
+
+class Mission:
+    def __init__(self):
+        self.t, self.x, self.y, self.psi = 0.0, 0.0, 0.0, 0.0
+        self.rows = []      # t, x, y, psi, vx, vy, r (body frame)
+        self.phases = []    # phase of each row
+        self.last_direction = None
+        self.emit(0.0, 0.0, 0.0, "stop")
+
+    def emit(self, vx_world, vy_world, r, phase):
+        c, s = math.cos(self.psi), math.sin(self.psi)
+        vx = c * vx_world + s * vy_world
+        vy = -s * vx_world + c * vy_world
+        self.rows.append((self.t, self.x, self.y, self.psi, vx, vy, r))
+        self.phases.append(phase)
+
+    def dwell(self, seconds):
+        for _ in range(int(round(seconds / DT))):
+            self.t += DT
+            self.emit(0.0, 0.0, 0.0, "stop")
+
+    def move(self, direction_deg, distance, cruise, heading_change_deg=0.0):
+        """Straight leg in the world direction, rest to rest; the heading turns by heading_change
+        along it (a re-orientation under way). Phases: the ramp up is a start, or a re-steer when the
+        direction of travel differs from the last leg's by more than 30 deg; the ramp down a stop."""
+        direction = math.radians(direction_deg)
+        change = math.radians(heading_change_deg)
+        duration, ramp, at = trapezoid(distance, cruise, ACCELERATION)
+        resteer = self.last_direction is not None and abs(
+            math.remainder(direction - self.last_direction, 2 * math.pi)) > math.radians(30)
+        x0, y0, psi0 = self.x, self.y, self.psi
+        steps = int(math.ceil(duration / DT))
+        for k in range(1, steps + 1):
+            tau = min(k * DT, duration)
+            speed, travelled = at(tau)
+            share = travelled / distance
+            self.t += DT
+            self.x = x0 + travelled * math.cos(direction)
+            self.y = y0 + travelled * math.sin(direction)
+            self.psi = psi0 + change * smoothstep(share)
+            # d psi / dt = change * smoothstep'(share) * speed / distance
+            s = min(max(share, 0.0), 1.0)
+            r = change * 6 * s * (1 - s) * speed / distance
+            if change != 0.0 and abs(r) > 1e-3:
+                phase = "turn"
+            elif tau <= ramp:
+                phase = "re-steer" if resteer else "start"
+            elif tau >= duration - ramp:
+                phase = "stop"
+            else:
+                phase = "cruise"
+            self.emit(speed * math.cos(direction), speed * math.sin(direction), r, phase)
+        self.last_direction = direction
+
+    def rotate(self, angle_deg):
+        """In-place turn with a smooth yaw profile peaking at YAW_RATE."""
+        angle = math.radians(angle_deg)
+        duration = 1.5 * abs(angle) / YAW_RATE  # smoothstep's peak rate is 1.5x its mean
+        psi0 = self.psi
+        steps = int(math.ceil(duration / DT))
+        for k in range(1, steps + 1):
+            s = min(k * DT / duration, 1.0)
+            self.t += DT
+            self.psi = psi0 + angle * smoothstep(s)
+            self.emit(0.0, 0.0, angle * 6 * s * (1 - s) / duration, "turn")
+        self.last_direction = None  # the modules are across the body now: the next leg re-steers
+
+
+def mission(fast):
+    m = Mission()
+    m.dwell(0.5)
+    m.move(0, 8.0, fast)                        # 1: aisle run
+    m.dwell(1.0)
+    m.move(90, 2.0, SLOW)                       # 2: 90 deg crab into the bay (heading held)
+    m.move(90, 0.3, CREEP)                      # 3: docking creep
+    m.dwell(2.0)
+    m.move(-90, 2.3, SLOW)                      # 4: reversing out
+    m.dwell(0.5)
+    m.rotate(90)                                # 5: in-place turn
+    m.dwell(0.5)
+    m.move(180, 6.0, fast, heading_change_deg=90)  # 6: aisle run back, re-orienting under way
+    m.dwell(1.0)
+    m.move(-90, 1.5, SLOW)                      # 7: crab into the opposite bay
+    m.move(-90, 0.3, CREEP)                     # 8: docking creep
+    m.dwell(2.0)
+    m.move(90, 1.8, SLOW)                       # 9: reversing out
+    m.dwell(0.5)
+    m.rotate(-180)                              # 10: in-place turn back
+    m.dwell(0.5)
+    m.move(0, 4.0, fast)                        # 11: aisle run
+    m.move(0, 0.2, CREEP)                       # 12: creep to the end mark
+    m.dwell(1.0)
+    return m
+
+
+SCENARIO = """# Warehouse duty cycle for {name}: 12 legs with stops (aisle runs, 90 deg crabs into bays,
+# docking creeps, reversing out, in-place and moving re-orientations), written by
+# scripts/warehouse_duty_cycle.py (regenerate with it; do not edit by hand). Phases per sample:
+# {name}.phases.csv (scripts/duty_cycle_report.py).
+scenario:
+  name: duty_{name}
+  description: warehouse duty cycle, {legs} legs, {length:.1f} m in {duration:.1f} s
+  vehicle: ../../vehicles/{name}.yaml
+  reference:
+    type: csv
+    file: {name}.csv
+  initial_state:
+    twist: [0.0, 0.0, 0.0]
+    steering: 0.0
+  simulator:
+    seed: 1
+  controllers:
+    - {{name: wear_mpc, config: ../../controllers/default.yaml}}
+    - {{name: kinematic_baseline, config: ../../controllers/kinematic_baseline.yaml}}
+    - {{name: practical_baseline, config: ../../controllers/practical_baseline.yaml}}
+"""
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default="configs/scenarios/duty")
+    parser.add_argument("--vehicles", default="configs/vehicles")
+    parser.add_argument("--check", action="store_true", help="compare with --out instead of writing")
+    args = parser.parse_args()
+    stale = []
+
+    def write(path, text):
+        if args.check:
+            try:
+                same = open(path, encoding="utf-8").read() == text
+            except OSError:
+                same = False
+            if not same:
+                stale.append(path)
+            return
+        with open(path, "w", encoding="utf-8") as out:
+            out.write(text)
+
+    if not args.check:
+        os.makedirs(args.out, exist_ok=True)
+    for file in sorted(os.listdir(args.vehicles)):
+        if not file.endswith(".yaml"):
+            continue
+        name, drive_speed, radius = vehicle_limits(os.path.join(args.vehicles, file))
+        # Aisle speed: 60 % of the drive speed, at most 1.2 m/s; the in-place turn's wheel speed
+        # (YAW_RATE x radius) stays well inside the drive speed on every shipped vehicle.
+        fast = round(min(1.2, 0.6 * drive_speed), 2)
+        if YAW_RATE * radius > 0.8 * drive_speed:
+            sys.exit(f"{file}: an in-place turn at {YAW_RATE} rad/s exceeds its drive speed")
+        m = mission(fast)
+        length = sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(m.rows, m.rows[1:]))
+        write(os.path.join(args.out, f"{name}.csv"),
+              "t,x,y,psi,vx,vy,r\n" + "".join(",".join(f"{v:.6f}" for v in row) + "\n" for row in m.rows))
+        write(os.path.join(args.out, f"{name}.phases.csv"),
+              "t,phase\n" + "".join(f"{row[0]:.6f},{phase}\n" for row, phase in zip(m.rows, m.phases)))
+        write(os.path.join(args.out, f"{name}.yaml"),
+              SCENARIO.format(name=name, legs=12, length=length, duration=m.rows[-1][0]))
+        print(f"{name}: {len(m.rows)} samples, {length:.1f} m, {m.rows[-1][0]:.1f} s, aisle {fast} m/s")
+    if stale:
+        sys.exit("stale (regenerate with scripts/warehouse_duty_cycle.py): " + ", ".join(stale))
+
+
+if __name__ == "__main__":
+    main()
