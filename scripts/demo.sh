@@ -29,7 +29,7 @@ for scenario in configs/scenarios/curve_smooth.yaml configs/scenarios/offset60_s
   "$cli" run "$scenario" --controllers wear_mpc,kinematic_baseline --out "$out_dir/set/$name" --quiet > /dev/null
   set_dirs+=("$out_dir/set/$name")
 done
-echo "== the shipped set: wear_mpc against kinematic_baseline (goals: scripts/goal_table.py) =="
+echo "== the shipped set: wear_mpc against kinematic_baseline and practical_baseline (goals: scripts/goal_table.py) =="
 python3 scripts/goal_table.py "${set_dirs[@]}"
 echo
 # Debian's matplotlib lives with the system interpreter (a pyenv or venv python3 may lack it).
