@@ -17,7 +17,7 @@ for scenario in curve offset60; do
   "$cli" run "configs/scenarios/$scenario.yaml" --out "$out_dir/$scenario"
   echo
 done
-# The whole shipped set (issue 15's goals): the planner-like variants of the paper pair, the
+# The whole shipped set (the goal table's goals): the planner-like variants of the paper pair, the
 # figure-eight, the noisy crab, the straight line and the layouts set with both references, wear_mpc
 # against kinematic_baseline only.
 set_dirs=("$out_dir/curve" "$out_dir/offset60")
