@@ -31,14 +31,15 @@ Eigen::Vector2d get_point_or(const ConfigNode& node, const std::string& key, con
   return {xy[0], xy[1]};
 }
 
+// `max_speed` (m/s): the vehicle's drive speed, which a CSV reference's steps may not exceed.
 std::shared_ptr<const Reference> load_reference(const ConfigNode& node, const std::string& scenario_file,
-                                                std::string* description) {
+                                                double max_speed, std::string* description) {
   const std::string type = node.get_choice("type", {"line", "arc", "sine", "figure_eight", "csv"});
   if (type == "csv") {
     const std::string file = resolve_beside(scenario_file, node.get_string("file"));
     *description = "csv " + file;
     try {
-      return load_reference_csv(file);
+      return load_reference_csv(file, max_speed);
     } catch (const ConfigError& error) {
       node.fail_at("file", std::string("cannot load: ") + error.what());
     }
@@ -177,7 +178,8 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
   s.vehicle_file = vehicle_file;
   s.name = node.get_string("name");
   s.description = node.get_string_or("description", "");
-  s.reference = load_reference(node.child("reference"), file_path, &s.reference_description);
+  s.reference = load_reference(node.child("reference"), file_path, s.vehicle.layout.limits().max_drive_speed,
+                               &s.reference_description);
   // By default the run lasts as long as the reference moves: a constant-speed reference that ends
   // holds its final pose, and the step stop that asks for is not part of the paper's experiments
   // (it added up to 28 J to a 47 J curve run, more than the whole path did to the baseline).

@@ -6,6 +6,7 @@
 
 #include "swerve/core/config_error.hpp"
 #include "swerve/core/constants.hpp"
+#include "swerve/core/option_fields.hpp"
 #include "swerve/core/text_file.hpp"
 
 namespace swerve {
@@ -396,7 +397,7 @@ ReferenceSample SampledReference::sample(double t_relative) const noexcept {
   return spline_.sample(spline_.first_time() + t_relative);
 }
 
-std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path) {
+std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path, double max_speed) {
   // Read whole and bounded: a directory, /dev/zero or a pipe named as the CSV is refused before
   // reading (a getline on /dev/zero grew one line until the process ran out of memory).
   config::TextFileRules rules;
@@ -418,6 +419,7 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
   }
   std::vector<std::vector<double>> rows;
   int line_number = 1;
+  int previous_line = 0;
   while (std::getline(in, line)) {
     ++line_number;
     if (line.find_first_not_of(" \r\t") == std::string::npos) continue;
@@ -436,7 +438,26 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
       reject(shown + ":" + std::to_string(line_number) + ": expected " + std::to_string(width) +
              " values, got " + std::to_string(row.size()));
     }
+    if (!rows.empty() && std::isfinite(row[0]) && std::isfinite(rows.back()[0])) {
+      const std::vector<double>& previous = rows.back();
+      const std::string at = shown + ":" + std::to_string(line_number) + ": ";
+      const double dt = row[0] - previous[0];
+      if (!(dt > 0.0)) {
+        reject(at + "t = " + Bound::number(row[0]) + " is not after line " + std::to_string(previous_line) + "'s t = " +
+               Bound::number(previous[0]));
+      }
+      const double step = std::hypot(row[1] - previous[1], row[2] - previous[2]);
+      if (std::isfinite(max_speed) && step > 1.01 * max_speed * dt) {
+        reject(at + "the position moves " + Bound::number(step) + " m in " + Bound::number(dt) + " s from line " +
+               std::to_string(previous_line) + " (" + Bound::number(step / dt) +
+               " m/s), faster than the vehicle's drive speed of " + Bound::number(max_speed) + " m/s");
+      }
+    }
     rows.push_back(std::move(row));
+    previous_line = line_number;
+  }
+  if (rows.size() < 2) {
+    reject(shown + ": " + std::to_string(rows.size()) + " sample(s); a reference needs at least 2");
   }
   try {
     return std::make_unique<SampledReference>(rows);

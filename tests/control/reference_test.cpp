@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <string>
 
 #include "swerve/core/config_error.hpp"
@@ -185,6 +186,35 @@ TEST(SampledReference, CsvLoaderNamesFileAndLine) {
     out << "t,x,y,psi\n0,0,0,0\n1,1,0,0\n2,2,0,0\n";
   }
   EXPECT_NEAR(load_reference_csv(path)->sample(1.5).pose_world.x(), 1.5, 1e-9);
+  std::remove(path.c_str());
+}
+
+// A duty-cycle CSV that no vehicle could follow is refused at load, naming the file, the line and
+// the value: a time step that goes backwards, a position jump beyond the vehicle's drive speed in
+// one sample, or fewer than two samples (blank lines do not count).
+TEST(SampledReference, CsvLoaderRefusesTimeGoingBackAJumpBeyondTheDriveSpeedAndTooFewSamples) {
+  const std::string path = ::testing::TempDir() + "reference_duty_test.csv";
+  const auto error_of = [&](const std::string& text, double max_speed) {
+    {
+      std::ofstream out(path);
+      out << text;
+    }
+    try {
+      load_reference_csv(path, max_speed);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error_of("t,x,y,psi\n0,0,0,0\n0.1,0.1,0,0\n\n0.05,0.2,0,0\n", 2.0),
+            path + ":5: t = 0.05 is not after line 3's t = 0.1");
+  // 0.5 m in 0.1 s is 5 m/s against a 2 m/s drive; 0.2 m in 0.1 s (2 m/s) is allowed.
+  EXPECT_EQ(error_of("t,x,y,psi\n0,0,0,0\n0.1,0.2,0,0\n0.2,0.5,0.4,0\n", 2.0),
+            path + ":4: the position moves 0.5 m in 0.1 s from line 3 (5 m/s), faster than the vehicle's drive "
+                   "speed of 2 m/s");
+  EXPECT_EQ(error_of("t,x,y,psi\n0,0,0,0\n0.1,0.2,0,0\n", 2.0), "no error");
+  EXPECT_EQ(error_of("t,x,y,psi\n0,0,0,0\n0.2,0.5,0.4,0\n", std::numeric_limits<double>::infinity()), "no error");
+  EXPECT_EQ(error_of("t,x,y,psi\n0,0,0,0\n\n", 2.0), path + ": 1 sample(s); a reference needs at least 2");
   std::remove(path.c_str());
 }
 

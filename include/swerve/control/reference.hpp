@@ -207,7 +207,11 @@ inline constexpr std::size_t kMaxReferenceCsvBytes = std::size_t{16} << 20;  // 
 
 // Loads a CSV with a header line naming the columns t,x,y,psi[,vx,vy,r]; errors name file and line.
 // A missing file, one that is not a regular file (a directory, /dev/zero, a pipe) or one larger
-// than kMaxReferenceCsvBytes is a ConfigError, refused before reading.
-std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path);
+// than kMaxReferenceCsvBytes is a ConfigError, refused before reading. So are a row whose t is not
+// after the previous row's, fewer than two rows, and, with a finite `max_speed` (m/s: the
+// vehicle's drive speed), a row whose position is further from the previous row's than that speed
+// covers in their time step (1 % of slack for rounding): a jump no vehicle of that kind can follow.
+std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path,
+                                                     double max_speed = std::numeric_limits<double>::infinity());
 
 }  // namespace swerve
