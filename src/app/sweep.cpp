@@ -40,6 +40,9 @@ SweepResult run_sweep(const ScenarioConfig& scenario, const RunOverrides& overri
   // Every run is set up before the first one starts, so a bad override costs no simulation.
   RunOverrides baseline_only = overrides;
   baseline_only.controllers = {"kinematic_baseline"};
+  bool has_practical = false;
+  for (const ScenarioController& c : scenario.controllers) has_practical = has_practical || c.name == "practical_baseline";
+  if (has_practical) baseline_only.controllers.push_back("practical_baseline");
   std::vector<ScenarioConfig> point_scenarios;
   for (const SweepPoint& point : points) {
     RunOverrides o = overrides;
@@ -48,15 +51,22 @@ SweepResult run_sweep(const ScenarioConfig& scenario, const RunOverrides& overri
     o.tracking_tolerance = point.tolerance;
     point_scenarios.push_back(apply_overrides(scenario, o));
   }
-  SweepResult result{apply_overrides(scenario, baseline_only), {}, {}};
+  SweepResult result{apply_overrides(scenario, baseline_only), {}, {}, std::nullopt};
 
-  result.baseline = run_controller(result.baseline_scenario, result.baseline_scenario.controllers.front());
+  const auto run_named = [&](const char* name) {
+    for (const ScenarioController& c : result.baseline_scenario.controllers) {
+      if (c.name == name) return run_controller(result.baseline_scenario, c);
+    }
+    throw ConfigError(std::string("sweep: no controller ") + name);  // not reached: apply_overrides kept it
+  };
+  result.baseline = run_named("kinematic_baseline");
   if (after_each) after_each(nullptr, result.baseline);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const ScenarioConfig& s = point_scenarios[i];
     result.points.push_back({points[i], run_controller(s, s.controllers.front())});
     if (after_each) after_each(&points[i], result.points.back().run);
   }
+  if (has_practical) result.practical = run_named("practical_baseline");
   return result;
 }
 

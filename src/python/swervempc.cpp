@@ -295,6 +295,7 @@ py::dict sweep_file(const std::string& path, std::optional<std::vector<double>> 
   out["scenario"] = result->baseline_scenario.name;
   out["swept"] = wear_weights ? "wear_weight" : "tracking_tolerance";
   out["baseline"] = run_dict(result->baseline, logs);
+  if (result->practical) out["practical_baseline"] = run_dict(*result->practical, logs);
   out["points"] = point_list;
   return out;
 }

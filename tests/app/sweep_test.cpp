@@ -51,6 +51,29 @@ TEST(Sweep, BaselineRunIsTheSameRunAsOnItsOwn) {
   EXPECT_EQ(result.baseline.metrics.tracking_rmse_m, alone.metrics.tracking_rmse_m);
 }
 
+// A scenario that lists practical_baseline gets it run once too (after the points), the same run
+// as on its own; one without it gets none.
+TEST(Sweep, RunsThePracticalBaselineOnceWhenTheScenarioListsIt) {
+  ScenarioConfig scenario = short_scenario();
+  EXPECT_FALSE(run_sweep(scenario, {}, {lambda(1.0)}).practical.has_value());
+  ScenarioController practical;
+  for (const ScenarioController& c : scenario.controllers) {
+    if (c.name == "kinematic_baseline") practical = c;
+  }
+  ASSERT_EQ(practical.name, "kinematic_baseline");
+  practical.name = "practical_baseline";
+  practical.config.baseline.cosine_scaling = true;
+  practical.config.baseline.common_scaling = true;
+  practical.config.baseline.pre_align = true;
+  scenario.controllers.push_back(practical);
+  const SweepResult result = run_sweep(scenario, {}, {lambda(1.0)});
+  ASSERT_TRUE(result.practical.has_value());
+  EXPECT_EQ(result.practical->name, "practical_baseline");
+  const ControllerRun alone = run_controller(scenario, scenario.controllers.back());
+  EXPECT_EQ(result.practical->metrics.wear_total, alone.metrics.wear_total);
+  EXPECT_EQ(result.baseline.name, "kinematic_baseline");
+}
+
 TEST(Sweep, ReportsTheWearWeightAfterReferenceMassScaling) {
   // A controller giving its wear weight for an 800 kg vehicle (wear_reference_mass) scales it by
   // the mass ratio to the power wear_mass_exponent: at 1.75, on a vehicle of half that mass the

@@ -24,9 +24,11 @@ struct SweepRun {
 };
 
 struct SweepResult {
-  ScenarioConfig baseline_scenario;  // the scenario as the baseline ran it (for reports)
+  ScenarioConfig baseline_scenario;  // the scenario as the baselines ran it (for reports)
   ControllerRun baseline;
   std::vector<SweepRun> points;  // in the order given
+  // The scenario's practical_baseline, run once after the points, when the scenario lists one.
+  std::optional<ControllerRun> practical;
 };
 
 // Called after the baseline (point == nullptr) and after each point.
