@@ -29,6 +29,11 @@ const ControllerRun* find_run(const std::vector<ControllerRun>& runs, const std:
 // JSON has no NaN: a quantity that cannot be computed is null.
 nlohmann::json number_or_null(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(); }
 
+// RMSE of `run` over that of `base`; NaN when the base's is 0.
+double rmse_ratio(const RunMetrics& run, const RunMetrics& base) {
+  return base.tracking_rmse_m > 0.0 ? run.tracking_rmse_m / base.tracking_rmse_m : std::numeric_limits<double>::quiet_NaN();
+}
+
 const char* wear_units(const VehicleParams& vehicle) {
   return vehicle.wear.model == WearModelKind::kFrictionalPower ? "J x coefficient (frictional energy)"
                                                                : "N m x coefficient (load x sliding distance)";
@@ -132,18 +137,13 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
   const ControllerRun* base = find_run(runs, kBaselineName);
   const ControllerRun* no_wear = find_run(runs, kNoWearName);
   comparison["wear_reduction_pct"] = wear && base ? number_or_null(wear_reduction_pct(wear->metrics, base->metrics)) : json();
-  comparison["tracking_rmse_ratio"] =
-      wear && base && base->metrics.tracking_rmse_m > 0.0
-          ? number_or_null(wear->metrics.tracking_rmse_m / base->metrics.tracking_rmse_m)
-          : json();
+  comparison["tracking_rmse_ratio"] = wear && base ? number_or_null(rmse_ratio(wear->metrics, base->metrics)) : json();
   // Against the practical controller (configs/controllers/practical_baseline.yaml) when the scenario runs it.
   const ControllerRun* practical = find_run(runs, kPracticalBaselineName);
   comparison["wear_reduction_vs_practical_pct"] =
       wear && practical ? number_or_null(wear_reduction_pct(wear->metrics, practical->metrics)) : json();
   comparison["tracking_rmse_ratio_vs_practical"] =
-      wear && practical && practical->metrics.tracking_rmse_m > 0.0
-          ? number_or_null(wear->metrics.tracking_rmse_m / practical->metrics.tracking_rmse_m)
-          : json();
+      wear && practical ? number_or_null(rmse_ratio(wear->metrics, practical->metrics)) : json();
   comparison["wear_reduction_vs_no_wear_pct"] =
       wear && no_wear ? number_or_null(wear_reduction_pct(wear->metrics, no_wear->metrics)) : json();
   comparison["paper_wear_reduction_pct"] =
@@ -234,24 +234,20 @@ std::string comparison_table(const ScenarioConfig& scenario, const std::vector<C
     }
   }
   const ControllerRun* wear = find_run(runs, kWearMpcName);
+  // "wear_mpc vs <baseline>: wear X %, tracking RMSE ratio Y" (no line end).
+  const auto against = [&](const ControllerRun& baseline) {
+    out << "wear_mpc vs " << baseline.name << ": wear " << fixed(-wear_reduction_pct(wear->metrics, baseline.metrics), 2)
+        << " %, tracking RMSE ratio " << fixed(rmse_ratio(wear->metrics, baseline.metrics), 3);
+  };
   if (wear && base) {
-    out << "wear_mpc vs kinematic_baseline: wear " << fixed(-wear_reduction_pct(wear->metrics, base->metrics), 2)
-        << " %, tracking RMSE ratio "
-        << fixed(base->metrics.tracking_rmse_m > 0 ? wear->metrics.tracking_rmse_m / base->metrics.tracking_rmse_m
-                                                   : std::numeric_limits<double>::quiet_NaN(),
-                 3);
+    against(*base);
     if (scenario.paper_wear_reduction_pct) out << "  (paper: wear -" << fixed(*scenario.paper_wear_reduction_pct, 2) << " %)";
     out << "\n";
   }
   const ControllerRun* practical = find_run(runs, kPracticalBaselineName);
   if (wear && practical) {
-    out << "wear_mpc vs practical_baseline: wear " << fixed(-wear_reduction_pct(wear->metrics, practical->metrics), 2)
-        << " %, tracking RMSE ratio "
-        << fixed(practical->metrics.tracking_rmse_m > 0
-                     ? wear->metrics.tracking_rmse_m / practical->metrics.tracking_rmse_m
-                     : std::numeric_limits<double>::quiet_NaN(),
-                 3)
-        << "\n";
+    against(*practical);
+    out << "\n";
   }
   const ControllerRun* no_wear = find_run(runs, kNoWearName);
   if (wear && no_wear) {

@@ -365,9 +365,10 @@ bool KinematicBaseline::pre_align_holds(const Eigen::Vector3d& measured_twist) n
   // At rest the next start aligns first; once the wheels drove, the vehicle tracks until it is at
   // rest again with nothing planned (a stop), so a re-steer under way is not a start.
   const double rest = std::max(options_.steer_speed_threshold, kHoldSpeed);
-  const bool at_rest = measured_twist.head<2>().norm() < rest && std::abs(measured_twist.z()) * max_module_radius_ < rest;
-  const bool nothing_planned = twists_.col(0).head<2>().norm() < rest && std::abs(twists_(2, 0)) * max_module_radius_ < rest;
-  if (at_rest && nothing_planned) aligning_ = true;
+  const auto still = [&](const Eigen::Vector3d& twist) {
+    return twist.head<2>().norm() < rest && std::abs(twist.z()) * max_module_radius_ < rest;
+  };
+  if (still(measured_twist) && still(twists_.col(0))) aligning_ = true;  // at rest, nothing planned
   if (aligning_ && first_step_misalignment_ <= options_.pre_align_tolerance) aligning_ = false;
   return aligning_;
 }
