@@ -4,6 +4,8 @@
 # evaluations, at the reference machine's rates by default), and one row each comparing the
 # wear-aware controller's wear and position RMSE between the two. An anytime controller must do the
 # same on both; a row passes within +-5 % (or 0.05 J / 1 mm where the figures are that small).
+# `cut`: the wall-clock run's steps whose work-budgeted solve the wall clock cut short (the machine
+# ran slower than the budget's rates; 0: its answers did not depend on the machine's speed).
 # A measurement, not a test: run it on an otherwise idle machine (nothing building).
 # Usage: scripts/clock_parity.sh [BUILD_DIR] [OUT_DIR] [WORK_CLOCK_TICK_S] [SCENARIO ...]
 set -euo pipefail
@@ -30,7 +32,7 @@ names = [os.path.splitext(os.path.basename(s))[0] for s in sys.argv[2:]]
 def within(a, b, rel, absolute):
     return abs(a - b) <= max(rel * max(abs(a), abs(b)), absolute)
 print(f"{'scenario':<32}{'wear wall / work [J]':>24}{'RMSE wall / work [mm]':>26}"
-      f"{'effort wall / work':>22}  parity")
+      f"{'effort wall / work':>22}{'cut':>6}  parity")
 passed = 0
 for name in names:
     runs = {}
@@ -44,7 +46,8 @@ for name in names:
     passed += ok
     print(f"{name:<32}{w['wear_total']:>12.2f} / {k['wear_total']:<9.2f}"
           f"{1e3 * w['tracking_rmse_m']:>14.1f} / {1e3 * k['tracking_rmse_m']:<9.1f}"
-          f"{w['steering_effort_rad2_s']:>11.2f} / {k['steering_effort_rad2_s']:<8.2f}  "
+          f"{w['steering_effort_rad2_s']:>11.2f} / {k['steering_effort_rad2_s']:<8.2f}"
+          f"{w.get('work_budget_cuts', 0):>6}  "
           + ("ok" if ok else "differs: " + ", ".join(x for x, good in (("wear", wear_ok), ("rmse", rmse_ok)) if not good)))
 print(f"Clock parity: {passed} of {len(names)} scenarios within +-5 % (or 0.05 J / 1 mm) of their work-clock run.")
 PY

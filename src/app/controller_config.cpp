@@ -76,6 +76,9 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
     if (const auto stale = node.optional_child("stale_measurement")) {
       read_fields(*stale, StalenessOptions::fields(), &c.mpc.stale_measurement);
     }
+    if (const auto work = node.optional_child("work_budget")) {
+      read_fields(*work, WorkBudgetOptions::fields(), &c.mpc.work_budget);
+    }
     if (const auto tolerance = node.optional_child("tracking_tolerance")) {
       (void)tolerance->child("position");  // both required: a tolerance block without one is a mistake
       (void)tolerance->child("heading");

@@ -125,6 +125,7 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
         {"step_time_max_ms", m.step_time_max_ms},
         {"deadline_misses", m.deadline_misses},
         {"late_solves", m.late_solves},
+        {"work_budget_cuts", m.work_budget_cuts},
         {"solve_iterations_mean", m.solve_iterations_mean},
         {"fallbacks", m.fallbacks},
         {"tracking_first_steps", m.tracking_first_steps},

@@ -94,6 +94,7 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     record.initial_guess_cost = output.solve.initial_cost;
     record.step_time_s = output.step_time_s;
     record.solve_late_s = output.solve.status == SolveStatus::kNotRun ? 0.0 : output.solve.late_s;
+    record.work_budget_cut = output.work_budget_cut;
     run.log.push_back(std::move(record));
     if (!plant.advance(output.modules)) {
       run.failure = "the plant diverged at t = " + std::to_string(plant.time()) + " s";

@@ -53,6 +53,14 @@ void write_tuned_controller(const std::string& base_file, const TuningCandidate&
   controller["solver"]["backend"] = candidate.backend;
   if (candidate.backend == "sa") controller["solver"]["sa"]["knots"] = candidate.knots;
   controller["deadline_margin"] = shortest_number(candidate.deadline_margin);
+  // The tuner ran the candidates here on solve_budget / cpu_slowdown at the base file's work rates;
+  // on the target the same work costs cpu_slowdown times as much.
+  const WorkBudgetOptions work = load_controller_config_file(base_file).mpc.work_budget;
+  if (work.enabled) {
+    controller["work_budget"]["seconds_per_read"] = shortest_number(work.seconds_per_read * target.cpu_slowdown);
+    controller["work_budget"]["seconds_per_module_evaluation"] =
+        shortest_number(work.seconds_per_module_evaluation * target.cpu_slowdown);
+  }
   controller["description"] = "wear-aware MPC tuned for " + target.name + " (swerve-mpc tune)";
   YAML::Emitter emitter;
   emitter << document;

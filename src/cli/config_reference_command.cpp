@@ -81,6 +81,9 @@ std::string reference() {
               ControllerOptions::weight_fields(), controller);
   write_table(out, "controller.stale_measurement", "When a measurement is too old or frozen to act on.",
               StalenessOptions::fields(), StalenessOptions{});
+  write_table(out, "controller.work_budget",
+              "The solve's budget counted in work at the target's rates (the step's clock then guards).",
+              WorkBudgetOptions::fields(), WorkBudgetOptions{});
   write_table(out, "controller.tracking_tolerance", "The tracking tube (both keys, or neither).",
               TrackingTolerance::fields(), TrackingTolerance{});
   write_table(out, "controller.prediction", "The prediction model of the optimal control problem.",

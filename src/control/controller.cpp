@@ -160,6 +160,7 @@ void ControllerOptions::validate() const {
   }
   measurement_filter.validate();
   stale_measurement.validate();
+  work_budget.validate();
   tracking_tolerance.validate();
   prediction.validate();
 }
@@ -198,6 +199,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   baseline_policy_guess_ = baseline_guess_;
   baseline_states_ = Eigen::MatrixXd::Zero(problem_->state_size(), options_.horizon + 1);
   tube_.emplace(options_.tracking_tolerance, *problem_);
+  if (options_.work_budget.enabled) work_clock_ = std::make_unique<WorkBudgetClock>(options_.work_budget);
   applied_decision_ = Eigen::VectorXd::Zero(problem_->input_size());
   applied_input_ = Eigen::VectorXd::Zero(2 * modules_);
   fallback_input_ = Eigen::VectorXd::Zero(2 * modules_);
@@ -415,6 +417,7 @@ const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   actuators_->record_sent(output_.modules);
   const TimePoint end = clock().now();
   output_.step_time_s = to_seconds(end - step_start);
+  output_.work_budget_cut = work_clock_ != nullptr && work_clock_->guard_fired();
   if (solved_) {
     // Memory of the worst overshoot, halving every 100 steps.
     constexpr double kDecayPerStep = 0.99309;  // 0.5^(1/100)
@@ -424,9 +427,17 @@ const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
 }
 
 Duration Controller::solve_margin() const noexcept {
-  const double margin_s = std::min(0.5 * options_.solve_budget,
-                                   std::max(options_.deadline_margin * options_.solve_budget, 1.5 * overshoot_s_));
-  return to_duration(margin_s);
+  // With a work budget the margin is kept in work, and the step's clock only guards: half of it
+  // there, so a machine as fast as the budget's rates say never reaches the guard.
+  const double kept = (work_clock_ ? 0.5 : 1.0) * options_.deadline_margin * options_.solve_budget;
+  return to_duration(std::min(0.5 * options_.solve_budget, std::max(kept, 1.5 * overshoot_s_)));
+}
+
+Deadline Controller::solve_deadline(TimePoint step_start) noexcept {
+  solve_deadline_ = step_start + to_duration(options_.solve_budget) - solve_margin();
+  if (!work_clock_) return Deadline(solve_deadline_, clock());
+  return work_clock_->begin(clock(), solve_deadline_,
+                            to_duration((1.0 - options_.deadline_margin) * options_.solve_budget));
 }
 
 void Controller::set_reference(std::shared_ptr<const Reference> reference) {
@@ -480,12 +491,13 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
                                       double measured_at) noexcept {
   // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
   const TimePoint step_start = clock().now();
-  // The model charges its work to the clock set now (set_clock may have changed it since the last
-  // step): a work clock then prices a proposal by the modules and substeps it evaluates.
-  model_->charge_work_to(&clock());
   step_t_ = t;
   const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
-  const Deadline deadline(step_deadline - solve_margin(), clock());
+  const Deadline deadline = solve_deadline(step_start);
+  // The model charges its work to the deadline's clock as set now (set_clock may have changed it
+  // since the last step): a work clock or a work budget then prices a proposal by the modules and
+  // substeps it evaluates.
+  model_->charge_work_to(&deadline.clock());
   solved_ = false;
   actuators_->begin_step();
   output_.solve = SolveSummary{};
@@ -535,7 +547,6 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_guess_);
 
   solved_ = true;
-  solve_deadline_ = deadline.at();
   const SolveStatus status = solver_->solve(*problem_, guesses, deadline, &solution_, &output_.solve);
   const bool late = clock().now() > step_deadline + to_duration(options_.overrun_grace);
   if (has_solution(status) && solution_.valid && !late && problem_->is_feasible(solution_.inputs, 1e-6)) {

@@ -157,6 +157,7 @@ py::dict metrics_dict(const RunMetrics& m) {
   d["step_time_max_ms"] = m.step_time_max_ms;
   d["deadline_misses"] = m.deadline_misses;
   d["late_solves"] = m.late_solves;
+  d["work_budget_cuts"] = m.work_budget_cuts;
   d["fallbacks"] = m.fallbacks;
   d["tracking_first_steps"] = m.tracking_first_steps;
   d["solve_iterations_mean"] = m.solve_iterations_mean;

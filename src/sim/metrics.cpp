@@ -57,6 +57,7 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
       step_ms.push_back(1e3 * record.step_time_s);
       if (record.step_time_s > solve_budget) ++m.deadline_misses;
     }
+    if (record.work_budget_cut) ++m.work_budget_cuts;
     if (record.source == CommandSource::kTrackingFirst) ++m.tracking_first_steps;
     m.reference_delay_s = record.reference_delay_s;
     if (record.source != CommandSource::kOptimizer && record.source != CommandSource::kTrackingFirst) ++m.fallbacks;

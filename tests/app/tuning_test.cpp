@@ -20,9 +20,17 @@ namespace {
 
 std::string config_file(const std::string& name) { return std::string(SWERVE_SOURCE_DIR) + "/configs/" + name; }
 
+// The shipped controller with its work budget off: these tests keep every budget on their own work
+// clock (10 us a read), which their proposal counts and step times are worked out from.
+ControllerConfig default_controller_on_the_tests_clock() {
+  ControllerConfig controller = load_controller_config_file(config_file("controllers/default.yaml"));
+  controller.mpc.work_budget.enabled = false;
+  return controller;
+}
+
 struct Fixture {
   VehicleParams vehicle = load_vehicle_config_file(config_file("vehicles/agv_4wheel.yaml"));
-  ControllerConfig controller = load_controller_config_file(config_file("controllers/default.yaml"));
+  ControllerConfig controller = default_controller_on_the_tests_clock();
   TargetConfig target;
   Fixture() {
     target.name = "test";
@@ -109,7 +117,7 @@ std::string test_data(const std::string& name) { return std::string(SWERVE_SOURC
 // Two short 60 deg offset runs (1.5 s, different noise seeds), with the wear-aware controller at a
 // 2 ms budget here on a clock that advances 10 us per read: the same proposals on any machine.
 struct QualityFixture {
-  ControllerConfig controller = load_controller_config_file(config_file("controllers/default.yaml"));
+  ControllerConfig controller = default_controller_on_the_tests_clock();
   TargetConfig target;
   std::vector<ScenarioConfig> scenarios;
   testing::WorkClock clock{10e-6};
@@ -647,6 +655,29 @@ TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsT
   EXPECT_DOUBLE_EQ(tuned.mpc.wear_weight, original.mpc.wear_weight);
   EXPECT_EQ(tuned.mpc.pose_weight, original.mpc.pose_weight);
   EXPECT_DOUBLE_EQ(tuned.solver.sa.polish_share, original.solver.sa.polish_share);
+  // A target as fast as this machine keeps the work budget's rates.
+  EXPECT_TRUE(tuned.mpc.work_budget.enabled);
+  EXPECT_DOUBLE_EQ(tuned.mpc.work_budget.seconds_per_read, original.mpc.work_budget.seconds_per_read);
+  std::remove(path.c_str());
+}
+
+TEST(TuneByQuality, WritesTheWorkBudgetsRatesScaledByTheTargetsSlowdown) {
+  // The tuner ran the candidates here at the base file's rates on budget / cpu_slowdown; on the
+  // target the same work takes cpu_slowdown times as long.
+  const std::string base = config_file("controllers/default.yaml");
+  const std::string path = ::testing::TempDir() + "tuned_slow_target.yaml";
+  TargetConfig target;
+  target.name = "test";
+  target.control_period = 0.05;
+  target.solve_budget = 0.02;
+  target.cpu_slowdown = 4.0;
+  write_tuned_controller(base, TuningCandidate{10, 3, 0.15}, target, "# tuned for a test\n", path);
+  const WorkBudgetOptions tuned = load_controller_config_file(path).mpc.work_budget;
+  const WorkBudgetOptions original = load_controller_config_file(base).mpc.work_budget;
+  ASSERT_TRUE(original.enabled);
+  EXPECT_TRUE(tuned.enabled);
+  EXPECT_DOUBLE_EQ(tuned.seconds_per_read, 4.0 * original.seconds_per_read);
+  EXPECT_DOUBLE_EQ(tuned.seconds_per_module_evaluation, 4.0 * original.seconds_per_module_evaluation);
   std::remove(path.c_str());
 }
 

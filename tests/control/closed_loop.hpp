@@ -97,6 +97,8 @@ struct ClosedLoopResult {
   double total_wear = 0.0;            // J (frictional-power wear)
   int optimizer_cycles = 0;
   int cycles = 0;
+  int work_budget_cuts = 0;           // cycles with ControlOutput::work_budget_cut
+  double longest_step_s = 0.0;        // ControlOutput::step_time_s, the longest
   Eigen::VectorXd final_state;
 };
 
@@ -113,6 +115,8 @@ inline ClosedLoopResult run_closed_loop(TrackingController& controller, const Re
     const ControlOutput& out = controller.step(state, t);
     ++result.cycles;
     if (out.source == CommandSource::kOptimizer) ++result.optimizer_cycles;
+    if (out.work_budget_cut) ++result.work_budget_cuts;
+    result.longest_step_s = std::max(result.longest_step_s, out.step_time_s);
     for (int i = 0; i < out.modules.size(); ++i) {
       const ModuleCommand& c = out.modules[i];
       if (!std::isfinite(c.steering_angle) || !std::isfinite(c.steering_rate) || !std::isfinite(c.wheel_speed)) {

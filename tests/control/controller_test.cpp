@@ -631,6 +631,53 @@ TEST(Controller, TheDeadlineCoversTheWholeStepNotOnlyTheSolve) {
   EXPECT_NEAR(out.step_time_s, options.horizon * 1e-4, 1e-9);
 }
 
+// A work budget (ControllerOptions::work_budget) at 10 us per read and 0.1 us per module
+// evaluation; the step runs on a work clock at `machine_speed`'s share of those rates' time (0.5: a
+// machine twice as fast as the budget assumes). SA's iteration cap is out of reach: the budget ends
+// every solve.
+constexpr double kBudgetPerRead = 10e-6, kBudgetPerEvaluation = 1e-7;
+
+testing::ClosedLoopResult run_work_budgeted(bool work_budget, double time_per_work) {
+  ControllerOptions options = closed_loop_options(1.0, InputParameterization::kBodyTwist);
+  options.solve_budget = 0.01;
+  options.deadline_margin = 0.15;
+  options.work_budget.enabled = work_budget;
+  options.work_budget.seconds_per_read = kBudgetPerRead;
+  options.work_budget.seconds_per_module_evaluation = kBudgetPerEvaluation;
+  const VehicleParams params = small_robot();
+  const auto reference = testing::arc_reference(0.5);
+  Controller controller(params, reference, options, sa_factory(7, 1000000));
+  const WorkClock clock(time_per_work * kBudgetPerRead, time_per_work * kBudgetPerEvaluation);
+  controller.set_clock(clock);
+  return run_closed_loop(controller, *reference, params, 0.05, offset_start(0.1), 1.0);
+}
+
+TEST(Controller, AWorkBudgetGivesTheSameRunOnAFastAndOnASlowerMachine) {
+  // Machines at 0.25x and 0.8x the budget's time per work: on the time budget alone the first
+  // solves with 3x the proposals of the second, and the two runs differ. With the work budget both
+  // stop where the work reaches the budget: the same commands, so the same final state, bit for bit.
+  const auto fast = run_work_budgeted(true, 0.25), slower = run_work_budgeted(true, 0.8);
+  ASSERT_TRUE(fast.model_ok && slower.model_ok);
+  EXPECT_EQ(fast.optimizer_cycles, fast.cycles);
+  EXPECT_EQ(fast.work_budget_cuts, 0);
+  EXPECT_EQ(slower.work_budget_cuts, 0);
+  EXPECT_TRUE(fast.final_state == slower.final_state) << fast.final_state.transpose() << "\n"
+                                                       << slower.final_state.transpose();
+  EXPECT_EQ(fast.total_wear, slower.total_wear);
+  const auto fast_timed = run_work_budgeted(false, 0.25), slower_timed = run_work_budgeted(false, 0.8);
+  EXPECT_NE(fast_timed.total_wear, slower_timed.total_wear) << "the time-budgeted runs agree: the check above proves nothing";
+}
+
+TEST(Controller, OnAMachineSlowerThanItsWorkBudgetsRatesTheStepsClockEndsTheSolveInTimeAndSaysSo) {
+  // 2x slower than the rates say: the work budget would take 1.7x the step's budget; the guard
+  // (the step's clock) ends each solve in time and flags the step.
+  const auto slow = run_work_budgeted(true, 2.0);
+  ASSERT_TRUE(slow.model_ok);
+  EXPECT_GT(slow.work_budget_cuts, slow.cycles / 2);
+  EXPECT_EQ(slow.optimizer_cycles, slow.cycles);
+  EXPECT_LE(slow.longest_step_s, 0.01);
+}
+
 TEST(Controller, ChargesItsPredictionModelsWorkToTheClockItRunsOn) {
   // A work clock that charges only model evaluations: a step's time is the work its rollouts did,
   // and after set_clock the work goes to the new clock, not the old one.
@@ -1220,6 +1267,7 @@ TEST(Controller, AModuleThePlanNeverMovesFasterThanTheSteerThresholdHoldsItsAngl
     EXPECT_NEAR(out.modules[i].wheel_speed, 0.0, 1e-15) << i;  // sideways: no component along the wheel
   }
 }
+
 
 TEST(Controller, CommandsTheSteeringAngleOneCycleAlongTheCommandedRate) {
   // Module rates: the fake plan steers every module at 0.01 rad/s in its first column; from a

@@ -28,6 +28,7 @@
 #include "swerve/control/tracking_tube.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
 #include "swerve/ocp/vehicle_prediction_model.hpp"
+#include "swerve/ocp/work_budget.hpp"
 
 namespace swerve {
 
@@ -58,6 +59,10 @@ struct ControllerOptions {
   // the solver's deadline it has measured (that memory halving every 100 steps), so one stall
   // does not become a run of deadline misses. At most half the budget.
   double deadline_margin = 0.05;
+  // When enabled, the solve stops at solve_budget x (1 - deadline_margin) counted in work at the
+  // target's rates (WorkBudgetClock), so its answer is the same on every machine and in every run;
+  // the step's clock is then only the guard, half of the margin later (see solve_margin()).
+  WorkBudgetOptions work_budget;
   Eigen::Vector3d pose_weight{10.0, 10.0, 5.0};
   // When true the heading weight is the position weight times (heading_lever R)^2, R the distance
   // of the outermost module from the body origin: a heading error then costs what the displacement
@@ -183,6 +188,9 @@ class Controller final : public TrackingController {
   // The time kept free at the end of this step: the solver's deadline is the budget less it
   // (see deadline_margin).
   Duration solve_margin() const noexcept;
+  // This step's solver deadline: on the step's clock, or with a work budget on work_clock_ (the
+  // step's clock its guard).
+  Deadline solve_deadline(TimePoint step_start) noexcept;
 
   std::string name_;
   ControllerOptions options_;
@@ -215,7 +223,10 @@ class Controller final : public TrackingController {
   // says which it carries).
   std::optional<ActuatorEstimator> actuators_;
   double overshoot_s_ = 0.0;         // decaying maximum of step end - solver deadline (s)
-  TimePoint solve_deadline_{};       // this step's, when a solve ran
+  TimePoint solve_deadline_{};       // this step's on the step's clock (a work budget's guard), when a solve ran
+  // With options_.work_budget enabled; held by pointer so that a moved controller's model and
+  // solver never see a clock that moved.
+  std::unique_ptr<WorkBudgetClock> work_clock_;
   bool solved_ = false;              // whether this step ran the solver
   double step_t_ = 0.0;              // s: this step's t
   // s: the t from which every command sent asked some module to move (+inf: the last did not).

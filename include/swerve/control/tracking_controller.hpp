@@ -55,6 +55,9 @@ struct ControlOutput {
   // where a controller holds the reference while it prepares (the practical baseline's
   // pre-alignment); the delay is the run's completion time lost, and its tracking is judged there.
   double reference_delay_s = 0.0;
+  // The step's clock cut a work-budgeted solve short (ControllerOptions::work_budget): the machine
+  // ran slower than the budget's rates, and this answer depends on its speed.
+  bool work_budget_cut = false;
 };
 
 class TrackingController {

@@ -26,6 +26,7 @@ struct StepRecord {
   double solve_time_s = 0.0;                                  // < 0 when no solve ran
   double step_time_s = -1.0;                                  // the whole controller step; < 0 unknown
   double solve_late_s = 0.0;                                  // how far past its deadline the solver returned
+  bool work_budget_cut = false;                               // ControlOutput::work_budget_cut
   int solve_iterations = -1;
   // The optimiser's own view of the step: the predicted cost of the plan it returned, by part, and
   // of the best initial guess it started from (< 0 when no solve ran or the solver reports none).
@@ -58,6 +59,9 @@ struct RunMetrics {
   // Solves that returned past their own deadline (SolveSummary::late_s > 0): a miss with none came
   // from outside the solver (the rest of the step, or a stall between the solve and the command).
   int late_solves = 0;
+  // Steps whose work-budgeted solve the step's clock cut short (ControlOutput::work_budget_cut): 0
+  // means the run's answers did not depend on the machine's speed.
+  int work_budget_cuts = 0;
   int fallbacks = 0;               // periods whose command did not come from a successful solve
   int tracking_first_steps = 0;    // periods that sent the baseline's commands because the plan left the tube
   double reference_delay_s = 0.0;  // the controller's reference clock behind t at the end (ControlOutput)
