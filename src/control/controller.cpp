@@ -1,5 +1,7 @@
 #include "swerve/control/controller.hpp"
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -278,6 +280,11 @@ void Controller::steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd
   // does (BaselineOptions::steer_speed_threshold), it steers toward the first direction
   // the plan drives it faster than that, or holds, and its wheel rolls with the velocity's component
   // along its heading. See docs/decisions/low-speed-steering.md.
+  // A plan that drives the module nowhere within the horizon while the reference does (a 90 deg
+  // turn in place after a crab, modules at their end stops): the reference's direction is the
+  // aim instead. Otherwise the modules hold, the horizon is too short for the re-steering the motion
+  // needs first, and every plan stands still (the practical baseline's pre-alignment, while rolling
+  // or at rest).
   const double threshold = baseline_.options().steer_speed_threshold;
   const ModuleLimits& limits = layout_.limits();
   const Eigen::Vector3d twist_now = plan.col(column).head<3>();
@@ -286,21 +293,41 @@ void Controller::steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd
     const Eigen::Vector2d v_now = point_velocity<double>(twist_now, r_body);
     if (v_now.norm() >= threshold) continue;
     const double angle = state[StateIndex::steering(i)];
-    double rate = 0.0;
-    for (Eigen::Index k = column + 1; k < plan.cols(); ++k) {
-      const Eigen::Vector2d v_ahead = point_velocity<double>(Eigen::Vector3d(plan.col(k).head<3>()), r_body);
-      if (v_ahead.norm() < threshold) continue;
+    // The least steering rate that turns the module to velocity `v_ahead`'s direction in `time`.
+    const auto rate_toward = [&](const Eigen::Vector2d& v_ahead, double time) {
       const DriveDirection<double> direction = choose_drive_direction<double>(
           std::atan2(v_ahead.y(), v_ahead.x()), angle, 0, FlipPolicy::kNearest, 0.0, limits, 0.0, kDirectionTieBand);
-      // Aligned when the plan drives it that way, not before: the least steering rate that arrives.
-      rate = steering_rate_toward<double>(direction.turn, static_cast<double>(k - column) * options_.dt, limits,
-                                          LimitShape::kHard);
-      break;
+      return steering_rate_toward<double>(direction.turn, time, limits, LimitShape::kHard);
+    };
+    double rate = 0.0;
+    bool aimed = false;
+    for (Eigen::Index k = column + 1; k < plan.cols() && !aimed; ++k) {
+      const Eigen::Vector2d v_ahead = point_velocity<double>(Eigen::Vector3d(plan.col(k).head<3>()), r_body);
+      if (v_ahead.norm() < threshold) continue;
+      // Aligned when the plan drives it that way, not before.
+      rate = rate_toward(v_ahead, static_cast<double>(k - column) * options_.dt);
+      aimed = true;
+    }
+    for (Eigen::Index k = column; k < plan.cols() && !aimed; ++k) {
+      const Eigen::Vector2d v_ahead = point_velocity<double>(reference_twist_in_body(k, state), r_body);
+      if (v_ahead.norm() < threshold) continue;
+      // Reference column k is step k + 1's.
+      rate = rate_toward(v_ahead, static_cast<double>(k + 1 - column) * options_.dt);
+      aimed = true;
     }
     applied_input_[InputIndex::steering_rate(i)] = rate;
     applied_input_[InputIndex::wheel_speed(i)] = drive_wheel_speed<double>(
         rolling_speed<double>(v_now, angle), 0.0, false, limits, layout_.wheel_radius(), LimitShape::kHard);
   }
+}
+
+Eigen::Vector3d Controller::reference_twist_in_body(Eigen::Index column,
+                                                   const Eigen::Ref<const Eigen::VectorXd>& state) const noexcept {
+  // The reference's twist is in its own body frame; the vehicle's heading may differ from it.
+  const Eigen::Vector3d& twist_reference = problem_->reference_twists().col(column);
+  const Eigen::Vector2d v_body =
+      Eigen::Rotation2Dd(problem_->reference_poses()(2, column) - state[StateIndex::kPsi]) * twist_reference.head<2>();
+  return {v_body.x(), v_body.y(), twist_reference.z()};
 }
 
 void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable,

@@ -1252,11 +1252,28 @@ TEST(Controller, AModuleThePlanMovesSlowerThanTheSteerThresholdSteersTowardThePl
   }
 }
 
-TEST(Controller, AModuleThePlanNeverMovesFasterThanTheSteerThresholdHoldsItsAngle) {
+// At the origin, turning in place at `yaw_rate` (rad/s) from t = 0 (0: standing still; 0.5: a turn
+// after a crab into a bay).
+class TurnInPlace final : public Reference {
+ public:
+  explicit TurnInPlace(double yaw_rate) : yaw_rate_(yaw_rate) {}
+  ReferenceSample sample(double t) const noexcept override {
+    ReferenceSample s;
+    s.pose_world = Eigen::Vector3d(0.0, 0.0, yaw_rate_ * std::max(t, 0.0));
+    s.twist_body = Eigen::Vector3d(0.0, 0.0, yaw_rate_);
+    return s;
+  }
+  double duration() const noexcept override { return 10.0; }
+
+ private:
+  double yaw_rate_;
+};
+
+TEST(Controller, AModuleNeitherThePlanNorTheReferenceMovesFasterThanTheSteerThresholdHoldsItsAngle) {
   const ControllerOptions options = fast_options();
   Eigen::MatrixXd creeping = Eigen::MatrixXd::Zero(3, options.horizon);
   creeping.row(1).setConstant(0.01);  // sideways at 1 cm/s over the whole horizon
-  Controller controller(small_robot(), testing::line_reference(0.5), options,
+  Controller controller(small_robot(), std::make_shared<TurnInPlace>(0.0), options,
                         [&](const OcpProblem& p) { return std::make_unique<FixedPlanSolver>(p, creeping); });
   testing::ManualClock clock;
   controller.set_clock(clock);
@@ -1268,6 +1285,41 @@ TEST(Controller, AModuleThePlanNeverMovesFasterThanTheSteerThresholdHoldsItsAngl
   }
 }
 
+
+TEST(Controller, AModuleThePlanNeverMovesButTheReferenceDoesSteersTowardTheReferencesDirection) {
+  // The modules at their end stops after a crab, the reference turning in place: the turn needs
+  // re-steering longer than the horizon, so every plan the optimiser can see stands still. The
+  // modules must not hold (the vehicle stood with a growing heading error, the carriers' duty
+  // cycle): they steer toward the directions the reference's turn drives them, at full rate when
+  // the reference drives them now.
+  const ControllerOptions options = fast_options();
+  VehicleParams params = small_robot();
+  ModuleLimits limits = testing::small_robot_limits();
+  limits.min_steering_angle = -kPi / 2;
+  limits.max_steering_angle = kPi / 2;
+  params.layout = ModuleLayout::rectangle(0.6, 0.5, 0.1, limits);
+  const Eigen::MatrixXd standing = Eigen::MatrixXd::Zero(3, options.horizon);
+  Controller controller(params, std::make_shared<TurnInPlace>(0.5), options,
+                        [&](const OcpProblem& p) { return std::make_unique<FixedPlanSolver>(p, standing); });
+  testing::ManualClock clock;
+  controller.set_clock(clock);
+  Eigen::VectorXd state = at_rest();
+  for (int i = 0; i < 4; ++i) state[6 + i] = kPi / 2;  // crabbed left, at the +90 deg stops
+  const ControlOutput& out = controller.step(state, 0.0);
+  ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+  for (int i = 0; i < 4; ++i) {
+    SCOPED_TRACE(i);
+    // The turn's contact velocity at module i is perpendicular to its position; the nearest
+    // reachable way round within +-90 deg is atan(-x / y) (or atan(-x / y) + pi folded back).
+    const Eigen::Vector2d p = params.layout.position_body(i);
+    const double target = std::atan(-p.x() / p.y());
+    const double expected = std::clamp((target - kPi / 2) / options.dt, -limits.max_steering_rate,
+                                       limits.max_steering_rate);
+    EXPECT_NEAR(out.modules[i].steering_rate, expected, 1e-9);
+    EXPECT_NE(out.modules[i].steering_rate, 0.0);
+    EXPECT_NEAR(out.modules[i].wheel_speed, 0.0, 1e-15);  // the plan stands still
+  }
+}
 
 TEST(Controller, CommandsTheSteeringAngleOneCycleAlongTheCommandedRate) {
   // Module rates: the fake plan steers every module at 0.01 rad/s in its first column; from a

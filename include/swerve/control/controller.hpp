@@ -165,6 +165,8 @@ class Controller final : public TrackingController {
   void steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd>& plan, int column,
                                 const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
   void assume_previous_input(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
+  // The reference's twist at problem column `column` in the body frame of `state`'s heading.
+  Eigen::Vector3d reference_twist_in_body(Eigen::Index column, const Eigen::Ref<const Eigen::VectorXd>& state) const noexcept;
   // Updates the problem for a step at t from now_: initial state (with the actuator estimate),
   // previous input, the reference over the horizon.
   void update_problem(double t) noexcept;
