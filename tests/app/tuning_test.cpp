@@ -655,8 +655,7 @@ TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsT
   EXPECT_DOUBLE_EQ(tuned.mpc.wear_weight, original.mpc.wear_weight);
   EXPECT_EQ(tuned.mpc.pose_weight, original.mpc.pose_weight);
   EXPECT_DOUBLE_EQ(tuned.solver.sa.polish_share, original.solver.sa.polish_share);
-  // A target as fast as this machine keeps the work budget's rates.
-  EXPECT_TRUE(tuned.mpc.work_budget.enabled);
+  EXPECT_EQ(tuned.mpc.work_budget.enabled, original.mpc.work_budget.enabled);
   EXPECT_DOUBLE_EQ(tuned.mpc.work_budget.seconds_per_read, original.mpc.work_budget.seconds_per_read);
   std::remove(path.c_str());
 }
@@ -664,7 +663,19 @@ TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsT
 TEST(TuneByQuality, WritesTheWorkBudgetsRatesScaledByTheTargetsSlowdown) {
   // The tuner ran the candidates here at the base file's rates on budget / cpu_slowdown; on the
   // target the same work takes cpu_slowdown times as long.
-  const std::string base = config_file("controllers/default.yaml");
+  // The shipped controller with its work budget on (it ships off).
+  const std::string base = ::testing::TempDir() + "work_budgeted_base.yaml";
+  {
+    std::ifstream in(config_file("controllers/default.yaml"));
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string yaml = text.str();
+    const std::string off = "work_budget:";
+    const std::size_t at = yaml.find("enabled: false", yaml.find(off));
+    ASSERT_NE(at, std::string::npos);
+    yaml.replace(at, std::string("enabled: false").size(), "enabled: true");
+    std::ofstream(base) << yaml;
+  }
   const std::string path = ::testing::TempDir() + "tuned_slow_target.yaml";
   TargetConfig target;
   target.name = "test";
@@ -679,6 +690,7 @@ TEST(TuneByQuality, WritesTheWorkBudgetsRatesScaledByTheTargetsSlowdown) {
   EXPECT_DOUBLE_EQ(tuned.seconds_per_read, 4.0 * original.seconds_per_read);
   EXPECT_DOUBLE_EQ(tuned.seconds_per_module_evaluation, 4.0 * original.seconds_per_module_evaluation);
   std::remove(path.c_str());
+  std::remove(base.c_str());
 }
 
 TEST(TuneByQuality, WritesALongerStepWithTheTargetsControlPeriodAndDropsItAtThePeriod) {

@@ -1,7 +1,8 @@
 // A solve budget counted in work rather than in time: the solve stops when the work it did, priced
 // at a target's rates (per clock read, per module evaluation), reaches its share of the budget. The
 // same inputs then get the same answer on every machine and in every run; the step's own clock
-// stays the guard that keeps the deadline when the machine is slower than its rates say.
+// stays the guard that ends the solve when the machine is slower than its rates say (after the
+// proposal in flight, which short budgets cannot afford: docs/decisions/work-budget.md).
 #pragma once
 
 #include <atomic>
