@@ -1,13 +1,12 @@
 #include "swerve/control/controller.hpp"
 
-#include <Eigen/Geometry>
-
 #include <cmath>
 #include <limits>
 #include <sstream>
 
 #include "swerve/core/config_error.hpp"
 #include "swerve/kinematics/module_commands.hpp"
+#include "swerve/kinematics/se2.hpp"
 #include "swerve/control/safe_stop.hpp"
 
 namespace swerve {
@@ -324,10 +323,9 @@ void Controller::steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd
 Eigen::Vector3d Controller::reference_twist_in_body(Eigen::Index column,
                                                    const Eigen::Ref<const Eigen::VectorXd>& state) const noexcept {
   // The reference's twist is in its own body frame; the vehicle's heading may differ from it.
-  const Eigen::Vector3d& twist_reference = problem_->reference_twists().col(column);
-  const Eigen::Vector2d v_body =
-      Eigen::Rotation2Dd(problem_->reference_poses()(2, column) - state[StateIndex::kPsi]) * twist_reference.head<2>();
-  return {v_body.x(), v_body.y(), twist_reference.z()};
+  const Eigen::Vector3d twist_world =
+      twist_body_to_world(problem_->reference_twists().col(column), problem_->reference_poses()(2, column));
+  return twist_world_to_body(twist_world, state[StateIndex::kPsi]);
 }
 
 void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bool baseline_usable,
