@@ -225,6 +225,9 @@ void Controller::reset() noexcept {
   monitor_.reset();
   latency_.reset();
   motion_commanded_since_ = std::numeric_limits<double>::infinity();
+  reference_held_ = false;
+  reference_delay_s_ = 0.0;
+  output_.reference_delay_s = 0.0;
   for (int i = 0; i < modules_; ++i) output_.modules[i] = ModuleCommand{};
 }
 
@@ -390,6 +393,25 @@ bool Controller::close_baseline_loop() noexcept {
   return baseline_policy_guess_.allFinite();
 }
 
+bool Controller::pre_align() noexcept {
+  if (!baseline_.options().pre_align || !baseline_.pre_align_holds(now_.segment<3>(StateIndex::kVx))) return false;
+  // The baseline's steering toward the first direction of travel, the wheels at rest; the next
+  // plan starts from rest, as the decision the smoothness cost starts from says.
+  fallback_input_ = baseline_inputs_.col(0).cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
+  for (int i = 0; i < modules_; ++i) fallback_input_[InputIndex::wheel_speed(i)] = 0.0;
+  apply_module_inputs(fallback_input_, now_.segment(StateIndex::kFirstSteering, modules_));
+  if (twist_model_ != nullptr) {
+    applied_decision_.setZero();
+  } else {
+    applied_decision_ = fallback_input_;
+  }
+  previous_input_known_ = true;
+  plan_.valid = false;  // a plan from before the stop is no guess for the start
+  output_.source = CommandSource::kOptimizer;
+  output_.reason = "pre-alignment: the wheels wait while the modules turn to their first direction of travel";
+  return true;
+}
+
 void Controller::send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept {
   // The baseline's own module commands (as the kinematic_baseline controller sends them), within
   // the drives' limits; the decision the smoothness cost starts from next cycle is its twist.
@@ -471,7 +493,7 @@ void Controller::set_reference(std::shared_ptr<const Reference> reference) {
   reference_ = std::move(reference);
 }
 
-void Controller::update_problem(double t) noexcept {
+void Controller::update_problem(double t, double reference_t) noexcept {
   // In place: the state (with the actuators' estimate), the last applied input, the reference window.
   prediction_state_.head(6 + modules_) = now_;
   if (actuators_->active()) {
@@ -484,7 +506,7 @@ void Controller::update_problem(double t) noexcept {
   if (!previous_input_known_) assume_previous_input(now_);
   problem_->set_previous_input(applied_decision_);
   for (int k = 1; k <= options_.horizon; ++k) {
-    const ReferenceSample sample = reference_->sample(t + k * options_.dt);
+    const ReferenceSample sample = reference_->sample(reference_t + k * options_.dt);
     problem_->set_reference(k, sample.pose_world, sample.twist_body);
   }
 }
@@ -516,6 +538,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
                                       double measured_at) noexcept {
   // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
   const TimePoint step_start = clock().now();
+  const double previous_t = step_t_;
   step_t_ = t;
   const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
   const Deadline deadline = solve_deadline(step_start);
@@ -555,9 +578,14 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   // A measurement taken before t is rolled forward by the commands sent since (Smith predictor),
   // after the observer's filtering when it is on.
   latency_.estimate(measured, measured_at, t, now_);
-  update_problem(t);
+  // The time a pre-alignment held the reference does not count on the reference's clock.
+  if (reference_held_ && t > previous_t) reference_delay_s_ += t - previous_t;
+  update_problem(t, t - reference_delay_s_);
   bool policy_guess_usable = false;
   const bool baseline_usable = plan_baseline(&policy_guess_usable);
+  reference_held_ = baseline_usable && pre_align();
+  output_.reference_delay_s = reference_delay_s_;
+  if (reference_held_) return finish(step_start);
   if (options_.tracking_tolerance.enabled()) {
     tube_->set(*problem_, *model_data_, baseline_usable ? &baseline_guess_ : nullptr);
   }
@@ -572,6 +600,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   if (baseline_usable && options_.baseline_guess) guesses.add(&baseline_guess_);
 
   solved_ = true;
+  if (work_clock_) work_clock_->begin_solve();
   const SolveStatus status = solver_->solve(*problem_, guesses, deadline, &solution_, &output_.solve);
   const bool late = clock().now() > step_deadline + to_duration(options_.overrun_grace);
   if (has_solution(status) && solution_.valid && !late && problem_->is_feasible(solution_.inputs, 1e-6)) {

@@ -663,19 +663,8 @@ TEST(TuneByQuality, WritesTheWinnersControllerWhichLoadsWithItsSettingsAndKeepsT
 TEST(TuneByQuality, WritesTheWorkBudgetsRatesScaledByTheTargetsSlowdown) {
   // The tuner ran the candidates here at the base file's rates on budget / cpu_slowdown; on the
   // target the same work takes cpu_slowdown times as long.
-  // The shipped controller with its work budget on (it ships off).
-  const std::string base = ::testing::TempDir() + "work_budgeted_base.yaml";
-  {
-    std::ifstream in(config_file("controllers/default.yaml"));
-    std::stringstream text;
-    text << in.rdbuf();
-    std::string yaml = text.str();
-    const std::string off = "work_budget:";
-    const std::size_t at = yaml.find("enabled: false", yaml.find(off));
-    ASSERT_NE(at, std::string::npos);
-    yaml.replace(at, std::string("enabled: false").size(), "enabled: true");
-    std::ofstream(base) << yaml;
-  }
+  // The shipped controller, whose work budget is on.
+  const std::string base = config_file("controllers/default.yaml");
   const std::string path = ::testing::TempDir() + "tuned_slow_target.yaml";
   TargetConfig target;
   target.name = "test";
@@ -690,7 +679,6 @@ TEST(TuneByQuality, WritesTheWorkBudgetsRatesScaledByTheTargetsSlowdown) {
   EXPECT_DOUBLE_EQ(tuned.seconds_per_read, 4.0 * original.seconds_per_read);
   EXPECT_DOUBLE_EQ(tuned.seconds_per_module_evaluation, 4.0 * original.seconds_per_module_evaluation);
   std::remove(path.c_str());
-  std::remove(base.c_str());
 }
 
 TEST(TuneByQuality, WritesALongerStepWithTheTargetsControlPeriodAndDropsItAtThePeriod) {

@@ -1196,15 +1196,19 @@ TEST(Controller, BoundsTheOptimizerByTheDriveLimitsInEitherParameterization) {
 }
 
 // A solver that returns a given plan (inputs), rolled out.
+// Returns `plan` every solve; with `first_reference_pose`, records there the first reference pose
+// of the problem it was given.
 class FixedPlanSolver final : public Solver {
  public:
-  FixedPlanSolver(const OcpProblem& shape, Eigen::MatrixXd plan)
-      : Solver(shape), plan_(std::move(plan)), stage_costs_(Eigen::VectorXd::Zero(shape.horizon())) {}
+  FixedPlanSolver(const OcpProblem& shape, Eigen::MatrixXd plan, Eigen::Vector3d* first_reference_pose = nullptr)
+      : Solver(shape), plan_(std::move(plan)), stage_costs_(Eigen::VectorXd::Zero(shape.horizon())),
+        first_reference_pose_(first_reference_pose) {}
   const char* name() const noexcept override { return "fixed_plan"; }
 
  private:
   SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses&, Deadline, Solution* out,
                        SolveSummary* summary) noexcept override {
+    if (first_reference_pose_ != nullptr) *first_reference_pose_ = problem.reference_poses().col(0);
     out->inputs = plan_;
     out->cost = testing::rollout_once(problem, out->inputs, 0, out->states, stage_costs_);
     summary->reason = "fixed plan";
@@ -1212,6 +1216,7 @@ class FixedPlanSolver final : public Solver {
   }
   Eigen::MatrixXd plan_;
   Eigen::VectorXd stage_costs_;
+  Eigen::Vector3d* first_reference_pose_;
 };
 
 // Body-twist plan: column 0 creeps sideways at 1 cm/s (below the baseline's 3 cm/s steer
@@ -1318,6 +1323,58 @@ TEST(Controller, AModuleThePlanNeverMovesButTheReferenceDoesSteersTowardTheRefer
     EXPECT_NEAR(out.modules[i].steering_rate, expected, 1e-9);
     EXPECT_NE(out.modules[i].steering_rate, 0.0);
     EXPECT_NEAR(out.modules[i].wheel_speed, 0.0, 1e-15);  // the plan stands still
+  }
+}
+
+TEST(Controller, WithPreAlignmentTheWheelsWaitAtRestWhileTheModulesTurnAndTheReferenceIsHeld) {
+  // The practical baseline's start (BaselineOptions::pre_align) in the wear-aware controller: from
+  // rest with the modules a quarter turn off the first direction of travel, the wheels stay at rest
+  // and the modules steer; the reference's clock stops meanwhile, and once aligned the solver's
+  // problem starts from the held reference (t less the time held).
+  const ControllerOptions options = fast_options();
+  // Sideways (+y) from rest, heading held at 0: a quarter turn from wheels at 0.
+  SpeedProfile profile;
+  profile.speed = 0.5;
+  profile.acceleration = 0.5;
+  const auto reference = std::make_shared<PathReference>(make_line_curve({0.0, 0.0}, kPi / 2, 50.0), profile, -kPi / 2);
+  Eigen::MatrixXd sideways = Eigen::MatrixXd::Zero(3, options.horizon);
+  for (int k = 0; k < options.horizon; ++k) sideways(1, k) = 0.01 * (k + 1);  // a feasible ramp from rest
+  for (const bool pre_align : {true, false}) {
+    SCOPED_TRACE(pre_align);
+    BaselineOptions baseline;
+    baseline.pre_align = pre_align;
+    Eigen::Vector3d first_reference_pose = Eigen::Vector3d::Constant(-1.0);
+    Controller controller(
+        small_robot(), reference, options,
+        [&](const OcpProblem& p) { return std::make_unique<FixedPlanSolver>(p, sideways, &first_reference_pose); },
+        baseline);
+    testing::ManualClock clock;
+    controller.set_clock(clock);
+    Eigen::VectorXd state = at_rest();  // wheels at 0: a quarter turn from +y
+    if (!pre_align) {
+      const ControlOutput& out = controller.step(state, 0.0);
+      EXPECT_STREQ(out.reason, "fixed plan");
+      EXPECT_EQ(out.reference_delay_s, 0.0);
+      continue;
+    }
+    for (const double t : {0.0, 0.05}) {
+      const ControlOutput& out = controller.step(state, t);
+      ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+      EXPECT_EQ(out.solve.status, SolveStatus::kNotRun);
+      EXPECT_NEAR(out.reference_delay_s, t, 1e-12);
+      for (int i = 0; i < 4; ++i) {
+        EXPECT_EQ(out.modules[i].wheel_speed, 0.0) << i;
+        EXPECT_GT(std::abs(out.modules[i].steering_rate), 0.5) << i;
+      }
+    }
+    for (int i = 0; i < 4; ++i) state[6 + i] = kPi / 2;  // aligned with +y
+    const ControlOutput& out = controller.step(state, 0.1);
+    EXPECT_STREQ(out.reason, "fixed plan");
+    EXPECT_NEAR(out.reference_delay_s, 0.1, 1e-12);
+    // The problem's first reference is one step past the held reference's clock (0.1 - 0.1).
+    EXPECT_TRUE(first_reference_pose.isApprox(reference->sample(options.dt).pose_world, 1e-12))
+        << first_reference_pose.transpose();
+    EXPECT_GT(std::abs(out.modules[0].wheel_speed), 0.0);
   }
 }
 

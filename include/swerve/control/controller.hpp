@@ -168,8 +168,12 @@ class Controller final : public TrackingController {
   // The reference's twist at problem column `column` in the body frame of `state`'s heading.
   Eigen::Vector3d reference_twist_in_body(Eigen::Index column, const Eigen::Ref<const Eigen::VectorXd>& state) const noexcept;
   // Updates the problem for a step at t from now_: initial state (with the actuator estimate),
-  // previous input, the reference over the horizon.
-  void update_problem(double t) noexcept;
+  // previous input, the reference over the horizon from reference_t (t less the time it was held).
+  void update_problem(double t, double reference_t) noexcept;
+  // BaselineOptions::pre_align: whether the wheels wait this step while the modules turn to their
+  // first direction of travel (a start from rest, as the practical baseline does); if so, sends
+  // the baseline's steering with the wheels at rest.
+  bool pre_align() noexcept;
   // Plans the baseline from now_ (the second fallback) and makes its plan the initial guess;
   // *policy_guess_usable when its policy, closed through the prediction, is a guess too. false
   // when the baseline cannot plan.
@@ -231,6 +235,9 @@ class Controller final : public TrackingController {
   std::unique_ptr<WorkBudgetClock> work_clock_;
   bool solved_ = false;              // whether this step ran the solver
   double step_t_ = 0.0;              // s: this step's t
+  // Pre-alignment holds the reference: its clock runs behind t by the time held (ControlOutput).
+  bool reference_held_ = false;      // the last step held it
+  double reference_delay_s_ = 0.0;
   // s: the t from which every command sent asked some module to move (+inf: the last did not).
   double motion_commanded_since_ = std::numeric_limits<double>::infinity();
   ControlOutput output_;

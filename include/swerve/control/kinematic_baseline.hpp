@@ -109,6 +109,10 @@ class KinematicBaseline final : public TrackingController {
     twist_committed_ = true;
   }
   const BaselineOptions& options() const noexcept { return options_; }
+  // pre_align: whether the wheels wait this step (a start from rest whose modules are still more
+  // than pre_align_tolerance from their first direction of travel). After plan_twists() and
+  // module_inputs() of this step; the wear-aware controller asks it too.
+  bool pre_align_holds(const Eigen::Vector3d& measured_twist) noexcept;
 
  private:
   // The drive limits: the per-step change of module speed the drive acceleration allows; `to`, or
@@ -121,9 +125,6 @@ class KinematicBaseline final : public TrackingController {
   // after the step (signed_speeds_, turn_left_): each module's own cosine, or with common_scaling
   // the least aligned module's for all.
   void wheel_speeds_at(int k, Eigen::Ref<Eigen::MatrixXd> inputs) const noexcept;
-  // pre_align: whether the wheels wait this step (a start from rest whose modules are still more
-  // than pre_align_tolerance from their first direction of travel).
-  bool pre_align_holds(const Eigen::Vector3d& measured_twist) noexcept;
   // Safe-stop commands with `reason`; the ramp restarts from the measured twist next step.
   const ControlOutput& stop_safely(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
   BaselineOptions options_;
