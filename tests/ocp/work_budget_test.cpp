@@ -50,23 +50,23 @@ TEST(WorkBudgetClock, PastTheGuardItReadsTheBudgetsEndSoTheDeadlinePassesAndSays
 
 TEST(WorkBudgetClock, OnAMachineSlowerThanItsRatesItReadsTheStepsClockMappedOntoTheBudget) {
   // A 1 ms budget of work, guarded 2 ms later on the step's clock; the meter (1 ns per read)
-  // stands almost still. The step's clock reads as the budget's share
-  // (u - 0.2) / 0.8 at the share u of the time to the guard: nothing up to 0.4 ms, all at 2 ms.
-  static_assert(WorkBudgetClock::kForgivenLag == 0.2, "the expectations below are for 0.2");
+  // stands almost still. The step's clock reads as the budget's share (u - 0.5) / 0.5 at the
+  // share u of the time to the guard: nothing up to 1 ms, all of it at 2 ms.
+  static_assert(WorkBudgetClock::kForgivenLag == 0.5, "the expectations below are for 0.5");
   WorkBudgetClock clock(rates(1e-9, 1e-12));
   WorkClock step_clock;
   const Deadline deadline = clock.begin(step_clock, step_clock.now() + to_duration(2e-3), to_duration(1e-3));
   const TimePoint start = deadline.at() - to_duration(1e-3);
-  step_clock.advance(to_duration(400e-6));  // a lag within the forgiven share: the meter reads
+  step_clock.advance(to_duration(800e-6));  // a lag within the forgiven share: the meter reads
   EXPECT_LT(clock.now() - start, to_duration(1e-8));
   EXPECT_FALSE(clock.guard_fired());
-  step_clock.advance(to_duration(800e-6));  // u = 0.6
-  EXPECT_EQ(clock.now() - start, to_duration(500e-6));
+  step_clock.advance(to_duration(400e-6));  // u = 0.6
+  EXPECT_EQ(clock.now() - start, to_duration(200e-6));
   EXPECT_TRUE(clock.guard_fired());
-  // So a solver that asks whether one more 0.4 ms proposal fits sees it take 0.25 ms of the
-  // 0.5 ms left: after the next one (0.75 ms) one more would not fit, and the deadline is not past.
+  // From here a 0.4 ms proposal reads as 0.4 ms of the budget: a solver asking whether one more
+  // fits sees the time it takes (twice its share of the budget, on the side of the deadline).
   step_clock.advance(to_duration(400e-6));
-  EXPECT_EQ(clock.now() - start, to_duration(750e-6));
+  EXPECT_EQ(clock.now() - start, to_duration(600e-6));
   EXPECT_FALSE(deadline.passed());
   step_clock.advance(to_duration(400e-6));  // the guard
   EXPECT_TRUE(deadline.passed());
@@ -75,21 +75,21 @@ TEST(WorkBudgetClock, OnAMachineSlowerThanItsRatesItReadsTheStepsClockMappedOnto
 TEST(WorkBudgetClock, FromTheSolvesStartOnlyTheSolvesOwnPaceIsComparedWithTheMeter) {
   // 1 ms of budget guarded 2 ms later; the step's work before the solve took 1.2 ms of the step's
   // clock and almost nothing on the meter. Before begin_solve() the step's clock reads
-  // (0.6 - 0.2) / 0.8 = 0.5 ms of the budget gone; from the solve's start the 0.8 ms left to the
+  // (0.6 - 0.5) / 0.5 = 0.2 ms of the budget gone; from the solve's start the 0.8 ms left to the
   // guard maps onto the ~1 ms of work left, and the lag before the solve is forgiven.
   WorkBudgetClock clock(rates(1e-9, 1e-12));
   WorkClock step_clock;
   const Deadline deadline = clock.begin(step_clock, step_clock.now() + to_duration(2e-3), to_duration(1e-3));
   const TimePoint start = deadline.at() - to_duration(1e-3);
   step_clock.advance(to_duration(1.2e-3));
-  EXPECT_EQ(clock.now() - start, to_duration(500e-6));
+  EXPECT_EQ(clock.now() - start, to_duration(200e-6));
   clock.begin_solve();
   EXPECT_FALSE(clock.guard_fired());
   EXPECT_LT(clock.now() - start, to_duration(1e-8));  // the meter's reading again
-  step_clock.advance(to_duration(400e-6));  // half the time left: (0.5 - 0.2) / 0.8 of the work left
-  EXPECT_NEAR(to_seconds(clock.now() - start), 375e-6, 1e-8);
+  step_clock.advance(to_duration(600e-6));  // u = 0.75 of the time left: (0.75 - 0.5) / 0.5 of the work left
+  EXPECT_NEAR(to_seconds(clock.now() - start), 500e-6, 1e-8);
   EXPECT_TRUE(clock.guard_fired());
-  step_clock.advance(to_duration(400e-6));  // the guard
+  step_clock.advance(to_duration(200e-6));  // the guard
   EXPECT_TRUE(deadline.passed());
 }
 

@@ -30,7 +30,7 @@ struct WorkBudgetOptions {
 // and a lag of up to kForgivenLag of the time to the guard (a cold first step, a stall) reads as
 // none. On a machine as fast as its rates the meter is ahead and decides alone, so every run gives
 // the same answer; on a slower one the step's clock is, and the solver's look-ahead ("does one
-// more proposal fit?") sees the time proposals take, a little more (1 / (1 - kForgivenLag)).
+// more proposal fit?") sees the time proposals take, on the side of the deadline (1 / (1 - kForgivenLag)).
 // Past the guard it reads the budget's end. Charges reach both the meter and the step's clock (a
 // work clock in tests; the wall clock ignores them). One per controller; reads are thread-safe,
 // begin() is not.
@@ -41,7 +41,7 @@ class WorkBudgetClock final : public Clock {
   // The share of the time to the guard the step's clock may run behind the meter's pace before it
   // is read. A lag spread over the solve still reaches the guard in time; see
   // docs/decisions/work-budget.md.
-  static constexpr double kForgivenLag = 0.2;
+  static constexpr double kForgivenLag = 0.5;
 
   // Starts a step's budget: `work` seconds of work from now on the meter, guarded by `guard_at` on
   // `step_clock` (not owned; it must outlive the step). Returns the deadline on this clock.
