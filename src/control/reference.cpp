@@ -8,6 +8,7 @@
 #include "swerve/core/constants.hpp"
 #include "swerve/core/option_fields.hpp"
 #include "swerve/core/text_file.hpp"
+#include "swerve/kinematics/se2.hpp"
 
 namespace swerve {
 namespace {
@@ -291,6 +292,15 @@ double PathReference::parameter_at(double s) const noexcept {
 }
 
 ReferenceSample PathReference::sample(double t) const noexcept {
+  if (t > duration_ && !profile_.stop_at_end) {
+    // A path that ends at speed describes a vehicle still moving when the path (or the experiment)
+    // ends: past its end it goes on at its final twist, on the arc that twist draws. Holding the
+    // final pose instead would ask for a stop in zero distance, which a controller that looks past
+    // the end can only meet by braking before it.
+    ReferenceSample out = sample(duration_);
+    out.pose_world = compose_pose(out.pose_world, out.twist_body * (t - duration_));
+    return out;
+  }
   double speed = 0.0;
   const double s = arc_length_at(t, &speed);
   const double u = parameter_at(s);

@@ -121,6 +121,29 @@ TEST(PathReference, SpeedProfileRampsUpAndStopsAtTheEnd) {
   EXPECT_EQ(reference.sample(-1.0).twist_body.norm(), 0.0);
 }
 
+TEST(PathReference, APathThatEndsAtSpeedGoesOnAlongItsFinalTwistPastItsEnd) {
+  // Truth: a longer arc on the same circle. Past the end of a quarter circle that does not stop,
+  // the reference continues on the circle at the same speed and turn rate.
+  const double radius = 3.0, speed = 1.5, heading_offset = kPiTest / 3;
+  const PathReference quarter(make_arc_curve({1.0, -2.0}, 0.4, radius, kPiTest / 2), {speed, 0.0, false},
+                              heading_offset);
+  const PathReference half(make_arc_curve({1.0, -2.0}, 0.4, radius, kPiTest), {speed, 0.0, false},
+                           heading_offset);
+  for (double t : {quarter.duration() + 0.05, quarter.duration() + 0.7, half.duration() - 0.01}) {
+    SCOPED_TRACE(t);
+    const ReferenceSample continued = quarter.sample(t), truth = half.sample(t);
+    EXPECT_NEAR((continued.pose_world.head<2>() - truth.pose_world.head<2>()).norm(), 0.0, 1e-8);
+    EXPECT_NEAR(wrap_angle(continued.pose_world.z() - truth.pose_world.z()), 0.0, 1e-8);
+    EXPECT_NEAR((continued.twist_body - truth.twist_body).norm(), 0.0, 1e-8);
+  }
+  // One that stops at its end holds its final pose at rest.
+  const PathReference stopping(make_arc_curve({1.0, -2.0}, 0.4, radius, kPiTest / 2), {speed, 0.5, true},
+                               heading_offset);
+  const ReferenceSample held = stopping.sample(stopping.duration() + 2.0);
+  EXPECT_EQ(held.twist_body.norm(), 0.0);
+  EXPECT_NEAR((held.pose_world - stopping.sample(stopping.duration()).pose_world).norm(), 0.0, 1e-12);
+}
+
 TEST(PathReference, ShortPathNeverReachesCruiseSpeed) {
   const PathReference reference(make_line_curve({0, 0}, 0.0, 1.0), {5.0, 1.0, true}, 0.0);
   EXPECT_NEAR(reference.duration(), 2.0, 1e-12);  // peak 1 m/s at 1 s

@@ -27,7 +27,8 @@ class Reference {
  public:
   virtual ~Reference() = default;
   // On [0, duration()] the reference moves; after it, it holds its final pose with zero twist (a
-  // window that runs off the end asks the vehicle to stop there); before 0 it holds the start pose. noexcept, no
+  // window that runs off the end asks the vehicle to stop there), except a PathReference that ends at
+  // speed, which goes on at its final twist; before 0 it holds the start pose. noexcept, no
   // allocation.
   virtual ReferenceSample sample(double t) const noexcept = 0;
   virtual double duration() const noexcept = 0;
@@ -52,6 +53,8 @@ class PlanarCurve {
 
 // The speed along the path: rises from 0 at `acceleration`, cruises at `speed`, and (if
 // `stop_at_end`) falls back to 0 exactly at the path's end. acceleration <= 0 means "start at speed".
+// Without `stop_at_end` the path ends at speed and the reference past its end continues at its final
+// twist (an experiment that ends while the vehicle moves, as the paper's curve).
 struct SpeedProfile {
   double speed = 1.0;          // m/s
   double acceleration = 0.0;   // m/s^2; 0: no ramp
