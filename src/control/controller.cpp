@@ -225,8 +225,7 @@ void Controller::reset() noexcept {
   monitor_.reset();
   latency_.reset();
   motion_commanded_since_ = std::numeric_limits<double>::infinity();
-  reference_held_ = false;
-  reference_delay_s_ = 0.0;
+  reference_hold_.reset();
   output_.reference_delay_s = 0.0;
   for (int i = 0; i < modules_; ++i) output_.modules[i] = ModuleCommand{};
 }
@@ -361,7 +360,7 @@ void Controller::fall_back(const Eigen::Ref<const Eigen::VectorXd>& measured, bo
     fallback_input_ = baseline_inputs_.col(0)
                           .cwiseMax(applied_input_ - module_bounds_.max_step)
                           .cwiseMin(applied_input_ + module_bounds_.max_step);
-    fallback_input_ = fallback_input_.cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
+    set_fallback_input(fallback_input_);
     apply_module_inputs(fallback_input_, measured.segment(StateIndex::kFirstSteering, modules_));
     applied_decision_ = baseline_guess_.col(0);
     output_.source = CommandSource::kBaseline;
@@ -397,7 +396,7 @@ bool Controller::pre_align() noexcept {
   if (!baseline_.options().pre_align || !baseline_.pre_align_holds(now_.segment<3>(StateIndex::kVx))) return false;
   // The baseline's steering toward the first direction of travel, the wheels at rest; the next
   // plan starts from rest, as the decision the smoothness cost starts from says.
-  fallback_input_ = baseline_inputs_.col(0).cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
+  set_fallback_input(baseline_inputs_.col(0));
   for (int i = 0; i < modules_; ++i) fallback_input_[InputIndex::wheel_speed(i)] = 0.0;
   apply_module_inputs(fallback_input_, now_.segment(StateIndex::kFirstSteering, modules_));
   if (twist_model_ != nullptr) {
@@ -415,7 +414,7 @@ bool Controller::pre_align() noexcept {
 void Controller::send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept {
   // The baseline's own module commands (as the kinematic_baseline controller sends them), within
   // the drives' limits; the decision the smoothness cost starts from next cycle is its twist.
-  fallback_input_ = baseline_inputs_.col(0).cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
+  set_fallback_input(baseline_inputs_.col(0));
   apply_module_inputs(fallback_input_, state.segment(StateIndex::kFirstSteering, modules_));
   applied_decision_ = baseline_guess_.col(0);
   output_.source = CommandSource::kTrackingFirst;
@@ -538,7 +537,6 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
                                       double measured_at) noexcept {
   // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
   const TimePoint step_start = clock().now();
-  const double previous_t = step_t_;
   step_t_ = t;
   const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
   const Deadline deadline = solve_deadline(step_start);
@@ -579,13 +577,12 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   // after the observer's filtering when it is on.
   latency_.estimate(measured, measured_at, t, now_);
   // The time a pre-alignment held the reference does not count on the reference's clock.
-  if (reference_held_ && t > previous_t) reference_delay_s_ += t - previous_t;
-  update_problem(t, t - reference_delay_s_);
+  update_problem(t, reference_hold_.reference_time(t));
   bool policy_guess_usable = false;
   const bool baseline_usable = plan_baseline(&policy_guess_usable);
-  reference_held_ = baseline_usable && pre_align();
-  output_.reference_delay_s = reference_delay_s_;
-  if (reference_held_) return finish(step_start);
+  reference_hold_.set_held(baseline_usable && pre_align());
+  output_.reference_delay_s = reference_hold_.delay_s();
+  if (reference_hold_.held()) return finish(step_start);
   if (options_.tracking_tolerance.enabled()) {
     tube_->set(*problem_, *model_data_, baseline_usable ? &baseline_guess_ : nullptr);
   }

@@ -98,8 +98,7 @@ void KinematicBaseline::reset() noexcept {
   twists_.setZero();
   twist_committed_ = false;
   aligning_ = true;
-  held_ = false;
-  reference_delay_s_ = 0.0;
+  reference_hold_.reset();
   latency_.reset();
 }
 
@@ -405,9 +404,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
   // observer, when on, filters it first.
   latency_.estimate(measured, measured_at, t, now_);
   // The time since a step that waited for the steering does not count on the reference's clock.
-  if (held_ && t > last_t_) reference_delay_s_ += t - last_t_;
-  last_t_ = t;
-  const double reference_t = t - reference_delay_s_;
+  const double reference_t = reference_hold_.reference_time(t);
   for (int k = 0; k < horizon_; ++k) {
     const ReferenceSample sample = reference_->sample(reference_t + (k + 1) * options_.dt);
     reference_poses_.col(k) = sample.pose_world;
@@ -420,7 +417,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
   }
   module_inputs(now_.segment(6, modules_), inputs_);
   const bool pre_aligning = options_.pre_align && pre_align_holds(measured_twist);
-  held_ = pre_aligning;
+  reference_hold_.set_held(pre_aligning);
   commit_first_step();
   if (pre_aligning) {
     // The wheels wait for the steering; the next plan's ramp starts from rest, not from a twist
@@ -437,7 +434,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
   latency_.record(output_.modules);
   output_.source = CommandSource::kOptimizer;
   output_.reason = pre_aligning ? "kinematic plan; the wheels wait while the modules pre-align" : "kinematic plan";
-  output_.reference_delay_s = reference_delay_s_;
+  output_.reference_delay_s = reference_hold_.delay_s();
   output_.solve.status = SolveStatus::kConverged;
   output_.solve.reason = "closed-form Gauss-Newton solve";
   output_.solve.iterations = options_.gauss_newton_iterations;

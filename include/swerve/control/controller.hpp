@@ -24,6 +24,7 @@
 #include "swerve/control/measurement_monitor.hpp"
 #include "swerve/ocp/ocp_problem.hpp"
 #include "swerve/control/reference.hpp"
+#include "swerve/control/reference_hold.hpp"
 #include "swerve/control/tracking_controller.hpp"
 #include "swerve/control/tracking_tube.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
@@ -185,6 +186,10 @@ class Controller final : public TrackingController {
   // prediction model (baseline_states_ its rollout); false when the model failed.
   bool close_baseline_loop() noexcept;
   void send_baseline_commands(const Eigen::Ref<const Eigen::VectorXd>& state) noexcept;
+  // fallback_input_ = `input` within the drives' limits (module_bounds_).
+  void set_fallback_input(const Eigen::Ref<const Eigen::VectorXd>& input) noexcept {
+    fallback_input_ = input.cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
+  }
   void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   // A stale measurement or an unusable reference: kInvalidInput with `reason`, the plan dropped, a
   // safe stop.
@@ -235,9 +240,7 @@ class Controller final : public TrackingController {
   std::unique_ptr<WorkBudgetClock> work_clock_;
   bool solved_ = false;              // whether this step ran the solver
   double step_t_ = 0.0;              // s: this step's t
-  // Pre-alignment holds the reference: its clock runs behind t by the time held (ControlOutput).
-  bool reference_held_ = false;      // the last step held it
-  double reference_delay_s_ = 0.0;
+  ReferenceHold reference_hold_;     // pre-alignment holds the reference (ControlOutput::reference_delay_s)
   // s: the t from which every command sent asked some module to move (+inf: the last did not).
   double motion_commanded_since_ = std::numeric_limits<double>::infinity();
   ControlOutput output_;

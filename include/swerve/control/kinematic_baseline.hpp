@@ -20,6 +20,7 @@
 #include "swerve/kinematics/module_heading_memory.hpp"
 #include "swerve/control/latency_compensator.hpp"
 #include "swerve/control/reference.hpp"
+#include "swerve/control/reference_hold.hpp"
 #include "swerve/control/tracking_controller.hpp"
 
 namespace swerve {
@@ -147,9 +148,7 @@ class KinematicBaseline final : public TrackingController {
   double max_module_radius_ = 0.0;                    // m: the farthest module from the body origin
   double first_step_misalignment_ = 0.0;              // rad: the largest steering error left after step 0
   bool aligning_ = true;                              // pre_align: the wheels wait for the steering
-  bool held_ = false;                                 // the last step waited (its reference was held)
-  double last_t_ = 0.0;                               // s: the last step's t
-  double reference_delay_s_ = 0.0;                    // s: the time the reference was held, in all
+  ReferenceHold reference_hold_;                      // pre-alignment holds the reference
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
   using Vector6 = Eigen::Matrix<double, 6, 1>;
   Eigen::VectorXd weights_, target_;                  // 3N: pose weights and targets of steps 1..N
