@@ -9,6 +9,14 @@ a crab into the opposite bay, its creep, reversing out, an in-place turn back, a
 12 legs with stops between them. Every leg starts and ends at rest with a trapezoidal speed profile
 (or a smooth yaw ramp for the in-place turns), within the vehicle's drive limits.
 
+A planner respects the vehicle's steering range too. On a vehicle whose modules steer within
++-90 deg, the aisle run back cannot start as a 90 deg crab and turn under way: the modules on one
+side would have to pass their end stop while rolling, a 180 deg swing no controller can make in
+motion. There the in-place turn goes 45 deg further, the run back turns from a 45 deg to a -45 deg
+crab, and an in-place turn of -45 deg after it restores the heading (13 legs). Every mission is
+checked against its vehicle's range: no module's direction of travel crosses an end stop while it
+rolls.
+
 Usage: scripts/warehouse_duty_cycle.py [--out configs/scenarios/duty] [--vehicles configs/vehicles] [--check]
 Regenerate the shipped files with the defaults; the output is deterministic. --check writes nothing
 and fails when a file in --out differs from what it would write (ctest runs it).
@@ -29,15 +37,46 @@ PHASES = ("start", "cruise", "turn", "re-steer", "stop")
 
 
 def vehicle_limits(path):
-    """The drive speed (m/s) and the outermost module's radius (m) from a vehicle YAML, read by
-    pattern so the script needs no YAML package."""
+    """The name, drive speed (m/s), module positions (m, body frame) and steering range (rad, or
+    None when unlimited) from a vehicle YAML, read by pattern so the script needs no YAML package."""
     text = open(path, encoding="utf-8").read()
     speed = float(re.search(r"drive_speed:\s*([0-9.eE+-]+)", text).group(1))
-    radius = 0.0
-    for x, y in re.findall(r"position:\s*\[\s*([0-9.eE+-]+)\s*,\s*([0-9.eE+-]+)\s*\]", text):
-        radius = max(radius, math.hypot(float(x), float(y)))
+    positions = [(float(x), float(y)) for x, y in
+                 re.findall(r"position:\s*\[\s*([0-9.eE+-]+)\s*,\s*([0-9.eE+-]+)\s*\]", text)]
     name = re.search(r"name:\s*(\S+)", text).group(1)
-    return name, speed, radius
+    steering = re.search(r"steering_angle:\s*\[\s*([0-9.eE+-]+)\s*,\s*([0-9.eE+-]+)\s*\]", text)
+    steering_range = (float(steering.group(1)), float(steering.group(2))) if steering else None
+    return name, speed, positions, steering_range
+
+
+def end_stop_crossings(rows, positions, steering_range, tolerance=math.radians(0.5)):
+    """The (module, time) of every stretch of rolling over which a module's direction of travel
+    cannot stay within the steering range, even with the wheel reversed (a direction and its
+    opposite are the same steering angle). Empty when the range is unlimited."""
+    if steering_range is None:
+        return []
+    low, high = steering_range
+    crossings = []
+    for i, (px, py) in enumerate(positions):
+        stretch = []  # unwrapped directions of travel while the module rolls
+        for row in rows + [(rows[-1][0], 0, 0, 0, 0.0, 0.0, 0.0)]:
+            vx, vy = row[4] - row[6] * py, row[5] + row[6] * px
+            if math.hypot(vx, vy) > 1e-3:
+                angle = math.atan2(vy, vx)
+                if stretch:
+                    angle = stretch[-1][1] + math.remainder(angle - stretch[-1][1], 2 * math.pi)
+                stretch.append((row[0], angle))
+                continue
+            if stretch:
+                lo = min(a for _, a in stretch)
+                hi = max(a for _, a in stretch)
+                # Some whole number of half turns k must put every direction within the range.
+                k_min = math.ceil((hi - high - tolerance) / math.pi)
+                k_max = math.floor((lo - low + tolerance) / math.pi)
+                if k_min > k_max:
+                    crossings.append((i, stretch[0][0]))
+            stretch = []
+    return crossings
 
 
 def trapezoid(distance, cruise, acceleration):
@@ -134,7 +173,7 @@ class Mission:
         self.last_direction = None  # the modules are across the body now: the next leg re-steers
 
 
-def mission(fast):
+def mission(fast, end_stops_at_90=False):
     m = Mission()
     m.dwell(0.5)
     m.move(0, 8.0, fast)                        # 1: aisle run
@@ -144,10 +183,18 @@ def mission(fast):
     m.dwell(2.0)
     m.move(-90, 2.3, SLOW)                      # 4: reversing out
     m.dwell(0.5)
-    m.rotate(90)                                # 5: in-place turn
-    m.dwell(0.5)
-    m.move(180, 6.0, fast, heading_change_deg=90)  # 6: aisle run back, re-orienting under way
-    m.dwell(1.0)
+    if end_stops_at_90:
+        m.rotate(135)                           # 5: in-place turn, to a 45 deg crab
+        m.dwell(0.5)
+        m.move(180, 6.0, fast, heading_change_deg=90)  # 6: aisle run back, re-orienting under way
+        m.dwell(0.5)
+        m.rotate(-45)                           # 6b: in-place turn back to a 90 deg crab
+        m.dwell(1.0)
+    else:
+        m.rotate(90)                            # 5: in-place turn
+        m.dwell(0.5)
+        m.move(180, 6.0, fast, heading_change_deg=90)  # 6: aisle run back, re-orienting under way
+        m.dwell(1.0)
     m.move(-90, 1.5, SLOW)                      # 7: crab into the opposite bay
     m.move(-90, 0.3, CREEP)                     # 8: docking creep
     m.dwell(2.0)
@@ -161,7 +208,7 @@ def mission(fast):
     return m
 
 
-SCENARIO = """# Warehouse duty cycle for {name}: 12 legs with stops (aisle runs, 90 deg crabs into bays,
+SCENARIO = """# Warehouse duty cycle for {name}: {legs} legs with stops (aisle runs, 90 deg crabs into bays,
 # docking creeps, reversing out, in-place and moving re-orientations), written by
 # scripts/warehouse_duty_cycle.py (regenerate with it; do not edit by hand). Phases per sample:
 # {name}.phases.csv (scripts/duty_cycle_report.py).
@@ -209,20 +256,26 @@ def main():
     for file in sorted(os.listdir(args.vehicles)):
         if not file.endswith(".yaml"):
             continue
-        name, drive_speed, radius = vehicle_limits(os.path.join(args.vehicles, file))
+        name, drive_speed, positions, steering_range = vehicle_limits(os.path.join(args.vehicles, file))
+        radius = max(math.hypot(x, y) for x, y in positions)
         # Aisle speed: 60 % of the drive speed, at most 1.2 m/s; the in-place turn's wheel speed
         # (YAW_RATE x radius) stays well inside the drive speed on every shipped vehicle.
         fast = round(min(1.2, 0.6 * drive_speed), 2)
         if YAW_RATE * radius > 0.8 * drive_speed:
             sys.exit(f"{file}: an in-place turn at {YAW_RATE} rad/s exceeds its drive speed")
-        m = mission(fast)
+        limited = steering_range is not None and steering_range[1] - steering_range[0] < 2 * math.pi
+        m = mission(fast, end_stops_at_90=limited)
+        crossings = end_stop_crossings(m.rows, positions, steering_range)
+        if crossings:
+            module, t = crossings[0]
+            sys.exit(f"{file}: module {module} would roll across a steering end stop from t = {t:.2f} s")
         length = sum(math.hypot(b[1] - a[1], b[2] - a[2]) for a, b in zip(m.rows, m.rows[1:]))
         write(os.path.join(args.out, f"{name}.csv"),
               "t,x,y,psi,vx,vy,r\n" + "".join(",".join(f"{v:.6f}" for v in row) + "\n" for row in m.rows))
         write(os.path.join(args.out, f"{name}.phases.csv"),
               "t,phase\n" + "".join(f"{row[0]:.6f},{phase}\n" for row, phase in zip(m.rows, m.phases)))
         write(os.path.join(args.out, f"{name}.yaml"),
-              SCENARIO.format(name=name, legs=12, length=length, duration=m.rows[-1][0]))
+              SCENARIO.format(name=name, legs=13 if limited else 12, length=length, duration=m.rows[-1][0]))
         print(f"{name}: {len(m.rows)} samples, {length:.1f} m, {m.rows[-1][0]:.1f} s, aisle {fast} m/s")
     if stale:
         sys.exit("stale (regenerate with scripts/warehouse_duty_cycle.py): " + ", ".join(stale))

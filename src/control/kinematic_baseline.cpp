@@ -45,6 +45,7 @@ const OptionFields<BaselineOptions>& BaselineOptions::fields() {
       {"steer_speed_threshold", &BaselineOptions::steer_speed_threshold, Bound::non_negative()},
       {"common_scaling", &BaselineOptions::common_scaling},
       {"pre_align", &BaselineOptions::pre_align},
+      {"pre_align_only_with_end_stops", &BaselineOptions::pre_align_only_with_end_stops},
       {"pre_align_tolerance", &BaselineOptions::pre_align_tolerance, Bound::half_open(0.0, kPi / 2), {}, nullptr,
        "(rad)"},
   };
@@ -66,6 +67,8 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
       horizon_(options_.horizon), heading_memory_(layout.size()), planned_memory_(layout.size()),
       latency_(layout, options_.dt, options_.measurement_filter, lags) {
   if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
+  pre_aligns_ = options_.pre_align &&
+                (!options_.pre_align_only_with_end_stops || layout.limits().has_steering_end_stops());
   twists_ = Eigen::MatrixXd::Zero(3, horizon_);
   reference_poses_ = reference_twists_ = Eigen::MatrixXd::Zero(3, horizon_);
   inputs_ = Eigen::MatrixXd::Zero(2 * modules_, horizon_);
@@ -416,7 +419,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     return stop_safely(measured, "the kinematic plan failed");
   }
   module_inputs(now_.segment(6, modules_), inputs_);
-  const bool pre_aligning = options_.pre_align && pre_align_holds(measured_twist);
+  const bool pre_aligning = pre_aligns_ && pre_align_holds(measured_twist);
   reference_hold_.set_held(pre_aligning);
   commit_first_step();
   if (pre_aligning) {

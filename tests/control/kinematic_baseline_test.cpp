@@ -482,6 +482,38 @@ TEST(KinematicBaseline, WithPreAlignTheWheelsWaitAtRestUntilTheModulesFaceTheirF
   }
 }
 
+TEST(KinematicBaseline, PreAlignOnlyWithEndStopsWaitsOnAVehicleWithEndStopsAndNotOnOneWithout) {
+  const ModuleLayout free_layout = small_robot().layout;
+  ASSERT_FALSE(free_layout.limits().has_steering_end_stops());
+  ModuleLimits stopped = free_layout.limits();
+  stopped.min_steering_angle = -kPi / 2;
+  stopped.max_steering_angle = kPi / 2;
+  std::vector<Eigen::Vector2d> positions;
+  for (int i = 0; i < free_layout.size(); ++i) positions.push_back(free_layout.position_body(i));
+  const ModuleLayout stopped_layout(positions, free_layout.wheel_radius(), stopped);
+  const auto reference = testing::line_reference(0.5);
+  for (const ModuleLayout* layout : {&free_layout, &stopped_layout}) {
+    BaselineOptions options;
+    options.cosine_scaling = true;
+    options.pre_align = true;
+    options.pre_align_only_with_end_stops = true;
+    options.pre_align_tolerance = 0.12;
+    KinematicBaseline baseline(*layout, reference, options);
+    const bool end_stops = layout == &stopped_layout;
+    EXPECT_EQ(baseline.pre_aligns(), end_stops);
+    Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout->size());
+    state.tail(layout->size()).setConstant(1.0);
+    int waiting_cycles = 0;
+    for (int k = 0; k < 12; ++k) {
+      const ControlOutput& out = baseline.step(state, 0.05 * k);
+      if (out.modules[0].wheel_speed == 0.0) ++waiting_cycles;
+      for (int i = 0; i < layout->size(); ++i) state[6 + i] += 0.05 * out.modules[i].steering_rate;
+    }
+    // As in the test above: 1 rad at 3 rad/s waits 5 cycles where it pre-aligns.
+    EXPECT_EQ(waiting_cycles, end_stops ? 5 : 0) << (end_stops ? "with end stops" : "without end stops");
+  }
+}
+
 TEST(KinematicBaseline, SafeStopsWithFiniteCommandsOnANaNState) {
   const VehicleParams params = small_robot();
   const auto reference = testing::line_reference(0.5);

@@ -49,8 +49,14 @@ struct BaselineOptions {
   //   of its first direction of travel, as teams turn the modules before a path starts; the
   //   reference is held meanwhile, so the run is late by the time it took
   //   (ControlOutput::reference_delay_s), not off the path.
+  // - pre_align_only_with_end_stops: pre_align only on a vehicle whose modules have steering end
+  //   stops. There a module cannot swing across its range while it rolls, so a re-steer that needs
+  //   it (an in-place turn after a crab at the stop) has to wait at rest. Without end stops the
+  //   wear-aware controller wears less when it steers while rolling
+  //   (docs/decisions/pre-alignment.md).
   bool common_scaling = false;
   bool pre_align = false;
+  bool pre_align_only_with_end_stops = false;
   double pre_align_tolerance = 0.1;
   double flip_hysteresis = 0.1;      // rad around 90 deg, as in KinematicsOptions
   // m/s: a module planned slower than this does not steer toward its planned direction (under
@@ -110,6 +116,8 @@ class KinematicBaseline final : public TrackingController {
     twist_committed_ = true;
   }
   const BaselineOptions& options() const noexcept { return options_; }
+  // Whether starts from rest pre-align on this vehicle (pre_align, and pre_align_only_with_end_stops).
+  bool pre_aligns() const noexcept { return pre_aligns_; }
   // pre_align: whether the wheels wait this step (a start from rest whose modules are still more
   // than pre_align_tolerance from their first direction of travel). After plan_twists() and
   // module_inputs() of this step; the wear-aware controller asks it too.
@@ -147,6 +155,7 @@ class KinematicBaseline final : public TrackingController {
   Eigen::VectorXd turn_left_, signed_speeds_;         // n: at the plan step being built
   double max_module_radius_ = 0.0;                    // m: the farthest module from the body origin
   double first_step_misalignment_ = 0.0;              // rad: the largest steering error left after step 0
+  bool pre_aligns_ = false;                           // options_ on this vehicle (pre_aligns())
   bool aligning_ = true;                              // pre_align: the wheels wait for the steering
   ReferenceHold reference_hold_;                      // pre-alignment holds the reference
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
