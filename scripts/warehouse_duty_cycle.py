@@ -19,7 +19,8 @@ rolls.
 
 Usage: scripts/warehouse_duty_cycle.py [--out configs/scenarios/duty] [--vehicles configs/vehicles] [--check]
 Regenerate the shipped files with the defaults; the output is deterministic. --check writes nothing
-and fails when a file in --out differs from what it would write (ctest runs it).
+and fails when a file in --out differs from what it would write (ctest runs it). --self-test checks
+that the end-stop check finds the crossing of a mission that turns under way from a 90 deg crab.
 """
 import argparse
 import math
@@ -231,12 +232,39 @@ scenario:
 """
 
 
+def self_test():
+    """The end-stop check against hand-derived cases on a +-90 deg vehicle with modules at
+    (+-1, +-0.5): the unlimited mission's run back crosses the stop on the left modules (y > 0),
+    the limited one nowhere; a plain crab at 90 deg sits on the stop and does not cross it."""
+    positions = [(1.0, 0.5), (1.0, -0.5), (-1.0, 0.5), (-1.0, -0.5)]
+    steering_range = (-math.pi / 2, math.pi / 2)
+    crossed = {module for module, _ in end_stop_crossings(mission(0.9).rows, positions, steering_range)}
+    failures = []
+    if crossed != {0, 2}:
+        failures.append(f"the 90 deg crab turning under way: modules {sorted(crossed)} cross, expected [0, 2]")
+    if end_stop_crossings(mission(0.9, end_stops_at_90=True).rows, positions, steering_range):
+        failures.append("the mission for +-90 deg steering crosses an end stop")
+    crab = Mission()
+    crab.move(90, 2.0, SLOW)
+    if end_stop_crossings(crab.rows, positions, steering_range):
+        failures.append("a plain 90 deg crab is taken for a crossing")
+    if end_stop_crossings(mission(0.9).rows, positions, None):
+        failures.append("an unlimited range has a crossing")
+    if failures:
+        sys.exit("self-test failed: " + "; ".join(failures))
+    print("self-test passed")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="configs/scenarios/duty")
     parser.add_argument("--vehicles", default="configs/vehicles")
     parser.add_argument("--check", action="store_true", help="compare with --out instead of writing")
+    parser.add_argument("--self-test", action="store_true", help="check the end-stop check, write nothing")
     args = parser.parse_args()
+    if args.self_test:
+        self_test()
+        return
     stale = []
 
     def write(path, text):

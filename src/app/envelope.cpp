@@ -295,6 +295,52 @@ ReferenceDraw line_reference(const Trapezoid& tz, double direction, double offse
   return r;
 }
 
+// Whether a module of `v` would have to roll across one of its steering end stops to follow `rows`.
+// Over each stretch in which a module rolls, its directions of travel must fit within the steering
+// range turned by a whole number of half turns: a direction and its opposite are one steering angle,
+// with the wheel reversed. A planner hands a vehicle with end stops no reference that needs a swing
+// across its range while it rolls (scripts/warehouse_duty_cycle.py checks its missions the same way).
+bool rolls_across_an_end_stop(const std::vector<std::array<double, 7>>& rows, const VehicleDraw& v) {
+  if (v.steering_limit >= kPi) return false;
+  constexpr double kRolling = 1e-3;  // m/s
+  const double tolerance = 0.5 * kDegree;
+  for (const Eigen::Vector2d& p : v.module_positions) {
+    bool rolling = false;
+    double low = 0.0, high = 0.0, previous = 0.0;
+    const auto fits = [&] {
+      return std::ceil((high - v.steering_limit - tolerance) / kPi) <=
+             std::floor((low + v.steering_limit + tolerance) / kPi);
+    };
+    for (const auto& row : rows) {
+      const double vx = row[4] - row[6] * p.y(), vy = row[5] + row[6] * p.x();
+      if (std::hypot(vx, vy) <= kRolling) {
+        if (rolling && !fits()) return true;
+        rolling = false;
+        continue;
+      }
+      double angle = std::atan2(vy, vx);
+      if (rolling) {
+        angle = previous + std::remainder(angle - previous, 2.0 * kPi);
+      } else {
+        low = high = angle;
+      }
+      low = std::min(low, angle);
+      high = std::max(high, angle);
+      previous = angle;
+      rolling = true;
+    }
+    if (rolling && !fits()) return true;
+  }
+  return false;
+}
+
+// Shrinks `*angle` (a motion's turn or path-angle bump) by tenths until its vehicle can follow the
+// motion without rolling a module across an end stop. No random draw: the other draws stay as
+// they were.
+void keep_within_the_steering_range(Motion* m, double* angle, const VehicleDraw& v) {
+  while (std::abs(*angle) > kDegree && rolls_across_an_end_stop(sample_motion(*m), v)) *angle *= 0.9;
+}
+
 ReferenceDraw csv_reference(const Motion& m, const std::string& summary) {
   ReferenceDraw r;
   r.type = "csv";
@@ -385,6 +431,7 @@ ReferenceDraw draw_bump(bool lane_change, const ReferenceBasis& b, DrawRandom& r
                                               : 0.5 * b.v.steering_rate / tz.speed);
   peak = std::min(peak, max_curvature * m.bump_length / kPi);
   m.bump_peak = rng.sign() * peak;
+  keep_within_the_steering_range(&m, &m.bump_peak, b.v);
   ReferenceDraw r = csv_reference(m, std::string(lane_change ? "lane change" : "s-curve") + ", peak path angle " +
                                          fixed(m.bump_peak / kDegree, 1) + " deg, heading " +
                                          (m.heading_follows_path ? "along the path" : "held") + ", " +
@@ -410,6 +457,7 @@ ReferenceDraw draw_heading_change(const ReferenceBasis& b, DrawRandom& rng) {
       std::min((kWheelSpeedShare * b.v.drive_speed - tz.speed) / b.radius, 0.5 * b.v.steering_rate);
   turn = std::min(turn, max_yaw_rate * m.turn_time / kSmootherstepPeakRate);
   m.turn = rng.sign() * turn;
+  keep_within_the_steering_range(&m, &m.turn, b.v);
   ReferenceDraw r = csv_reference(m, "heading change " + fixed(m.turn / kDegree, 1) + " deg over " +
                                          fixed(m.turn_time, 1) + " s, " + fixed(tz.length, 2) + " m at " +
                                          speed_text(tz.speed));

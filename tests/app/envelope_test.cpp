@@ -130,6 +130,36 @@ TEST(Envelope, DrawsStayInsideTheDrawSpace) {
   }
 }
 
+TEST(Envelope, AVehicleWithEndStopsIsNeverAskedToRollAcrossThem) {
+  // Heading changes and S-curves on +-90 deg vehicles keep the body's direction of travel within
+  // +-90 deg (a module would otherwise cross its stop while rolling: draw 171 of seed 2 turned it
+  // from 0 to 120.5 deg). Truth: the direction of the reference's own body twist.
+  const std::vector<ReferenceFamily> families = {ReferenceFamily::kHeadingChange, ReferenceFamily::kSCurve};
+  int limited = 0;
+  for (const std::uint64_t seed : {1u, 2u}) {
+    for (int index = 0; index < 120; ++index) {
+      const Draw draw = draw_case(seed, index, families);
+      if (draw.vehicle.steering_limit >= kPi) continue;
+      ++limited;
+      for (const auto& row : draw.reference.rows) {
+        if (std::hypot(row[4], row[5]) < 1e-3) continue;
+        // At the stop itself is allowed (a crab at 90 deg), to the generator's 0.5 deg.
+        ASSERT_LE(std::abs(std::atan2(row[5], row[4])), kPi / 2 + 0.5 * kDegree)
+            << "seed " << seed << " draw " << index << " (" << draw.reference.summary << ") at t = " << row[0];
+      }
+    }
+  }
+  EXPECT_GT(limited, 50);
+  const Draw known = draw_case(2, 171, all_reference_families());
+  ASSERT_EQ(known.family, ReferenceFamily::kHeadingChange);
+  ASSERT_LT(known.vehicle.steering_limit, kPi);
+  double widest = 0.0;
+  for (const auto& row : known.reference.rows) {
+    if (std::hypot(row[4], row[5]) >= 1e-3) widest = std::max(widest, std::abs(std::atan2(row[5], row[4])));
+  }
+  EXPECT_LE(widest, kPi / 2);
+}
+
 TEST(Envelope, EveryFamilyWritesAScenarioTheLoaderAccepts) {
   const std::string dir = scratch_dir();
   const EnvelopeOptions options = shipped_options(dir);
