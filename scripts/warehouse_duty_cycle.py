@@ -39,7 +39,8 @@ PHASES = ("start", "cruise", "turn", "re-steer", "stop")
 
 def vehicle_limits(path):
     """The name, drive speed (m/s), module positions (m, body frame) and steering range (rad, or
-    None when unlimited) from a vehicle YAML, read by pattern so the script needs no YAML package."""
+    None when the modules have no end stops: no range, or a full turn, as ModuleLimits reads it)
+    from a vehicle YAML, read by pattern so the script needs no YAML package."""
     text = open(path, encoding="utf-8").read()
     speed = float(re.search(r"drive_speed:\s*([0-9.eE+-]+)", text).group(1))
     positions = [(float(x), float(y)) for x, y in
@@ -47,6 +48,8 @@ def vehicle_limits(path):
     name = re.search(r"name:\s*(\S+)", text).group(1)
     steering = re.search(r"steering_angle:\s*\[\s*([0-9.eE+-]+)\s*,\s*([0-9.eE+-]+)\s*\]", text)
     steering_range = (float(steering.group(1)), float(steering.group(2))) if steering else None
+    if steering_range is not None and steering_range[0] <= -math.pi and steering_range[1] >= math.pi:
+        steering_range = None
     return name, speed, positions, steering_range
 
 
@@ -184,18 +187,13 @@ def mission(fast, end_stops_at_90=False):
     m.dwell(2.0)
     m.move(-90, 2.3, SLOW)                      # 4: reversing out
     m.dwell(0.5)
+    m.rotate(135 if end_stops_at_90 else 90)    # 5: in-place turn (+-90 deg steering: to a 45 deg crab)
+    m.dwell(0.5)
+    m.move(180, 6.0, fast, heading_change_deg=90)  # 6: aisle run back, re-orienting under way
     if end_stops_at_90:
-        m.rotate(135)                           # 5: in-place turn, to a 45 deg crab
-        m.dwell(0.5)
-        m.move(180, 6.0, fast, heading_change_deg=90)  # 6: aisle run back, re-orienting under way
         m.dwell(0.5)
         m.rotate(-45)                           # 6b: in-place turn back to a 90 deg crab
-        m.dwell(1.0)
-    else:
-        m.rotate(90)                            # 5: in-place turn
-        m.dwell(0.5)
-        m.move(180, 6.0, fast, heading_change_deg=90)  # 6: aisle run back, re-orienting under way
-        m.dwell(1.0)
+    m.dwell(1.0)
     m.move(-90, 1.5, SLOW)                      # 7: crab into the opposite bay
     m.move(-90, 0.3, CREEP)                     # 8: docking creep
     m.dwell(2.0)
@@ -291,7 +289,7 @@ def main():
         fast = round(min(1.2, 0.6 * drive_speed), 2)
         if YAW_RATE * radius > 0.8 * drive_speed:
             sys.exit(f"{file}: an in-place turn at {YAW_RATE} rad/s exceeds its drive speed")
-        limited = steering_range is not None and steering_range[1] - steering_range[0] < 2 * math.pi
+        limited = steering_range is not None
         m = mission(fast, end_stops_at_90=limited)
         crossings = end_stop_crossings(m.rows, positions, steering_range)
         if crossings:
