@@ -393,7 +393,7 @@ bool Controller::close_baseline_loop() noexcept {
 }
 
 bool Controller::pre_align() noexcept {
-  if (!baseline_.pre_aligns() || !baseline_.pre_align_holds(now_.segment<3>(StateIndex::kVx))) return false;
+  if (!baseline_.pre_aligns() || !baseline_.pre_align_holds()) return false;
   // The baseline's steering toward the first direction of travel, the wheels at rest; the next
   // plan starts from rest, as the decision the smoothness cost starts from says.
   set_fallback_input(baseline_inputs_.col(0));

@@ -191,7 +191,20 @@ bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eig
     twists_.col(k) = within_drive_limits(previous, twists_.col(k));
     previous = twists_.col(k);
   }
+  // The pre-alignment arms at rest when nothing is planned (a stop) or the reference stands still (a
+  // dwell: a controller still closing a residual error at a creep is not under way, and the next
+  // leg is a start). Once the wheels drove, the vehicle tracks until it is at rest again, so a
+  // re-steer under way is not a start. Armed here, before module_inputs(), so that this step's
+  // steering already follows the at-rest rule.
+  if (pre_aligns_ && at_rest(twist_body) && (at_rest(twists_.col(0)) || at_rest(reference_twists.col(0)))) {
+    aligning_ = true;
+  }
   return true;
+}
+
+bool KinematicBaseline::at_rest(const Eigen::Vector3d& twist_body) const noexcept {
+  const double rest = std::max(options_.steer_speed_threshold, kHoldSpeed);
+  return twist_body.head<2>().norm() < rest && std::abs(twist_body.z()) * max_module_radius_ < rest;
 }
 
 double KinematicBaseline::drive_change_per_step() const noexcept {
@@ -266,13 +279,7 @@ void KinematicBaseline::wheel_speeds_at(int k, Eigen::Ref<Eigen::MatrixXd> input
   }
 }
 
-void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& steering_angles,
-                                      Eigen::Ref<Eigen::MatrixXd> inputs) noexcept {
-  const ModuleLimits& limits = kinematics_.layout().limits();
-  const double dt = options_.dt;
-  const bool end_stops = limits.has_steering_end_stops();
-  const double threshold = std::max(options_.steer_speed_threshold, kinematics_.options().hold_speed_threshold);
-  const double band = options_.flip_hysteresis;
+void KinematicBaseline::plan_module_directions(double threshold, bool at_rest_rule) noexcept {
   for (int k = 0; k < horizon_; ++k) {
     kinematics_.inverse(twists_.col(k), &module_states_);
     for (int i = 0; i < modules_; ++i) {
@@ -291,6 +298,40 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
       steer_from_(i, k) = next;
     }
   }
+  // While the wheels wait for a start (pre-alignment), the at-rest rule:
+  // - each module aims at its direction where the plan drives it fastest within the horizon (for a
+  //   start from rest, the horizon's end), not where its speed first passes the threshold. Early in
+  //   the ramp the plan's velocity is the reference's small first motion plus the feedback on the
+  //   pose error left at the stop, off the start's direction by up to a right angle; aligned there,
+  //   the hold released with a module still a swing away from the start's direction;
+  // - a heading past an end stop is held at the stop only within the direction's own uncertainty
+  //   (the flip band's widening), not kEndStopHold's 45 deg: that hold spares a rolling wheel a
+  //   swing, and a waiting wheel has nothing to spare. Held at the stop 45 deg off its direction, a
+  //   module counted as aligned, and the heavy carriers started with it dragging.
+  // Only between end stops: without them a module still off its direction finishes its turn rolling
+  // under the cosine scaling, and the rule measured 44 % more wear on the 3-wheel robot's mission
+  // (docs/results/2026-12-06-pre-alignment-at-rest.md).
+  if (at_rest_rule) {
+    for (int i = 0; i < modules_; ++i) {
+      int fastest = 0;
+      planned_speeds_.row(i).maxCoeff(&fastest);
+      if (planned_speeds_(i, fastest) <= threshold) continue;
+      for (int k = 0; k <= fastest; ++k) steer_from_(i, k) = fastest;
+    }
+  }
+}
+
+void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& steering_angles,
+                                      Eigen::Ref<Eigen::MatrixXd> inputs) noexcept {
+  const ModuleLimits& limits = kinematics_.layout().limits();
+  const double dt = options_.dt;
+  const bool end_stops = limits.has_steering_end_stops();
+  const double threshold = std::max(options_.steer_speed_threshold, kinematics_.options().hold_speed_threshold);
+  const double band = options_.flip_hysteresis;
+  // While the wheels wait for a start (pre-alignment) on a vehicle with end stops, the at-rest rule
+  // (plan_module_directions and the end-stop hold below).
+  const bool at_rest_rule = pre_aligns_ && aligning_ && end_stops;
+  plan_module_directions(threshold, at_rest_rule);
   angles_ = steering_angles;
   for (int i = 0; i < modules_; ++i) signs_[i] = heading_memory_.drive_sign(i) < 0 ? -1 : 1;
   for (int k = 0; k < horizon_; ++k) {
@@ -313,7 +354,8 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
       // the speed noise makes of the feedback): the band widens by that much before a flip.
       const DriveDirection<double>& direction = directions_[i] =
           choose_drive_direction<double>(planned_angles_(i, j), angles_[i], signs_[i], FlipPolicy::kHysteresis, band,
-                                         limits, std::atan2(threshold, weight));
+                                         limits, std::atan2(threshold, weight), 0.0,
+                                         at_rest_rule ? band + std::atan2(threshold, weight) : kEndStopHold);
       signs_[i] = direction.sign;
       if (direction.in_band) {  // decided below
         const double same = direction.turn, other = direction.other_turn;
@@ -363,14 +405,7 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
   }
 }
 
-bool KinematicBaseline::pre_align_holds(const Eigen::Vector3d& measured_twist) noexcept {
-  // At rest the next start aligns first; once the wheels drove, the vehicle tracks until it is at
-  // rest again with nothing planned (a stop), so a re-steer under way is not a start.
-  const double rest = std::max(options_.steer_speed_threshold, kHoldSpeed);
-  const auto still = [&](const Eigen::Vector3d& twist) {
-    return twist.head<2>().norm() < rest && std::abs(twist.z()) * max_module_radius_ < rest;
-  };
-  if (still(measured_twist) && still(twists_.col(0))) aligning_ = true;  // at rest, nothing planned
+bool KinematicBaseline::pre_align_holds() noexcept {
   if (aligning_ && first_step_misalignment_ <= options_.pre_align_tolerance) aligning_ = false;
   return aligning_;
 }
@@ -419,7 +454,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     return stop_safely(measured, "the kinematic plan failed");
   }
   module_inputs(now_.segment(6, modules_), inputs_);
-  const bool pre_aligning = pre_aligns_ && pre_align_holds(measured_twist);
+  const bool pre_aligning = pre_aligns_ && pre_align_holds();
   reference_hold_.set_held(pre_aligning);
   commit_first_step();
   if (pre_aligning) {

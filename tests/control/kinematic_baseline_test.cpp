@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
+#include <vector>
 
 #include "control/closed_loop.hpp"
 #include "swerve/core/config_error.hpp"
@@ -482,15 +484,100 @@ TEST(KinematicBaseline, WithPreAlignTheWheelsWaitAtRestUntilTheModulesFaceTheirF
   }
 }
 
-TEST(KinematicBaseline, PreAlignOnlyWithEndStopsWaitsOnAVehicleWithEndStopsAndNotOnOneWithout) {
+// The small robot's layout with +-90 deg steering end stops.
+ModuleLayout small_robot_with_end_stops() {
   const ModuleLayout free_layout = small_robot().layout;
-  ASSERT_FALSE(free_layout.limits().has_steering_end_stops());
   ModuleLimits stopped = free_layout.limits();
   stopped.min_steering_angle = -kPi / 2;
   stopped.max_steering_angle = kPi / 2;
   std::vector<Eigen::Vector2d> positions;
   for (int i = 0; i < free_layout.size(); ++i) positions.push_back(free_layout.position_body(i));
-  const ModuleLayout stopped_layout(positions, free_layout.wheel_radius(), stopped);
+  return ModuleLayout(positions, free_layout.wheel_radius(), stopped);
+}
+
+// At rest for `dwell` s at the origin (heading 0), then a start along the world direction
+// `direction` at constant acceleration to `speed` and on at that speed (rows t, x, y, psi, vx, vy, r).
+std::shared_ptr<const Reference> start_after_dwell(double dwell, double direction, double speed) {
+  const double accelerate = 0.5;  // s to reach the speed
+  const Eigen::Vector2d unit(std::cos(direction), std::sin(direction));
+  // Rows every 0.05 s through the dwell too: the spline through the poses is global, and rows at
+  // its ends only would let it wander between them ahead of the start.
+  std::vector<std::vector<double>> rows;
+  for (double t = 0.0; t < dwell - 1e-9; t += 0.05) rows.push_back({t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
+  rows.push_back({dwell, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
+  for (int k = 1; k <= 20; ++k) {
+    const double t = 0.05 * k;
+    const double s = t < accelerate ? 0.5 * speed / accelerate * t * t : speed * (t - 0.5 * accelerate);
+    const double v = std::min(speed, speed / accelerate * t);
+    rows.push_back({dwell + t, s * unit.x(), s * unit.y(), 0.0, v * unit.x(), v * unit.y(), 0.0});
+  }
+  return std::make_shared<SampledReference>(rows);
+}
+
+BaselineOptions pre_aligning_options() {
+  BaselineOptions options;
+  options.cosine_scaling = true;
+  options.pre_align = true;
+  options.pre_align_tolerance = 0.12;
+  return options;
+}
+
+// Between end stops a start whose direction lies 0.5 rad past the stop the modules sit at is a
+// swing across the range: while the wheels wait there is nothing to spare by holding a module at
+// the stop (kEndStopHold is for rolling wheels), so the modules swing to the other way round and
+// drive only once they face the start. Held at the stop, they counted as aligned and drove 0.5 rad
+// off from the first cycle.
+TEST(KinematicBaseline, PreAlignmentSwingsAModuleAcrossItsRangeRatherThanStartAtTheStopOffItsDirection) {
+  const ModuleLayout layout = small_robot_with_end_stops();
+  const double direction = kPi / 2 + 0.5;       // 0.5 rad past the +90 deg stop
+  const double reachable = direction - kPi;     // the same direction driven reversed: -1.07 rad
+  KinematicBaseline baseline(layout, start_after_dwell(0.5, direction, 0.3), pre_aligning_options());
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
+  state.tail(layout.size()).setConstant(kPi / 2);  // crabbing at the stop
+  int waiting_cycles = 0;
+  bool drove = false;
+  for (int k = 0; k < 40 && !drove; ++k) {
+    const ControlOutput& out = baseline.step(state, 0.05 * k);
+    ASSERT_EQ(out.source, CommandSource::kOptimizer);
+    for (int i = 0; i < layout.size(); ++i) state[6 + i] += 0.05 * out.modules[i].steering_rate;
+    if (out.modules[0].wheel_speed == 0.0) {
+      ++waiting_cycles;
+      continue;
+    }
+    drove = true;
+    for (int i = 0; i < layout.size(); ++i) EXPECT_NEAR(state[6 + i], reachable, 0.12 + 1e-9) << "module " << i;
+  }
+  EXPECT_TRUE(drove);
+  // 2.64 rad at 3 rad/s: within the tolerance after 17 cycles' turn.
+  EXPECT_GE(waiting_cycles, 16);
+}
+
+// A wear-aware controller closes a residual error at a creep while the reference dwells; its own
+// plan is then never at rest. The next leg is a start all the same: the pre-alignment arms on the
+// reference standing still, and the wheels wait for the modules to face it. (Armed only on a plan at
+// rest, the start drove 1 rad off the direction, and between end stops could not finish the swing.)
+TEST(KinematicBaseline, PreAlignmentArmsWhileTheReferenceDwellsEvenIfTheVehicleStillCreeps) {
+  const ModuleLayout layout = small_robot_with_end_stops();
+  KinematicBaseline baseline(layout, start_after_dwell(2.0, 1.0, 0.5), pre_aligning_options());
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
+  state[0] = -0.1;  // 10 cm short of the stop
+  state[3] = 0.02;  // still creeping toward it, below steer_speed_threshold
+  // The creep's own direction (along +x) is where the modules point: nothing to wait for yet.
+  const ControlOutput& creeping = baseline.step(state, 0.0);
+  EXPECT_NE(creeping.modules[0].wheel_speed, 0.0);
+  EXPECT_EQ(creeping.reference_delay_s, 0.0);
+  // Half a second before the leg starts, the horizon holds the start along 1 rad.
+  const ControlOutput& before_start = baseline.step(state, 1.5);
+  for (int i = 0; i < layout.size(); ++i) EXPECT_EQ(before_start.modules[i].wheel_speed, 0.0) << "module " << i;
+  EXPECT_GT(before_start.modules[0].steering_rate, 0.0);  // turning toward +1 rad
+  // The reference is held: the next cycle is late by the one that waited.
+  EXPECT_NEAR(baseline.step(state, 1.55).reference_delay_s, 0.05, 1e-12);
+}
+
+TEST(KinematicBaseline, PreAlignOnlyWithEndStopsWaitsOnAVehicleWithEndStopsAndNotOnOneWithout) {
+  const ModuleLayout free_layout = small_robot().layout;
+  ASSERT_FALSE(free_layout.limits().has_steering_end_stops());
+  const ModuleLayout stopped_layout = small_robot_with_end_stops();
   const auto reference = testing::line_reference(0.5);
   for (const ModuleLayout* layout : {&free_layout, &stopped_layout}) {
     BaselineOptions options;

@@ -139,6 +139,21 @@ TEST(ChooseDriveDirection, NeverTurnsPastAnEndStopWhileTheOtherWayRoundIsReachab
   EXPECT_EQ(choose_drive_direction<double>(kPi - 0.2, 1.5, 1, FlipPolicy::kNearest, 0.1, ModuleLimits{}).sign, 1);
 }
 
+TEST(ChooseDriveDirection, AShorterEndStopHoldSwingsAModuleWhoseHeadingLiesFurtherPastTheStop) {
+  // The pre-alignment's at-rest rule holds at the stop only within the direction's uncertainty: a
+  // heading 0.3 rad past the +90 deg stop is held by kEndStopHold but taken the other way round
+  // (driven reversed, at 0.3 - 90 deg) with a hold of 0.2 rad.
+  const ModuleLimits limits = limits_with_end_stops(kPi / 2);
+  const double heading = kPi / 2 + 0.3;
+  const auto held = choose_drive_direction<double>(heading, kPi / 2, 1, FlipPolicy::kHysteresis, 0.1, limits);
+  EXPECT_EQ(held.sign, 1);
+  EXPECT_NEAR(held.turn, 0.0, 1e-15);
+  const auto swung =
+      choose_drive_direction<double>(heading, kPi / 2, 1, FlipPolicy::kHysteresis, 0.1, limits, 0.0, 0.0, 0.2);
+  EXPECT_EQ(swung.sign, -1);
+  EXPECT_NEAR(swung.turn, (heading - kPi) - kPi / 2, 1e-12);
+}
+
 TEST(ChooseDriveDirection, HysteresisHoldsAModuleAtItsEndStopWhileItsHeadingWandersJustPastIt) {
   // Crabbing at 90 deg on +-90 deg steering: the heading sits at the stop, on either side of it by
   // the measurement's noise and the tracking's corrections. A module driving forward at the +90 deg

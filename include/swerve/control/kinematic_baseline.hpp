@@ -45,7 +45,8 @@ struct BaselineOptions {
   //   least aligned module's steering error, not by its own, so the modules keep the common centre
   //   of rotation the plan has while they steer. Team 254's and PathPlanner's setpoint generators
   //   limit the chassis step for the same reason (SetpointGenerator's body-first mode).
-  // - pre_align: from rest, the wheels wait until every module is within pre_align_tolerance (rad)
+  // - pre_align: from rest (the vehicle slower than steer_speed_threshold with its plan or its
+  //   reference at rest), the wheels wait until every module is within pre_align_tolerance (rad)
   //   of its first direction of travel, as teams turn the modules before a path starts; the
   //   reference is held meanwhile, so the run is late by the time it took
   //   (ControlOutput::reference_delay_s), not off the path.
@@ -121,7 +122,7 @@ class KinematicBaseline final : public TrackingController {
   // pre_align: whether the wheels wait this step (a start from rest whose modules are still more
   // than pre_align_tolerance from their first direction of travel). After plan_twists() and
   // module_inputs() of this step; the wear-aware controller asks it too.
-  bool pre_align_holds(const Eigen::Vector3d& measured_twist) noexcept;
+  bool pre_align_holds() noexcept;
 
  private:
   // The drive limits: the per-step change of module speed the drive acceleration allows; `to`, or
@@ -134,6 +135,13 @@ class KinematicBaseline final : public TrackingController {
   // after the step (signed_speeds_, turn_left_): each module's own cosine, or with common_scaling
   // the least aligned module's for all.
   void wheel_speeds_at(int k, Eigen::Ref<Eigen::MatrixXd> inputs) const noexcept;
+  // module_inputs' first part: the twist plan's module angles and speeds (planned_angles_,
+  // planned_speeds_) and the step each module's steering aims at (steer_from_), by the at-rest rule
+  // while the wheels wait for a start.
+  void plan_module_directions(double threshold, bool at_rest_rule) noexcept;
+  // Whether a body twist is at rest for the pre-alignment (slower than steer_speed_threshold at
+  // every module).
+  bool at_rest(const Eigen::Vector3d& twist_body) const noexcept;
   // Safe-stop commands with `reason`; the ramp restarts from the measured twist next step.
   const ControlOutput& stop_safely(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
   BaselineOptions options_;

@@ -77,11 +77,12 @@ inline constexpr double kDirectionTieBand = 0.15;
 // is `band` + `widening` above 90 deg and `band` below it. With end stops (limits not [-pi, pi])
 // angles are absolute, turns are not wrapped, and a heading past a stop is never chosen while the
 // other is reachable. `tie_band` (0: none): a near tie keeps the forward way round, and a heading that
-// close past a stop counts as at the stop (kDirectionTieBand).
+// close past a stop counts as at the stop (kDirectionTieBand). `end_stop_hold`: how far past a stop
+// kHysteresis holds a kept heading at the stop (kEndStopHold, for a rolling wheel).
 template <typename T>
 DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int previous_sign, FlipPolicy policy,
                                          double band, const ModuleLimits& limits, double widening = 0.0,
-                                         double tie_band = 0.0) {
+                                         double tie_band = 0.0, double end_stop_hold = kEndStopHold) {
   const bool end_stops = limits.has_steering_end_stops();
   // The heading half a turn from a wrapped one, wrapped, without another remainder.
   const auto opposite_of = [](const T& wrapped) -> T {
@@ -124,7 +125,7 @@ DriveDirection<T> choose_drive_direction(const T& heading, const T& angle, int p
   // tracking correction pushes it further; without the hold, modules split between the two stops,
   // or all swung across together with their wheels driving, for seconds.
   bool held_at_stop = false;
-  const double hold = std::max(band, kEndStopHold);
+  const double hold = std::max(band, end_stop_hold);
   const auto within_band_past_stop = [&](const T& target) {
     const double value = scalar_value(target);
     return end_stops && value >= limits.min_steering_angle - hold && value <= limits.max_steering_angle + hold;
