@@ -514,6 +514,20 @@ std::shared_ptr<const Reference> start_after_dwell(double dwell, double directio
   return std::make_shared<SampledReference>(rows);
 }
 
+// At rest for `dwell` s at the origin, then a turn in place: the yaw rate ramps to `yaw_rate` in
+// 0.5 s and stays there (rows every 0.05 s, as above).
+std::shared_ptr<const Reference> turn_after_dwell(double dwell, double yaw_rate) {
+  const double accelerate = 0.5;
+  std::vector<std::vector<double>> rows;
+  for (double t = 0.0; t < dwell - 1e-9; t += 0.05) rows.push_back({t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
+  for (int k = 0; k <= 30; ++k) {
+    const double t = 0.05 * k;
+    const double psi = t < accelerate ? 0.5 * yaw_rate / accelerate * t * t : yaw_rate * (t - 0.5 * accelerate);
+    rows.push_back({dwell + t, 0.0, 0.0, psi, 0.0, 0.0, std::min(yaw_rate, yaw_rate / accelerate * t)});
+  }
+  return std::make_shared<SampledReference>(rows);
+}
+
 BaselineOptions pre_aligning_options() {
   BaselineOptions options;
   options.cosine_scaling = true;
@@ -572,6 +586,33 @@ TEST(KinematicBaseline, PreAlignmentArmsWhileTheReferenceDwellsEvenIfTheVehicleS
   EXPECT_GT(before_start.modules[0].steering_rate, 0.0);  // turning toward +1 rad
   // The reference is held: the next cycle is late by the one that waited.
   EXPECT_NEAR(baseline.step(state, 1.55).reference_delay_s, 0.05, 1e-12);
+}
+
+// A turn in place from a stop that left the vehicle 4 cm off to the side: early in the yaw-rate
+// ramp the plan's module velocities are mostly the feedback's sideways correction, and the turn's
+// own directions (each module at right angles to its position) only dominate later. The modules
+// pre-align to where the start drives them fastest, so when the wheels drive every module is near
+// its turning direction. (Aimed where each first passed the steer threshold, they aligned to the
+// correction and drove up to a right angle off the turn.)
+TEST(KinematicBaseline, PreAlignmentAimsTheModulesAtTheTurnNotAtTheCorrectionOfTheStop) {
+  const ModuleLayout layout = small_robot_with_end_stops();
+  KinematicBaseline baseline(layout, turn_after_dwell(0.5, 1.0), pre_aligning_options());
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
+  state[1] = -0.04;  // 4 cm to the right of the stop
+  bool drove = false;
+  for (int k = 0; k < 40 && !drove; ++k) {
+    const ControlOutput& out = baseline.step(state, 0.05 * k);
+    for (int i = 0; i < layout.size(); ++i) state[6 + i] += 0.05 * out.modules[i].steering_rate;
+    drove = out.modules[0].wheel_speed != 0.0;
+  }
+  ASSERT_TRUE(drove);
+  for (int i = 0; i < layout.size(); ++i) {
+    // The turn's direction at module i, either way round: at right angles to its position.
+    const Eigen::Vector2d p = layout.position_body(i);
+    const double turning = std::atan2(p.x(), -p.y());
+    const double off = std::abs(wrap_angle(2.0 * (state[6 + i] - turning))) / 2.0;  // modulo pi
+    EXPECT_LT(off, 0.3) << "module " << i << " at " << state[6 + i] << " rad, turning direction " << turning;
+  }
 }
 
 TEST(KinematicBaseline, PreAlignOnlyWithEndStopsWaitsOnAVehicleWithEndStopsAndNotOnOneWithout) {
