@@ -387,6 +387,27 @@ void bind_reference(py::module_& m) {
           py::arg("samples"),
           "Rows (t, x, y, psi[, vx, vy, r]) on the controller's clock; ValueError naming the sample if refused "
           "(the previous trajectory stays active)")
+      .def(
+          "sample",
+          [](const TrajectoryReference& reference, double t) {
+            if (!std::isfinite(t)) throw py::value_error("t: must be finite, got " + std::to_string(t));
+            // As a controller cycle begins: the newest published trajectory is taken up first.
+            reference.begin_cycle();
+            if (reference.version() == 0) throw py::value_error("sample: no trajectory has been published yet");
+            const ReferenceSample sample = reference.sample(t);
+            Array pose(3), twist(3);
+            for (int i = 0; i < 3; ++i) {
+              pose.mutable_at(i) = sample.pose_world[i];
+              twist.mutable_at(i) = sample.twist_body[i];
+            }
+            return py::make_tuple(pose, twist);
+          },
+          py::arg("t"),
+          "(pose_world (x, y, psi), twist_body (vx, vy, r)) at t on the controller's clock, from the newest "
+          "published trajectory (taken up as a controller cycle would); ValueError before any trajectory or for a "
+          "non-finite t")
+      .def_property_readonly("version", &TrajectoryReference::version,
+                             "Trajectories taken up so far (by a controller cycle or sample()); 0 before any")
       .def_property_readonly("duration", &TrajectoryReference::duration);
 }
 

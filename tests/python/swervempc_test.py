@@ -81,6 +81,30 @@ class TrajectoryReference(unittest.TestCase):
             sm.TrajectoryReference(1)
 
 
+    def test_sample_reads_the_newest_trajectory_and_version_counts_them(self):
+        reference = sm.TrajectoryReference(64)
+        with self.assertRaisesRegex(ValueError, "no trajectory"):
+            reference.sample(0.0)
+        self.assertEqual(reference.version, 0)
+        # Given velocities: (t, x, y, psi, vx, vy, r) along x at 0.5 m/s from t = 2 s.
+        t = 2.0 + np.arange(0.0, 4.0, 0.1)
+        rows = np.column_stack([t, 0.5 * (t - 2.0), np.zeros_like(t), np.zeros_like(t),
+                                np.full_like(t, 0.5), np.zeros_like(t), np.zeros_like(t)])
+        reference.publish(rows)
+        pose, twist = reference.sample(3.25)
+        np.testing.assert_allclose(pose, [0.625, 0.0, 0.0], atol=1e-9)
+        np.testing.assert_allclose(twist, [0.5, 0.0, 0.0], atol=1e-9)
+        self.assertEqual(reference.version, 1)
+        # A newer trajectory (along y) is what the next sample reads.
+        turned = rows[:, [0, 2, 1, 3, 5, 4, 6]].copy()
+        reference.publish(turned)
+        pose, _ = reference.sample(3.25)
+        np.testing.assert_allclose(pose[:2], [0.0, 0.625], atol=1e-9)
+        self.assertEqual(reference.version, 2)
+        with self.assertRaisesRegex(ValueError, "t: must be finite"):
+            reference.sample(float("nan"))
+
+
 class ClosedLoop(unittest.TestCase):
     def test_controller_tracks_a_published_line_on_the_plant(self):
         vehicle = sm.load_vehicle(VEHICLE)
