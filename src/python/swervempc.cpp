@@ -456,13 +456,39 @@ void bind_controller(py::module_& m) {
 
 void bind_simulator(py::module_& m) {
   py::class_<Simulator>(m, "Simulator", "The plant: rigid body, Magic Formula tires, wear, actuator lags")
-      .def(py::init([](const VehicleParams& vehicle, double control_period, std::uint64_t seed) {
+      .def(py::init([](const VehicleParams& vehicle, double control_period, std::uint64_t seed,
+                       int measurement_delay_steps, const std::optional<py::dict>& noise) {
              SimulatorOptions options;
              options.control_period = control_period;
              options.seed = seed;
-             return std::make_unique<Simulator>(vehicle, options);
+             options.measurement_delay_steps = measurement_delay_steps;
+             if (noise) {
+               MeasurementNoise& n = options.noise;
+               const std::pair<const char*, double*> fields[] = {{"position", &n.position},
+                                                                 {"heading", &n.heading},
+                                                                 {"velocity", &n.velocity},
+                                                                 {"yaw_rate", &n.yaw_rate},
+                                                                 {"steering_angle", &n.steering_angle}};
+               for (const auto& [key, value] : *noise) {
+                 const std::string name = py::str(key);
+                 double* field = nullptr;
+                 for (const auto& [known, target] : fields) {
+                   if (name == known) field = target;
+                 }
+                 if (field == nullptr) {
+                   throw py::value_error("noise." + name +
+                                         ": unknown (position, heading, velocity, yaw_rate, steering_angle)");
+                 }
+                 *field = value.cast<double>();
+               }
+             }
+             return std::make_unique<Simulator>(vehicle, options);  // validates, naming the field and value
            }),
-           py::arg("vehicle"), py::arg("control_period") = 0.05, py::arg("seed") = 1)
+           py::arg("vehicle"), py::arg("control_period") = 0.05, py::arg("seed") = 1,
+           py::arg("measurement_delay_steps") = 0, py::arg("noise") = py::none(),
+           "noise: standard deviations {position (m), heading (rad), velocity (m/s), yaw_rate (rad/s), "
+           "steering_angle (rad)} on the measurement; measurement_delay_steps: the measurement is that many periods "
+           "old")
       .def(
           "reset",
           [](Simulator& plant, const Array& initial_state) {
@@ -481,7 +507,13 @@ void bind_simulator(py::module_& m) {
             return plant.advance(commands_of(steering_angle, steering_rate, wheel_speed, plant.modules()));
           },
           py::arg("steering_angle"), py::arg("steering_rate"), py::arg("wheel_speed"))
-      .def_property_readonly("measurement", [](const Simulator& plant) { return array_of(plant.measurement()); })
+      .def_property_readonly("measurement", [](const Simulator& plant) { return array_of(plant.measurement()); },
+                             "What a controller is given: delayed and noisy as configured")
+      .def_property_readonly("state", [](const Simulator& plant) { return array_of(plant.state()); },
+                             "The plant's true full state now (pose, twist, then per module steering and the rest)")
+      .def_property_readonly("measurement_age", &Simulator::measurement_age, "s: how old the measurement is")
+      .def_property_readonly("frictional_energy", &Simulator::frictional_energy,
+                             "J dissipated by sliding at all contacts (wheels and casters) so far")
       .def_property_readonly("time", &Simulator::time)
       .def_property_readonly("module_wear", [](const Simulator& plant) { return array_of(plant.module_wear()); })
       .def_property_readonly("module_count", &Simulator::modules);

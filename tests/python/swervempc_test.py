@@ -105,6 +105,44 @@ class TrajectoryReference(unittest.TestCase):
             reference.sample(float("nan"))
 
 
+class Plant(unittest.TestCase):
+    def drive(self, plant, periods):
+        for _ in range(periods):
+            self.assertTrue(plant.advance(np.zeros(4), np.zeros(4), np.full(4, 5.0)))
+
+    def test_a_delayed_measurement_is_the_true_state_of_periods_ago(self):
+        vehicle = sm.load_vehicle(VEHICLE)
+        plant = sm.Simulator(vehicle, control_period=0.05, measurement_delay_steps=2)
+        plant.reset(np.zeros(10))
+        truth = []
+        for _ in range(6):
+            truth.append(plant.state[:10].copy())
+            self.drive(plant, 1)
+        truth.append(plant.state[:10].copy())
+        np.testing.assert_allclose(plant.measurement[:10], truth[-3], atol=1e-12)
+        self.assertGreater(plant.state[0], truth[-3][0])  # it moved on since
+        self.assertAlmostEqual(plant.measurement_age, 0.1)
+
+    def test_noise_perturbs_the_measurement_only_and_friction_is_accounted(self):
+        vehicle = sm.load_vehicle(VEHICLE)
+        plant = sm.Simulator(vehicle, seed=7, noise={"position": 0.01})
+        plant.reset(np.zeros(10))
+        self.drive(plant, 10)
+        self.assertGreater(abs(plant.measurement[0] - plant.state[0]), 0.0)
+        self.assertEqual(plant.measurement[2], plant.state[2])  # no heading noise asked
+        # The agv has no caster: all the sliding energy is its modules' wear (coefficient 1), up to
+        # the two integrals' rules (the energy's rectangle rule on the substeps, the wear's RK4).
+        self.assertGreater(plant.frictional_energy, 0.0)
+        wear = float(np.sum(plant.module_wear))
+        self.assertLess(abs(plant.frictional_energy - wear), 1e-3 * wear)
+        with self.assertRaisesRegex(ValueError, "noise.speed: unknown"):
+            sm.Simulator(vehicle, noise={"speed": 0.1})
+        with self.assertRaisesRegex(ValueError, "position"):
+            sm.Simulator(vehicle, noise={"position": -0.1})
+        with self.assertRaisesRegex(ValueError, "measurement_delay_steps"):
+            sm.Simulator(vehicle, measurement_delay_steps=-1)
+
+
 class ClosedLoop(unittest.TestCase):
     def test_controller_tracks_a_published_line_on_the_plant(self):
         vehicle = sm.load_vehicle(VEHICLE)
