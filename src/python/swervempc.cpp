@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "swerve/app/controller_config.hpp"
@@ -361,6 +362,22 @@ void bind_controller_config(py::module_& m) {
             c.mpc.tracking_tolerance.heading = tube ? tube->second : 0.0;
           },
           "(position m, heading rad), or None for the wear-weight mode")
+      .def_property(
+          "stale_measurement",
+          [](const ControllerConfig& c) {
+            const StalenessOptions& o = c.mpc.stale_measurement;
+            return py::make_tuple(o.max_age, o.frozen_cycles, o.moving_speed);
+          },
+          [](ControllerConfig& c, const std::tuple<double, int, double>& limits) {
+            StalenessOptions& o = c.mpc.stale_measurement;
+            std::tie(o.max_age, o.frozen_cycles, o.moving_speed) = limits;
+          },
+          "(max_age s (0: what the latency compensation covers), frozen_cycles, moving_speed m/s): when a "
+          "measurement is too old or frozen to act on")
+      .def_property(
+          "polish_share", [](const ControllerConfig& c) { return c.solver.sa.polish_share; },
+          [](ControllerConfig& c, double share) { c.solver.sa.polish_share = share; },
+          "SA: the share of the budget for the gradient polish from SA's best (0: none)")
       .def("validate", &ControllerConfig::validate, "Raises ValueError naming the field and value");
   m.def("load_controller_config", &load_controller_config_file, py::arg("path"),
         "Loads a controller file (its `controller:` section)");

@@ -42,6 +42,23 @@ class Configs(unittest.TestCase):
         self.assertEqual(config.control_period, config.dt / 2)
         config.validate()
 
+    def test_staleness_and_polish_read_the_file_and_are_checked(self):
+        config = sm.load_controller_config(CONTROLLER)
+        self.assertEqual(config.stale_measurement, (0.0, 3, 0.01))  # default.yaml's block
+        self.assertEqual(config.polish_share, 0.3)
+        config.stale_measurement = (0.2, 5, 0.05)
+        config.polish_share = 0.0
+        self.assertEqual(config.stale_measurement, (0.2, 5, 0.05))
+        self.assertEqual(config.polish_share, 0.0)
+        config.validate()
+        config.stale_measurement = (0.2, 1, 0.05)
+        with self.assertRaisesRegex(ValueError, "frozen_cycles = 1"):
+            config.validate()
+        config.stale_measurement = (0.0, 3, 0.01)
+        config.polish_share = 1.5
+        with self.assertRaisesRegex(ValueError, "polish_share = 1.5"):
+            sm.make_controller(config, sm.load_vehicle(VEHICLE), sm.TrajectoryReference(16))
+
     def test_a_missing_file_is_a_value_error_naming_it(self):
         with self.assertRaisesRegex(ValueError, "no_such_vehicle.yaml"):
             sm.load_vehicle(os.path.join(CONFIGS, "no_such_vehicle.yaml"))
