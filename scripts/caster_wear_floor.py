@@ -10,7 +10,7 @@ Magic Formula at the static load, D = mu Fz) makes it a bound from below. Loads 
 contacts: statically determinate), no load transfer. The integral over the reference, split by the
 phases file when one is given, is the wear no controller that tracks the reference can avoid; a
 controller that departs from it within a tolerance can smooth its accelerations and do somewhat
-better. Used for issue 48's caster duty cycle (docs/results/2026-12-06-pre-alignment-at-rest.md).
+better.
 
 Usage: scripts/caster_wear_floor.py VEHICLE_YAML REFERENCE_CSV [PHASES_CSV]
 Needs numpy and PyYAML (Debian: python3-numpy, python3-yaml).

@@ -20,6 +20,15 @@ import sys
 WEAR, BASE, PRACTICAL = "wear_mpc", "kinematic_baseline", "practical_baseline"
 
 
+def tracks_as_well(w, b):
+    """Whether run `w` tracks no worse than run `b` (summary.json controller entries): position RMSE
+    <= max(1.1 x, + 0.02 m) and heading RMSE <= max(1.1 x, + 0.5 deg), as {"rmse": .., "heading": ..}."""
+    return {
+        "rmse": w["tracking_rmse_m"] <= max(1.1 * b["tracking_rmse_m"], b["tracking_rmse_m"] + 0.02),
+        "heading": w["heading_rmse_rad"] <= max(1.1 * b["heading_rmse_rad"], b["heading_rmse_rad"] + math.radians(0.5)),
+    }
+
+
 def row(out_dir, base):
     with open(os.path.join(out_dir, "summary.json")) as f:
         summary = json.load(f)
@@ -32,8 +41,7 @@ def row(out_dir, base):
     rmse_ratio = w["tracking_rmse_m"] / b["tracking_rmse_m"] if b["tracking_rmse_m"] > 0 else float("inf")
     checks = {
         "wear": w["wear_total"] <= b["wear_total"],
-        "rmse": w["tracking_rmse_m"] <= max(1.1 * b["tracking_rmse_m"], b["tracking_rmse_m"] + 0.02),
-        "heading": w["heading_rmse_rad"] <= max(1.1 * b["heading_rmse_rad"], b["heading_rmse_rad"] + 0.5 / deg),
+        **tracks_as_well(w, b),
         "smoothness": w["steering_effort_rad2_s"] <= max(1.5 * b["steering_effort_rad2_s"],
                                                          b["steering_effort_rad2_s"] + 0.5),
         "misses": w["deadline_misses"] == 0,

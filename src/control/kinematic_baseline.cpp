@@ -309,8 +309,8 @@ void KinematicBaseline::plan_module_directions(double threshold, bool at_rest_ru
   //   swing, and a waiting wheel has nothing to spare. Held at the stop 45 deg off its direction, a
   //   module counted as aligned, and the heavy carriers started with it dragging.
   // Only between end stops: without them a module still off its direction finishes its turn rolling
-  // under the cosine scaling, and the rule measured 44 % more wear on the 3-wheel robot's mission
-  // (docs/results/2026-12-06-pre-alignment-at-rest.md).
+  // under the cosine scaling, so waiting for it costs more than it saves
+  // (docs/decisions/pre-alignment.md).
   if (at_rest_rule) {
     for (int i = 0; i < modules_; ++i) {
       int fastest = 0;
@@ -352,10 +352,10 @@ void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& s
       const double weight = planned_speeds_(i, j);
       // A direction planned at speed v is uncertain by about atan(threshold / v) (the threshold is
       // the speed noise makes of the feedback): the band widens by that much before a flip.
+      const double widening = std::atan2(threshold, weight);
       const DriveDirection<double>& direction = directions_[i] =
           choose_drive_direction<double>(planned_angles_(i, j), angles_[i], signs_[i], FlipPolicy::kHysteresis, band,
-                                         limits, std::atan2(threshold, weight), 0.0,
-                                         at_rest_rule ? band + std::atan2(threshold, weight) : kEndStopHold);
+                                         limits, widening, 0.0, at_rest_rule ? band + widening : kEndStopHold);
       signs_[i] = direction.sign;
       if (direction.in_band) {  // decided below
         const double same = direction.turn, other = direction.other_turn;

@@ -12,6 +12,7 @@
 #include <optional>
 #include <string>
 #include <tuple>
+#include <variant>
 #include <vector>
 
 #include "swerve/app/controller_config.hpp"
@@ -412,12 +413,7 @@ void bind_reference(py::module_& m) {
             reference.begin_cycle();
             if (reference.version() == 0) throw py::value_error("sample: no trajectory has been published yet");
             const ReferenceSample sample = reference.sample(t);
-            Array pose(3), twist(3);
-            for (int i = 0; i < 3; ++i) {
-              pose.mutable_at(i) = sample.pose_world[i];
-              twist.mutable_at(i) = sample.twist_body[i];
-            }
-            return py::make_tuple(pose, twist);
+            return py::make_tuple(array_of(sample.pose_world), array_of(sample.twist_body));
           },
           py::arg("t"),
           "(pose_world (x, y, psi), twist_body (vx, vy, r)) at t on the controller's clock, from the newest "
@@ -480,23 +476,18 @@ void bind_simulator(py::module_& m) {
              options.seed = seed;
              options.measurement_delay_steps = measurement_delay_steps;
              if (noise) {
-               MeasurementNoise& n = options.noise;
-               const std::pair<const char*, double*> fields[] = {{"position", &n.position},
-                                                                 {"heading", &n.heading},
-                                                                 {"velocity", &n.velocity},
-                                                                 {"yaw_rate", &n.yaw_rate},
-                                                                 {"steering_angle", &n.steering_angle}};
+               // The keys and rules of a scenario's `simulator: noise:` block (MeasurementNoise::fields()).
+               const OptionFields<MeasurementNoise>& fields = MeasurementNoise::fields();
                for (const auto& [key, value] : *noise) {
                  const std::string name = py::str(key);
-                 double* field = nullptr;
-                 for (const auto& [known, target] : fields) {
-                   if (name == known) field = target;
+                 double MeasurementNoise::* member = nullptr;
+                 std::string known;
+                 for (const OptionField<MeasurementNoise>& field : fields) {
+                   known += (known.empty() ? "" : ", ") + std::string(field.yaml_key());
+                   if (name == field.yaml_key()) member = std::get<double MeasurementNoise::*>(field.member);
                  }
-                 if (field == nullptr) {
-                   throw py::value_error("noise." + name +
-                                         ": unknown (position, heading, velocity, yaw_rate, steering_angle)");
-                 }
-                 *field = value.cast<double>();
+                 if (member == nullptr) throw py::value_error("noise." + name + ": unknown (" + known + ")");
+                 options.noise.*member = value.cast<double>();
                }
              }
              return std::make_unique<Simulator>(vehicle, options);  // validates, naming the field and value

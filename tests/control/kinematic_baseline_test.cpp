@@ -495,37 +495,28 @@ ModuleLayout small_robot_with_end_stops() {
   return ModuleLayout(positions, free_layout.wheel_radius(), stopped);
 }
 
-// At rest for `dwell` s at the origin (heading 0), then a start along the world direction
-// `direction` at constant acceleration to `speed` and on at that speed (rows t, x, y, psi, vx, vy, r).
-std::shared_ptr<const Reference> start_after_dwell(double dwell, double direction, double speed) {
-  const double accelerate = 0.5;  // s to reach the speed
-  const Eigen::Vector2d unit(std::cos(direction), std::sin(direction));
-  // Rows every 0.05 s through the dwell too: the spline through the poses is global, and rows at
-  // its ends only would let it wander between them ahead of the start.
+// At rest for `dwell` s at the origin (heading 0), then a start whose body twist ramps from rest to
+// `twist` in 0.5 s and stays there, `seconds` in all: a pure translation (the heading stays 0, so the
+// body frame is the world's) or a pure turn in place. Rows (t, x, y, psi, vx, vy, r) every 0.05 s,
+// through the dwell too: the spline through the poses is global, and rows at the dwell's ends only
+// would let it wander between them ahead of the start.
+std::shared_ptr<const Reference> start_after_dwell(double dwell, const Eigen::Vector3d& twist, double seconds) {
+  const double accelerate = 0.5;  // s to reach the twist
   std::vector<std::vector<double>> rows;
   for (double t = 0.0; t < dwell - 1e-9; t += 0.05) rows.push_back({t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
-  rows.push_back({dwell, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
-  for (int k = 1; k <= 20; ++k) {
+  for (int k = 0; 0.05 * k <= seconds + 1e-9; ++k) {
     const double t = 0.05 * k;
-    const double s = t < accelerate ? 0.5 * speed / accelerate * t * t : speed * (t - 0.5 * accelerate);
-    const double v = std::min(speed, speed / accelerate * t);
-    rows.push_back({dwell + t, s * unit.x(), s * unit.y(), 0.0, v * unit.x(), v * unit.y(), 0.0});
+    const double share = std::min(1.0, t / accelerate);  // of the twist, now
+    const double travel = t < accelerate ? 0.5 * t * t / accelerate : t - 0.5 * accelerate;  // of it, integrated
+    rows.push_back({dwell + t, travel * twist.x(), travel * twist.y(), travel * twist.z(), share * twist.x(),
+                    share * twist.y(), share * twist.z()});
   }
   return std::make_shared<SampledReference>(rows);
 }
 
-// At rest for `dwell` s at the origin, then a turn in place: the yaw rate ramps to `yaw_rate` in
-// 0.5 s and stays there (rows every 0.05 s, as above).
-std::shared_ptr<const Reference> turn_after_dwell(double dwell, double yaw_rate) {
-  const double accelerate = 0.5;
-  std::vector<std::vector<double>> rows;
-  for (double t = 0.0; t < dwell - 1e-9; t += 0.05) rows.push_back({t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
-  for (int k = 0; k <= 30; ++k) {
-    const double t = 0.05 * k;
-    const double psi = t < accelerate ? 0.5 * yaw_rate / accelerate * t * t : yaw_rate * (t - 0.5 * accelerate);
-    rows.push_back({dwell + t, 0.0, 0.0, psi, 0.0, 0.0, std::min(yaw_rate, yaw_rate / accelerate * t)});
-  }
-  return std::make_shared<SampledReference>(rows);
+// A start along the world direction `direction` at `speed` after the dwell.
+std::shared_ptr<const Reference> line_after_dwell(double dwell, double direction, double speed) {
+  return start_after_dwell(dwell, Eigen::Vector3d(speed * std::cos(direction), speed * std::sin(direction), 0.0), 1.0);
 }
 
 BaselineOptions pre_aligning_options() {
@@ -545,7 +536,7 @@ TEST(KinematicBaseline, PreAlignmentSwingsAModuleAcrossItsRangeRatherThanStartAt
   const ModuleLayout layout = small_robot_with_end_stops();
   const double direction = kPi / 2 + 0.5;       // 0.5 rad past the +90 deg stop
   const double reachable = direction - kPi;     // the same direction driven reversed: -1.07 rad
-  KinematicBaseline baseline(layout, start_after_dwell(0.5, direction, 0.3), pre_aligning_options());
+  KinematicBaseline baseline(layout, line_after_dwell(0.5, direction, 0.3), pre_aligning_options());
   Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
   state.tail(layout.size()).setConstant(kPi / 2);  // crabbing at the stop
   int waiting_cycles = 0;
@@ -572,7 +563,7 @@ TEST(KinematicBaseline, PreAlignmentSwingsAModuleAcrossItsRangeRatherThanStartAt
 // rest, the start drove 1 rad off the direction, and between end stops could not finish the swing.)
 TEST(KinematicBaseline, PreAlignmentArmsWhileTheReferenceDwellsEvenIfTheVehicleStillCreeps) {
   const ModuleLayout layout = small_robot_with_end_stops();
-  KinematicBaseline baseline(layout, start_after_dwell(2.0, 1.0, 0.5), pre_aligning_options());
+  KinematicBaseline baseline(layout, line_after_dwell(2.0, 1.0, 0.5), pre_aligning_options());
   Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
   state[0] = -0.1;  // 10 cm short of the stop
   state[3] = 0.02;  // still creeping toward it, below steer_speed_threshold
@@ -596,7 +587,8 @@ TEST(KinematicBaseline, PreAlignmentArmsWhileTheReferenceDwellsEvenIfTheVehicleS
 // correction and drove up to a right angle off the turn.)
 TEST(KinematicBaseline, PreAlignmentAimsTheModulesAtTheTurnNotAtTheCorrectionOfTheStop) {
   const ModuleLayout layout = small_robot_with_end_stops();
-  KinematicBaseline baseline(layout, turn_after_dwell(0.5, 1.0), pre_aligning_options());
+  const auto turn = start_after_dwell(0.5, Eigen::Vector3d(0.0, 0.0, 1.0), 1.5);  // 1 rad/s in place
+  KinematicBaseline baseline(layout, turn, pre_aligning_options());
   Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
   state[1] = -0.04;  // 4 cm to the right of the stop
   bool drove = false;
