@@ -7,7 +7,7 @@
 namespace swerve {
 
 const std::vector<std::string>& built_backends() {
-  static const std::vector<std::string> backends = {"sa", "nlopt"
+  static const std::vector<std::string> backends = {"sa", "rti", "nlopt"
 #ifdef SWERVE_HAS_IPOPT
                                                      ,
                                                      "ipopt"
@@ -32,6 +32,7 @@ void SolverConfig::validate() const {
     throw ConfigError("controller.solver.backend: '" + backend + "' was not built (built: " + built_backends_text() + ")");
   }
   if (backend == "sa") sa.validate();
+  if (backend == "rti") rti.validate();
   if (backend == "nlopt") nlopt.validate();
   // An unbuilt backend was refused above; its options' rules live in its own library.
 #ifdef SWERVE_HAS_IPOPT
@@ -45,6 +46,7 @@ void SolverConfig::validate() const {
 std::unique_ptr<Solver> make_solver(const SolverConfig& config, const OcpProblem& problem) {
   config.validate();
   if (config.backend == "sa") return std::make_unique<SimulatedAnnealingSolver>(problem, config.sa);
+  if (config.backend == "rti") return std::make_unique<RtiSolver>(problem, config.rti);
   if (config.backend == "nlopt") return std::make_unique<NloptSolver>(problem, config.nlopt);
 #ifdef SWERVE_HAS_IPOPT
   if (config.backend == "ipopt") return std::make_unique<IpoptSolver>(problem, config.ipopt);

@@ -94,8 +94,9 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
       read_fields(*prediction, PredictionOptions::fields(), &c.mpc.prediction);
     }
     if (const auto solver = node.optional_child("solver")) {
-      c.solver.backend = solver->get_choice_or("backend", {"sa", "ipopt", "nlopt", "ceres"}, "sa");
+      c.solver.backend = solver->get_choice_or("backend", {"sa", "rti", "ipopt", "nlopt", "ceres"}, "sa");
       if (const auto sa = solver->optional_child("sa")) c.solver.sa = load_sa(*sa);
+      if (const auto rti = solver->optional_child("rti")) read_fields(*rti, RtiOptions::fields(), &c.solver.rti);
       if (const auto nlopt = solver->optional_child("nlopt")) read_fields(*nlopt, NloptOptions::fields(), &c.solver.nlopt);
       if (const auto ipopt = solver->optional_child("ipopt")) read_fields(*ipopt, IpoptOptions::fields(), &c.solver.ipopt);
       if (const auto ceres = solver->optional_child("ceres")) read_fields(*ceres, CeresOptions::fields(), &c.solver.ceres);

@@ -24,6 +24,7 @@
 #include "swerve/solvers/ceres_solver.hpp"
 #include "swerve/solvers/ipopt_solver.hpp"
 #include "swerve/solvers/nlopt_solver.hpp"
+#include "swerve/solvers/rti_solver.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 
 namespace swerve::cli {
@@ -92,6 +93,7 @@ std::string reference() {
               MeasurementFilterOptions::fields(), MeasurementFilterOptions{});
   write_table(out, "controller.solver.sa", "The simulated-annealing backend.", SaOptions::fields(), SaOptions{});
   write_table(out, "controller.solver.nlopt", "The NLopt backend.", NloptOptions::fields(), NloptOptions{});
+  write_table(out, "controller.solver.rti", "The real-time iteration backend.", RtiOptions::fields(), RtiOptions{});
   write_table(out, "controller.solver.ipopt", "The Ipopt backend.", IpoptOptions::fields(), IpoptOptions{});
   write_table(out, "controller.solver.ceres", "The Ceres backend.", CeresOptions::fields(), CeresOptions{});
   write_table(out, "controller.baseline", "The kinematic baseline (a `kinematic_baseline` controller's own block).",

@@ -67,7 +67,7 @@ void declare_common(CLI::App& app, RunArguments* a) {
   app.add_option("scenario", a->scenario_file, "Scenario YAML (configs/scenarios/)")->required();
   app.add_option("-o,--out", a->out_dir, "Output directory [out/<scenario name>]");
   app.add_option("--seed", a->seed, "Simulator seed, an integer >= 0 (overrides the scenario's)")->check(kSeedRule);
-  app.add_option("--backend", a->backend, "Solver backend of the wear-aware controllers (sa, ipopt, nlopt, ceres)")
+  app.add_option("--backend", a->backend, "Solver backend of the wear-aware controllers (sa, rti, ipopt, nlopt, ceres)")
       ->check(kBackendRule);
   app.add_flag("-q,--quiet", a->quiet, "No progress bar");
 }

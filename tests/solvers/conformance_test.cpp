@@ -31,6 +31,7 @@ SolverConfig config_for(const std::string& backend) {
   config.backend = backend;
   config.sa.knots = 0;  // one knot per step: the LQ optimum is representable exactly
   config.sa.max_iterations = 40000;
+  config.rti.max_iterations = 3000;    // iterated to convergence (1 per cycle is its real-time use)
   config.ipopt.max_iterations = 3000;  // the deadline stops it first
   config.ceres.max_iterations = 3000;
   return config;
@@ -43,6 +44,7 @@ SolverConfig swerve_config_for(const std::string& backend) {
   // A fixed amount of work (~4 s here); the deadline is a cap. 15000 reached 2.1 % once the stage
   // wear charged command changes only the lagged drives' share (flatter in the corrections).
   config.sa.max_iterations = 30000;
+  config.rti.max_iterations = 3000;
   config.ipopt.max_iterations = 3000;
   config.ceres.max_iterations = 3000;
   return config;

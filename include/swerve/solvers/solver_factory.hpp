@@ -10,6 +10,7 @@
 #include "swerve/solvers/ceres_solver.hpp"
 #include "swerve/solvers/ipopt_solver.hpp"
 #include "swerve/solvers/nlopt_solver.hpp"
+#include "swerve/solvers/rti_solver.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 #include "swerve/ocp/solver.hpp"
 
@@ -18,6 +19,7 @@ namespace swerve {
 struct SolverConfig {
   std::string backend = "sa";
   SaOptions sa;
+  RtiOptions rti;
   NloptOptions nlopt;
   IpoptOptions ipopt;
   CeresOptions ceres;

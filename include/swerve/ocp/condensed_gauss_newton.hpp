@@ -1,0 +1,46 @@
+// The Gauss-Newton model of an OcpProblem's cost over its inputs alone (single shooting,
+// "condensed"): the Hessian H = sum over stages of J^T J for every least-squares residual of the
+// cost (tracking, state effort, effort, rate; OcpProblem's residual form) through the forward
+// sensitivities dx_k/dU, plus a curvature for the wear term, which is no sum of squares.
+//
+// The wear's curvature is the generalised Gauss-Newton one of a non-negative term: writing
+// W_k = w_k^2 / 2, its Gauss-Newton part is grad(w_k) grad(w_k)^T = grad(W_k) grad(W_k)^T / (2 W_k),
+// exact when W_k is the square of one function linear in the inputs, positive semi-definite always,
+// and free: it needs only the wear's gradient, which the linearisation has. The model's own
+// curvature (the dynamics' second derivatives) is left out, as in every Gauss-Newton method.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "swerve/ocp/ocp_derivatives.hpp"
+#include "swerve/ocp/ocp_problem.hpp"
+
+namespace swerve {
+
+class CondensedGaussNewton {
+ public:
+  // A stage's wear under this (J) counts as this for its curvature grad W grad W^T / (2 W): a stage
+  // that wears nothing would otherwise make its gradient's direction infinitely stiff.
+  static constexpr double kWearFloor = 1e-9;
+
+  // Sized for the problem's shape; hessian() then allocates nothing.
+  explicit CondensedGaussNewton(const OcpProblem& shape);
+
+  int size() const noexcept { return n_; }  // nu N
+
+  // H (nu N x nu N, stages in order, u_0 first) at the plan whose stages `linearised` holds (its
+  // cost_and_gradient or linearize_stages on every stage of `states`, the rollout, nx x N+1).
+  // With `wear_curvature` off, the wear term adds nothing to H. false on wrong sizes or a
+  // non-finite result. noexcept.
+  bool hessian(const OcpProblem& problem, const OcpDerivatives& linearised,
+               const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
+               Eigen::Ref<Eigen::MatrixXd> hessian) noexcept;
+
+ private:
+  int horizon_, nx_, nu_, n_;
+  Eigen::MatrixXd sensitivity_, next_sensitivity_;  // nx x n: dx_k/dU and dx_{k+1}/dU
+  Eigen::MatrixXd residual_jacobian_;               // rows x n: one stage's residuals' dr/dU
+  Eigen::VectorXd wear_row_;                        // n: dW_k/dU
+};
+
+}  // namespace swerve

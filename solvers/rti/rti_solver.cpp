@@ -1,0 +1,232 @@
+#include "swerve/solvers/rti_solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "swerve/core/config_error.hpp"
+#include "swerve/ocp/condensed_gauss_newton.hpp"
+#include "swerve/ocp/ocp_derivatives.hpp"
+#include "swerve/solvers/bounded_input_qp.hpp"
+
+namespace swerve {
+namespace {
+
+// The Levenberg damping's ceiling: past it a step is as good as no step.
+constexpr double kMaxDamping = 1e8;
+// Armijo's sufficient-decrease share of the step's first-order decrease (Nocedal & Wright, 3.1).
+constexpr double kArmijo = 1e-4;
+// A full step whose actual decrease is at least this share of the model's lowers the damping.
+constexpr double kGoodPrediction = 0.75;
+// The damping after a shortened or refused step is at least this (per squared input unit), so a
+// floor of 0 can still grow.
+constexpr double kDampingAfterARefusal = 1e-6;
+
+// An estimate of a duration after a new measurement: it rises at once and falls halfway, so a
+// slower iteration is believed and a faster one averaged.
+Duration updated_estimate(Duration estimate, Duration measured) noexcept {
+  return measured > estimate ? measured : (measured + estimate) / 2;
+}
+
+}  // namespace
+
+const OptionFields<RtiOptions>& RtiOptions::fields() {
+  static const OptionFields<RtiOptions> table{
+      {"max_iterations", &RtiOptions::max_iterations, Bound::at_least(1), {}, nullptr,
+       "(1: one real-time iteration per cycle)"},
+      {"tolerance", &RtiOptions::tolerance, Bound::positive()},
+      {"qp_tolerance", &RtiOptions::qp_tolerance, Bound::positive()},
+      {"qp_max_iterations", &RtiOptions::qp_max_iterations, Bound::closed(1, 1000)},
+      {"line_search_steps", &RtiOptions::line_search_steps, Bound::closed(0, 60)},
+      {"damping", &RtiOptions::damping, Bound::closed(0.0, kMaxDamping)},
+      {"wear_curvature", &RtiOptions::wear_curvature},
+  };
+  return table;
+}
+
+void RtiOptions::validate() const { check_fields("RtiOptions", *this, fields()); }
+
+struct RtiSolver::Impl {
+  explicit Impl(const OcpProblem& shape)
+      : derivatives(shape), condensed(shape), qp(shape.input_size(), shape.horizon()), start(shape) {
+    const int nu = shape.input_size();
+    const int horizon = shape.horizon();
+    const int n = nu * horizon;
+    inputs = trial_inputs = step = Eigen::MatrixXd::Zero(nu, horizon);
+    gradient = Eigen::MatrixXd::Zero(nu, horizon);
+    states = trial_states = Eigen::MatrixXd::Zero(shape.state_size(), horizon + 1);
+    stage_costs = stage_wear = trial_stage_wear = Eigen::VectorXd::Zero(horizon);
+    hessian = damped = Eigen::MatrixXd::Zero(n, n);
+    linear = answer = hessian_step = Eigen::VectorXd::Zero(n);
+  }
+
+  // The Gauss-Newton step of the plan (inputs, states): its linearisation, condensed Hessian and
+  // QP, leaving the step in `step`, its first-order change g^T d in *slope and the model's
+  // decrease -(g^T d + 1/2 d^T H d) in *predicted. false with *reason (and *status) when it fails.
+  bool gauss_newton_step(const OcpProblem& problem, const RtiOptions& options, const Deadline& deadline,
+                         Details* details, double* slope, double* predicted, const char** reason,
+                         SolveStatus* status) noexcept {
+    const int n = problem.input_size() * problem.horizon();
+    const double linearised_cost = derivatives.cost_and_gradient(problem, inputs, states, gradient, &deadline);
+    if (!std::isfinite(linearised_cost)) {
+      // NaN: it gave up between stages at the deadline; +inf: the model failed.
+      if (std::isnan(linearised_cost)) {
+        *reason = "stopped at the deadline inside a linearisation";
+      } else {
+        *reason = "the model's Jacobians failed on the plan";
+        *status = SolveStatus::kNumericalError;
+      }
+      return false;
+    }
+    if (!condensed.hessian(problem, derivatives, states, options.wear_curvature, hessian)) {
+      *reason = "the Gauss-Newton Hessian was not finite";
+      *status = SolveStatus::kNumericalError;
+      return false;
+    }
+    // The QP in the new inputs z: 1/2 (z - u)^T (H + nu I) (z - u) + g^T (z - u), i.e. linear term
+    // g - (H + nu I) u; its answer satisfies every bound.
+    damped = hessian;
+    damped.diagonal().array() += damping;
+    const Eigen::Map<const Eigen::VectorXd> u(inputs.data(), n);
+    const Eigen::Map<const Eigen::VectorXd> g(gradient.data(), n);
+    linear = g;
+    linear.noalias() -= damped * u;
+    answer = u;
+    BoundedInputQp::Settings settings;
+    settings.tolerance = options.qp_tolerance;
+    settings.max_iterations = options.qp_max_iterations;
+    details->qp_iterations += qp.solve(damped, linear, problem.bounds(), problem.previous_input(), settings, answer).iterations;
+    if (!answer.allFinite()) {
+      *reason = "the QP's answer was not finite";
+      *status = SolveStatus::kNumericalError;
+      return false;
+    }
+    Eigen::Map<Eigen::VectorXd>(trial_inputs.data(), n) = answer;
+    problem.project(trial_inputs);  // an unconverged QP may leave a bound short by its residual
+    step = trial_inputs - inputs;
+    const Eigen::Map<const Eigen::VectorXd> d(step.data(), n);
+    *slope = g.dot(d);
+    hessian_step.noalias() = hessian * d;
+    *predicted = -(*slope + 0.5 * d.dot(hessian_step));
+    return true;
+  }
+
+  // Backtracking along the step (Armijo): u + a d stays inside the convex bounds for a in [0, 1].
+  // The accepted trial stays in trial_*; returns its fraction a, or 0 when none was accepted.
+  double line_search(const OcpProblem& problem, PredictionData& data, const Deadline& deadline, Duration rollout_time,
+                     double cost, double slope, int halvings, double* trial_cost, long* rollouts,
+                     Details* details) noexcept {
+    double fraction = 1.0;
+    for (int halving = 0; halving <= halvings; ++halving, fraction *= 0.5) {
+      if (halving > 0 && deadline.now() + rollout_time >= deadline.at()) break;
+      trial_inputs = inputs + fraction * step;
+      *trial_cost = problem.rollout(data, trial_inputs, 0, trial_states, stage_costs, trial_stage_wear.data());
+      ++*rollouts;
+      if (*trial_cost <= cost + kArmijo * fraction * slope) return fraction;
+      ++details->line_search_steps;
+    }
+    return 0.0;
+  }
+
+  // The Levenberg damping after a step of `fraction` (0: refused) that decreased the cost by
+  // `decrease` where the model predicted `predicted`.
+  void adapt_damping(double floor, double fraction, double decrease, double predicted) noexcept {
+    if (fraction == 1.0 && decrease >= kGoodPrediction * predicted) {
+      damping = std::max(floor, damping / 3.0);
+    } else if (fraction < 1.0) {
+      damping = std::min(kMaxDamping, std::max(10.0 * damping, kDampingAfterARefusal));
+    }
+  }
+
+  OcpDerivatives derivatives;
+  CondensedGaussNewton condensed;
+  BoundedInputQp qp;
+  StartPlan start;
+  Eigen::MatrixXd inputs, trial_inputs, step, gradient;  // nu x N
+  Eigen::MatrixXd states, trial_states;                  // nx x N+1
+  Eigen::VectorXd stage_costs, stage_wear, trial_stage_wear;  // N
+  Eigen::MatrixXd hessian, damped;                       // nu N x nu N
+  Eigen::VectorXd linear, answer, hessian_step;          // nu N
+  double damping = 0.0;                                  // carried from solve to solve
+  Duration iteration_estimate{};                         // zero: not yet measured
+};
+
+RtiSolver::RtiSolver(const OcpProblem& problem_shape, RtiOptions options)
+    : Solver(problem_shape), options_(options) {
+  options_.validate();
+  impl_ = std::make_unique<Impl>(problem_shape);  // OcpDerivatives refuses a model without Jacobians
+  impl_->damping = options_.damping;
+}
+
+RtiSolver::~RtiSolver() = default;
+
+SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
+                                Solution* out, SolveSummary* summary) noexcept {
+  Impl& s = *impl_;
+  details_ = Details{};
+  const double start_cost = s.start.choose(problem, guesses, deadline);
+  summary->initial_cost = start_cost;
+  long rollouts = s.start.rollouts();
+  if (!std::isfinite(start_cost)) {
+    summary->reason = "the model failed on every initial guess";
+    return SolveStatus::kNumericalError;
+  }
+  s.inputs = s.start.inputs();
+  s.states = s.start.states();
+  s.stage_wear = s.start.stage_wear();
+  double cost = start_cost;
+  // Before any iteration was measured: its linearisation (kJacobianRolloutCost rollouts), the
+  // condensing and QP (about one more) and the line search's first rollout.
+  const Duration rollout_time = s.start.longest_rollout();
+  const Duration first_estimate = (kJacobianRolloutCost + 2) * rollout_time;
+  const char* reason = "stopped at max_iterations";
+  SolveStatus status = SolveStatus::kBudgetExhausted;
+  int iterations = 0;
+  for (; iterations < options_.max_iterations; ++iterations) {
+    const TimePoint iteration_start = deadline.now();
+    const Duration estimate = s.iteration_estimate > Duration::zero() ? s.iteration_estimate : first_estimate;
+    if (iteration_start + estimate >= deadline.at()) {
+      reason = iterations == 0 ? "the deadline left no time for an iteration; returning the start"
+                               : "stopped at the deadline";
+      break;
+    }
+    double slope = 0.0, predicted = 0.0;
+    if (!s.gauss_newton_step(problem, options_, deadline, &details_, &slope, &predicted, &reason, &status)) break;
+    if (!(predicted > options_.tolerance * (1.0 + std::abs(cost))) || slope >= 0.0) {
+      reason = "converged: the Gauss-Newton step predicts no decrease";
+      status = SolveStatus::kConverged;
+      details_.step_fraction = 0.0;
+      ++iterations;
+      break;
+    }
+    double trial_cost = cost;
+    const double fraction = s.line_search(problem, model_data(), deadline, rollout_time, cost, slope,
+                                          options_.line_search_steps, &trial_cost, &rollouts, &details_);
+    s.adapt_damping(options_.damping, fraction, cost - trial_cost, predicted);
+    details_.step_fraction = fraction;
+    s.iteration_estimate = updated_estimate(s.iteration_estimate, deadline.now() - iteration_start);
+    if (fraction == 0.0) continue;  // refused: the next iteration tries again, more damped
+    const double decrease = cost - trial_cost;
+    s.inputs.swap(s.trial_inputs);
+    s.states.swap(s.trial_states);
+    s.stage_wear.swap(s.trial_stage_wear);
+    cost = trial_cost;
+    if (fraction == 1.0 && decrease <= options_.tolerance * (1.0 + std::abs(cost))) {
+      reason = "converged: a full step decreased the cost by less than the tolerance";
+      status = SolveStatus::kConverged;
+      ++iterations;
+      break;
+    }
+  }
+  details_.damping = s.damping;
+  out->inputs = s.inputs;
+  out->states = s.states;
+  out->cost = cost;
+  summary->cost = problem.breakdown(s.inputs, s.states, s.stage_wear);
+  summary->iterations = iterations;
+  summary->rollouts = rollouts;
+  summary->reason = reason;
+  return status;
+}
+
+}  // namespace swerve

@@ -1,0 +1,250 @@
+// The condensed Gauss-Newton Hessian against independent truth: the exact Hessian of a linear-
+// quadratic problem (and its one-step optimum), J^T J of the cost's stacked residuals by central
+// differences through rollouts on the swerve problem, the wear's curvature from central differences
+// of the stage wear, and the stage-wise (multiple-shooting) KKT system of the same Gauss-Newton QP,
+// which a Riccati recursion would solve, giving the same step.
+#include "swerve/ocp/condensed_gauss_newton.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <vector>
+
+#include "support/linear_models.hpp"
+#include "support/one_off_steps.hpp"
+#include "support/swerve_problems.hpp"
+
+namespace swerve {
+namespace {
+
+using testing::DoubleIntegratorModel;
+
+// The swerve turning problem with every residual of the cost active: pose (pseudo-Huber), twist,
+// a tube that binds on the later stages, effort, rate, a state effort on the steering angles, wear.
+struct EveryTermProblem {
+  testing::SwerveTestProblem s{testing::SwerveScene::kTurn};
+  OcpProblem problem;
+  EveryTermProblem() : problem(s.model, 8, 0.05, weights(s), s.problem.bounds()) {
+    problem.set_initial_state(s.problem.initial_state());
+    problem.set_previous_input(s.problem.previous_input());
+    for (int k = 1; k <= problem.horizon(); ++k) {
+      problem.set_reference(k, s.problem.reference_poses().col(k - 1), s.problem.reference_twists().col(k - 1));
+      if (k > 4) problem.set_tube(k, 0.01, 0.02);
+    }
+  }
+  static CostWeights weights(const testing::SwerveTestProblem& s) {
+    CostWeights w = testing::SwerveTestProblem::weights(testing::SwerveScene::kTurn);
+    w.pose_huber_width = 0.02;
+    w.tube_penalty = 50.0;
+    w.state_effort = Eigen::VectorXd::Zero(s.model.state_size());
+    w.state_effort.tail(s.model.state_size() - 6).setConstant(0.3);
+    return w;
+  }
+  Eigen::MatrixXd inputs(unsigned seed) const {
+    Eigen::MatrixXd u = s.jittered_inputs(0.1, seed).leftCols(problem.horizon());
+    problem.project(u);
+    return u;
+  }
+};
+
+// Every least-squares residual of the cost, stacked stage by stage, from a rollout of `inputs`.
+Eigen::VectorXd stacked_residuals(const OcpProblem& problem, const Eigen::MatrixXd& inputs) {
+  const int horizon = problem.horizon();
+  const int nu = problem.input_size();
+  const Eigen::Index effort_rows = problem.state_effort_index().size();
+  const Eigen::Index per_stage = OcpProblem::kTrackingResiduals + effort_rows + 2 * nu;
+  Eigen::MatrixXd states(problem.state_size(), horizon + 1);
+  testing::evaluate_once(problem, inputs, states);
+  Eigen::VectorXd r(per_stage * horizon);
+  for (int k = 0; k < horizon; ++k) {
+    OcpProblem::TrackingResiduals tracking;
+    problem.tracking_residuals(k, states.col(k + 1), &tracking);
+    auto stage = r.segment(k * per_stage, per_stage);
+    stage.head<OcpProblem::kTrackingResiduals>() = tracking;
+    for (Eigen::Index j = 0; j < effort_rows; ++j) {
+      stage[OcpProblem::kTrackingResiduals + j] =
+          problem.state_effort_root()[j] * states(problem.state_effort_index()[j], k + 1);
+    }
+    const Eigen::VectorXd before = k == 0 ? problem.previous_input() : Eigen::VectorXd(inputs.col(k - 1));
+    stage.segment(OcpProblem::kTrackingResiduals + effort_rows, nu) = problem.effort_root().cwiseProduct(inputs.col(k));
+    stage.tail(nu) = problem.rate_root().cwiseProduct(inputs.col(k) - before);
+  }
+  return r;
+}
+
+// Each stage's wear as a rollout gives it.
+Eigen::VectorXd stage_wear_of(const OcpProblem& problem, const Eigen::MatrixXd& inputs) {
+  const std::unique_ptr<PredictionData> data = problem.model().create_data();
+  Eigen::MatrixXd states(problem.state_size(), problem.horizon() + 1);
+  Eigen::VectorXd costs(problem.horizon()), wear(problem.horizon());
+  problem.rollout(*data, inputs, 0, states, costs, wear.data());
+  return wear;
+}
+
+// Central differences of f over the stacked inputs: column j = df/dU_j.
+template <typename F>
+Eigen::MatrixXd central_differences(const Eigen::MatrixXd& inputs, F f) {
+  const Eigen::Index n = inputs.size();
+  Eigen::MatrixXd jacobian;
+  for (Eigen::Index j = 0; j < n; ++j) {
+    Eigen::MatrixXd plus = inputs, minus = inputs;
+    const double h = 1e-6;
+    plus.data()[j] += h;
+    minus.data()[j] -= h;
+    const Eigen::VectorXd column = (f(plus) - f(minus)) / (2.0 * h);
+    if (jacobian.size() == 0) jacobian.resize(column.size(), n);
+    jacobian.col(j) = column;
+  }
+  return jacobian;
+}
+
+// Linearises `problem` along `inputs` and returns the condensed Hessian; the gradient in *gradient.
+Eigen::MatrixXd condensed_hessian(const OcpProblem& problem, const Eigen::MatrixXd& inputs, bool wear_curvature,
+                                  OcpDerivatives* derivatives, Eigen::MatrixXd* states, Eigen::MatrixXd* gradient) {
+  states->resize(problem.state_size(), problem.horizon() + 1);
+  gradient->resize(problem.input_size(), problem.horizon());
+  EXPECT_TRUE(std::isfinite(derivatives->cost_and_gradient(problem, inputs, *states, *gradient)));
+  CondensedGaussNewton condensed(problem);
+  Eigen::MatrixXd hessian(condensed.size(), condensed.size());
+  EXPECT_TRUE(condensed.hessian(problem, *derivatives, *states, wear_curvature, hessian));
+  return hessian;
+}
+
+TEST(CondensedGaussNewton, IsTheExactHessianOfALinearQuadraticProblemSoOneNewtonStepReachesItsOptimum) {
+  const DoubleIntegratorModel model(0.0);
+  const OcpProblem problem = testing::make_lq_problem(model, 6);
+  OcpDerivatives derivatives(problem);
+  const Eigen::MatrixXd start = Eigen::MatrixXd::Constant(3, 6, 0.3);
+  Eigen::MatrixXd states, gradient;
+  const Eigen::MatrixXd hessian = condensed_hessian(problem, start, true, &derivatives, &states, &gradient);
+  const Eigen::VectorXd g = Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size());
+  const Eigen::VectorXd step = -hessian.llt().solve(g);
+  const Eigen::MatrixXd reached = start + Eigen::Map<const Eigen::MatrixXd>(step.data(), 3, 6);
+  EXPECT_LE((reached - testing::double_integrator_optimum(problem, model)).cwiseAbs().maxCoeff(), 1e-9);
+  // And the Hessian is the gradient's own derivative (central differences of the exact gradient).
+  OcpDerivatives probe(problem);
+  const Eigen::MatrixXd expected = central_differences(start, [&](const Eigen::MatrixXd& u) {
+    Eigen::MatrixXd x(6, 7), g_u(3, 6);
+    probe.cost_and_gradient(problem, u, x, g_u);
+    return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(g_u.data(), g_u.size()));
+  });
+  EXPECT_LE((hessian - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff());
+}
+
+TEST(CondensedGaussNewton, IsJTransposeJOfEveryResidualOfTheSwerveCostByCentralDifferences) {
+  const EveryTermProblem p;
+  const Eigen::MatrixXd inputs = p.inputs(4);
+  OcpDerivatives derivatives(p.problem);
+  Eigen::MatrixXd states, gradient;
+  const Eigen::MatrixXd hessian = condensed_hessian(p.problem, inputs, false, &derivatives, &states, &gradient);
+  const Eigen::MatrixXd jacobian =
+      central_differences(inputs, [&](const Eigen::MatrixXd& u) { return stacked_residuals(p.problem, u); });
+  const Eigen::MatrixXd expected = jacobian.transpose() * jacobian;
+  EXPECT_LE((hessian - expected).cwiseAbs().maxCoeff(), 1e-5 * expected.cwiseAbs().maxCoeff());
+  // The tube and the state effort took part (else the comparison says nothing about them).
+  const Eigen::VectorXd r = stacked_residuals(p.problem, inputs);
+  EXPECT_GT(p.problem.state_effort_index().size(), 0);
+  const Eigen::Index per_stage = OcpProblem::kTrackingResiduals + p.problem.state_effort_index().size() + 6;
+  double tube = 0.0;
+  for (int k = 0; k < p.problem.horizon(); ++k) tube += std::abs(r[k * per_stage + OcpProblem::kTubeResidual]);
+  EXPECT_GT(tube, 0.0);
+}
+
+TEST(CondensedGaussNewton, AddsEachStagesWearCurvatureGradWGradWOverTwoW) {
+  const EveryTermProblem p;
+  const Eigen::MatrixXd inputs = p.inputs(6);
+  OcpDerivatives derivatives(p.problem);
+  Eigen::MatrixXd states, gradient;
+  const Eigen::MatrixXd without = condensed_hessian(p.problem, inputs, false, &derivatives, &states, &gradient);
+  const Eigen::MatrixXd with = condensed_hessian(p.problem, inputs, true, &derivatives, &states, &gradient);
+  const Eigen::VectorXd wear = stage_wear_of(p.problem, inputs);
+  const Eigen::MatrixXd wear_jacobian =
+      central_differences(inputs, [&](const Eigen::MatrixXd& u) { return stage_wear_of(p.problem, u); });
+  Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(without.rows(), without.cols());
+  for (int k = 0; k < p.problem.horizon(); ++k) {
+    ASSERT_GT(wear[k], CondensedGaussNewton::kWearFloor);
+    const Eigen::VectorXd g = wear_jacobian.row(k).transpose();
+    expected += p.problem.weights().wear / (2.0 * wear[k]) * g * g.transpose();
+  }
+  EXPECT_GT(expected.norm(), 0.0);
+  EXPECT_LE((with - without - expected).cwiseAbs().maxCoeff(), 1e-4 * expected.cwiseAbs().maxCoeff());
+}
+
+TEST(CondensedGaussNewton, ItsStepIsTheSolutionOfTheStageWiseKktSystemOfTheSameQp) {
+  // The Gauss-Newton QP written stage-wise, as multiple shooting (and a Riccati recursion) sees it:
+  // variables du_0..du_{N-1}, dx_1..dx_N, the linearised dynamics dx_{k+1} = A_k dx_k + B_k du_k
+  // (dx_0 = 0) as equality rows, each stage's residuals linearised in its own variables and the
+  // wear as W + g^T dz + lambda (g^T dz)^2 / (4 W). Solved densely; its du must be the condensed step.
+  const EveryTermProblem p;
+  const OcpProblem& problem = p.problem;
+  const Eigen::MatrixXd inputs = p.inputs(8);
+  OcpDerivatives derivatives(problem);
+  Eigen::MatrixXd states, gradient;
+  const Eigen::MatrixXd hessian = condensed_hessian(problem, inputs, true, &derivatives, &states, &gradient);
+  const Eigen::VectorXd g = Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size());
+  const Eigen::VectorXd condensed_step = -hessian.llt().solve(g);
+
+  const int horizon = problem.horizon(), nx = problem.state_size(), nu = problem.input_size();
+  const int n_u = nu * horizon, n_x = nx * horizon, n = n_u + n_x;
+  const auto u_index = [&](int k) { return k * nu; };           // du_k
+  const auto x_index = [&](int k) { return n_u + (k - 1) * nx; };  // dx_k, k >= 1
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, n);
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXd dynamics = Eigen::MatrixXd::Zero(n_x, n);
+  const double lambda = problem.weights().wear;
+  for (int k = 0; k < horizon; ++k) {
+    // Dynamics: dx_{k+1} - A_k dx_k - B_k du_k = 0.
+    dynamics.block(k * nx, x_index(k + 1), nx, nx) = Eigen::MatrixXd::Identity(nx, nx);
+    if (k > 0) dynamics.block(k * nx, x_index(k), nx, nx) = -derivatives.a(k);
+    dynamics.block(k * nx, u_index(k), nx, nu) = -derivatives.b(k);
+    // Tracking at x_{k+1}.
+    OcpProblem::TrackingResiduals r;
+    OcpProblem::TrackingJacobian j;
+    problem.tracking_residuals(k, states.col(k + 1), &r, &j);
+    h.block(x_index(k + 1), x_index(k + 1), 6, 6) += j.transpose() * j;
+    q.segment(x_index(k + 1), 6) += j.transpose() * r;
+    for (Eigen::Index e = 0; e < problem.state_effort_index().size(); ++e) {
+      const int state = x_index(k + 1) + problem.state_effort_index()[e];
+      const double root = problem.state_effort_root()[e];
+      h(state, state) += root * root;
+      q[state] += root * root * states(problem.state_effort_index()[e], k + 1);
+    }
+    // Effort and rate on the inputs.
+    const Eigen::VectorXd before = k == 0 ? problem.previous_input() : Eigen::VectorXd(inputs.col(k - 1));
+    for (int i = 0; i < nu; ++i) {
+      const double effort = problem.effort_root()[i] * problem.effort_root()[i];
+      const double rate = problem.rate_root()[i] * problem.rate_root()[i];
+      const int a = u_index(k) + i;
+      h(a, a) += effort + rate;
+      q[a] += effort * inputs(i, k) + rate * (inputs(i, k) - before[i]);
+      if (k > 0) {
+        const int b = u_index(k - 1) + i;
+        h(b, b) += rate;
+        h(a, b) -= rate;
+        h(b, a) -= rate;
+        q[b] -= rate * (inputs(i, k) - before[i]);
+      }
+    }
+    // Wear over z_k = (dx_k, du_k), dx_0 absent.
+    const Eigen::VectorXd& wear_gradient = derivatives.wear_gradient(k);
+    Eigen::VectorXd row = Eigen::VectorXd::Zero(n);
+    if (k > 0) row.segment(x_index(k), nx) = wear_gradient.head(nx);
+    row.segment(u_index(k), nu) = wear_gradient.tail(nu);
+    q += lambda * row;
+    h += lambda / (2.0 * std::max(derivatives.wear(k), CondensedGaussNewton::kWearFloor)) * row * row.transpose();
+  }
+  Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(n + n_x, n + n_x);
+  kkt.topLeftCorner(n, n) = h;
+  kkt.topRightCorner(n, n_x) = dynamics.transpose();
+  kkt.bottomLeftCorner(n_x, n) = dynamics;
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + n_x);
+  rhs.head(n) = -q;
+  const Eigen::VectorXd stage_wise = kkt.partialPivLu().solve(rhs);
+  EXPECT_LE((stage_wise.head(n_u) - condensed_step).cwiseAbs().maxCoeff(),
+            1e-8 * (1.0 + condensed_step.cwiseAbs().maxCoeff()));
+}
+
+}  // namespace
+}  // namespace swerve

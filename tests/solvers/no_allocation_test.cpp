@@ -1,0 +1,63 @@
+// The SQP backend's real-time path allocates nothing after construction: its QP, and a whole RTI
+// solve after the first (allocations counted by hooking malloc; one file per test executable may).
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+#include <chrono>
+
+#include "support/allocation_counter.hpp"
+#include "support/fake_clocks.hpp"
+#include "support/swerve_problems.hpp"
+#include "swerve/solvers/bounded_input_qp.hpp"
+#include "swerve/solvers/rti_solver.hpp"
+
+namespace swerve {
+namespace {
+
+using namespace std::chrono_literals;
+
+TEST(BoundedInputQp, SolvesWithoutAllocating) {
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting is unavailable in this build";
+  const int nu = 3, horizon = 20, n = nu * horizon;
+  const Eigen::MatrixXd h = Eigen::MatrixXd::Identity(n, n) + 0.5 * Eigen::MatrixXd::Ones(n, n);
+  const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(n, -5.0, 5.0);
+  InputBounds bounds;
+  bounds.lower = Eigen::Vector3d::Constant(-0.5);
+  bounds.upper = Eigen::Vector3d::Constant(0.5);
+  bounds.max_step = Eigen::Vector3d::Constant(0.1);
+  const Eigen::VectorXd previous = Eigen::VectorXd::Zero(nu);
+  BoundedInputQp qp(nu, horizon);
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(n);
+  const BoundedInputQp::Settings settings;
+  testing::AllocationCounter counter;
+  const BoundedInputQp::Result result = qp.solve(h, q, bounds, previous, settings, z);
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_TRUE(result.converged) << result.reason;
+}
+
+TEST(RtiSolver, SolvesWithoutAllocatingAfterItsFirstSolve) {
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting is unavailable in this build";
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
+  RtiOptions options;
+  options.max_iterations = 3;
+  RtiSolver solver(s.problem, options);
+  const WorkClock stopped;
+  Solution plan;
+  plan.resize(10, 3, 20);
+  Eigen::MatrixXd guess = s.problem.previous_input().replicate(1, 20);
+  InitialGuesses guesses;
+  guesses.add(&guess);
+  SolveSummary summary;
+  ASSERT_TRUE(has_solution(solver.solve(s.problem, guesses, Deadline(stopped.now() + 10s, stopped), &plan, &summary)));
+  s.next_cycle(1, &plan);
+  guess = plan.inputs;
+  const Deadline deadline = Deadline(stopped.now() + 10s, stopped);
+  testing::AllocationCounter counter;
+  const SolveStatus status = solver.solve(s.problem, guesses, deadline, &plan, &summary);
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_TRUE(has_solution(status)) << summary.reason;
+}
+
+}  // namespace
+}  // namespace swerve
