@@ -165,6 +165,7 @@ BoundedInputQp::Result BoundedInputQp::solve(const Eigen::Ref<const Eigen::Matri
     factor_.compute(normal_);
     if (factor_.info() != Eigen::Success) {
       result.reason = "the normal matrix is not positive definite (is the Hessian?)";
+      result.not_positive_definite = true;
       break;
     }
     // Predictor (affine scaling): complementarity s lambda driven to 0.

@@ -7,6 +7,7 @@
 #include "swerve/core/config_error.hpp"
 #include "swerve/ocp/condensed_gauss_newton.hpp"
 #include "swerve/ocp/ocp_derivatives.hpp"
+#include "swerve/ocp/stage_quasi_newton.hpp"
 #include "swerve/solvers/bounded_input_qp.hpp"
 
 namespace swerve {
@@ -21,6 +22,8 @@ constexpr double kGoodPrediction = 0.75;
 // The damping after a shortened or refused step is at least this (per squared input unit), so a
 // floor of 0 can still grow.
 constexpr double kDampingAfterARefusal = 1e-6;
+// Times the damping grows tenfold within one iteration while the QP's matrix is not positive definite.
+constexpr int kDampingRetries = 8;
 
 // An estimate of a duration after a new measurement: it rises at once and falls halfway, so a
 // slower iteration is believed and a faster one averaged.
@@ -40,6 +43,7 @@ const OptionFields<RtiOptions>& RtiOptions::fields() {
       {"line_search_steps", &RtiOptions::line_search_steps, Bound::closed(0, 60)},
       {"damping", &RtiOptions::damping, Bound::closed(0.0, kMaxDamping)},
       {"wear_curvature", &RtiOptions::wear_curvature},
+      {"stage_quasi_newton", &RtiOptions::stage_quasi_newton},
   };
   return table;
 }
@@ -48,7 +52,8 @@ void RtiOptions::validate() const { check_fields("RtiOptions", *this, fields());
 
 struct RtiSolver::Impl {
   explicit Impl(const OcpProblem& shape)
-      : derivatives(shape), condensed(shape), qp(shape.input_size(), shape.horizon()), start(shape) {
+      : derivatives(shape), condensed(shape), quasi_newton(shape), qp(shape.input_size(), shape.horizon()),
+        start(shape) {
     const int nu = shape.input_size();
     const int horizon = shape.horizon();
     const int n = nu * horizon;
@@ -78,7 +83,9 @@ struct RtiSolver::Impl {
       }
       return false;
     }
-    if (!condensed.hessian(problem, derivatives, states, options.wear_curvature, hessian)) {
+    if (options.stage_quasi_newton) quasi_newton.update(problem, derivatives, states, inputs, options.wear_curvature);
+    if (!condensed.hessian(problem, derivatives, states, options.wear_curvature, hessian,
+                           options.stage_quasi_newton ? &quasi_newton : nullptr)) {
       *reason = "the Gauss-Newton Hessian was not finite";
       *status = SolveStatus::kNumericalError;
       return false;
@@ -95,7 +102,23 @@ struct RtiSolver::Impl {
     BoundedInputQp::Settings settings;
     settings.tolerance = options.qp_tolerance;
     settings.max_iterations = options.qp_max_iterations;
-    details->qp_iterations += qp.solve(damped, linear, problem.bounds(), problem.previous_input(), settings, answer).iterations;
+    BoundedInputQp::Result result = qp.solve(damped, linear, problem.bounds(), problem.previous_input(), settings, answer);
+    // A learnt curvature may leave H short of positive definite by its rounding: more damping then.
+    for (int retry = 0; result.not_positive_definite && retry < kDampingRetries; ++retry) {
+      damping = std::min(kMaxDamping, std::max(10.0 * damping, kDampingAfterARefusal));
+      damped = hessian;
+      damped.diagonal().array() += damping;
+      linear = g;
+      linear.noalias() -= damped * u;
+      answer = u;
+      result = qp.solve(damped, linear, problem.bounds(), problem.previous_input(), settings, answer);
+    }
+    details->qp_iterations += result.iterations;
+    if (result.not_positive_definite) {
+      *reason = "the Hessian stayed indefinite under the largest damping";
+      *status = SolveStatus::kNumericalError;
+      return false;
+    }
     if (!answer.allFinite()) {
       *reason = "the QP's answer was not finite";
       *status = SolveStatus::kNumericalError;
@@ -140,6 +163,7 @@ struct RtiSolver::Impl {
 
   OcpDerivatives derivatives;
   CondensedGaussNewton condensed;
+  StageQuasiNewton quasi_newton;
   BoundedInputQp qp;
   StartPlan start;
   Eigen::MatrixXd inputs, trial_inputs, step, gradient;  // nu x N
@@ -164,6 +188,7 @@ SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses&
                                 Solution* out, SolveSummary* summary) noexcept {
   Impl& s = *impl_;
   details_ = Details{};
+  s.quasi_newton.begin_solve();
   const double start_cost = s.start.choose(problem, guesses, deadline);
   summary->initial_cost = start_cost;
   long rollouts = s.start.rollouts();

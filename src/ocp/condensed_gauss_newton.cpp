@@ -13,15 +13,18 @@ CondensedGaussNewton::CondensedGaussNewton(const OcpProblem& shape)
   const auto rows = static_cast<Eigen::Index>(OcpProblem::kTrackingResiduals) + shape.state_effort_index().size();
   residual_jacobian_ = Eigen::MatrixXd::Zero(rows, n_);
   wear_row_ = Eigen::VectorXd::Zero(n_);
+  stage_map_ = curved_map_ = Eigen::MatrixXd::Zero(nx_ + nu_, n_);
 }
 
 bool CondensedGaussNewton::hessian(const OcpProblem& problem, const OcpDerivatives& linearised,
                                    const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
-                                   Eigen::Ref<Eigen::MatrixXd> hessian) noexcept {
+                                   Eigen::Ref<Eigen::MatrixXd> hessian,
+                                   const StageQuasiNewton* stage_curvature) noexcept {
   if (problem.horizon() != horizon_ || problem.state_size() != nx_ || problem.input_size() != nu_ ||
       linearised.horizon() != horizon_ || states.rows() != nx_ || states.cols() != horizon_ + 1 ||
       hessian.rows() != n_ || hessian.cols() != n_ ||
-      problem.state_effort_index().size() + OcpProblem::kTrackingResiduals != residual_jacobian_.rows()) {
+      problem.state_effort_index().size() + OcpProblem::kTrackingResiduals != residual_jacobian_.rows() ||
+      (stage_curvature != nullptr && stage_curvature->stage_size() != nx_ + nu_)) {
     return false;
   }
   hessian.setZero();
@@ -42,6 +45,7 @@ bool CondensedGaussNewton::hessian(const OcpProblem& problem, const OcpDerivativ
       const double weight = lambda / (2.0 * std::max(linearised.wear(k), kWearFloor));
       hessian.topLeftCorner(moving, moving).selfadjointView<Eigen::Lower>().rankUpdate(wear_row_.head(moving), weight);
     }
+    if (stage_curvature != nullptr) add_stage_curvature(k, stage_curvature->block(k), hessian);
     // The tracking residuals at x_{k+1} and the state effort's, stacked: dr/dU = dr/dx dx_{k+1}/dU.
     problem.tracking_residuals(k, states.col(k + 1), &residuals, &tracking_jacobian);
     residual_jacobian_.topLeftCorner(OcpProblem::kTrackingResiduals, moving).noalias() =
@@ -72,6 +76,19 @@ bool CondensedGaussNewton::hessian(const OcpProblem& problem, const OcpDerivativ
     for (int i = 0; i < j; ++i) hessian(i, j) = hessian(j, i);
   }
   return hessian.allFinite();
+}
+
+void CondensedGaussNewton::add_stage_curvature(int k, const Eigen::MatrixXd& curvature,
+                                               Eigen::Ref<Eigen::MatrixXd> hessian) noexcept {
+  // M_k = [dx_k/dU; du_k/dU] over the first (k + 1) nu columns: the sensitivity, and u_k's identity.
+  const Eigen::Index moving = static_cast<Eigen::Index>(k + 1) * nu_;
+  if (curvature.isZero(0.0)) return;
+  stage_map_.leftCols(moving).setZero();
+  stage_map_.topLeftCorner(nx_, moving) = sensitivity_.leftCols(moving);
+  stage_map_.block(nx_, moving - nu_, nu_, nu_).setIdentity();
+  curved_map_.leftCols(moving).noalias() = curvature * stage_map_.leftCols(moving);
+  hessian.topLeftCorner(moving, moving).noalias() +=
+      stage_map_.leftCols(moving).transpose() * curved_map_.leftCols(moving);
 }
 
 }  // namespace swerve

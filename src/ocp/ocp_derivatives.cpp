@@ -34,6 +34,7 @@ OcpDerivatives::OcpDerivatives(const OcpProblem& shape)
   wear_gradient_.assign(n, Eigen::VectorXd::Zero(nx_ + nu_));
   wear_ = Eigen::VectorXd::Zero(horizon_);
   costate_ = Eigen::VectorXd::Zero(nx_);
+  costates_ = Eigen::MatrixXd::Zero(nx_, horizon_);
   d_x_next_ = Eigen::VectorXd::Zero(nx_);
   d_u_ = Eigen::VectorXd::Zero(nu_);
   d_u_before_ = Eigen::VectorXd::Zero(nu_);
@@ -107,6 +108,7 @@ double OcpDerivatives::gradient_of_stages(const OcpProblem& problem, const Eigen
     cost += problem.stage_cost_without_wear(k, states.col(k + 1), inputs.col(k), u_before, d_x_next_, d_u_, d_u_before_) +
             lambda * wear_[k];
     costate_ += d_x_next_;
+    costates_.col(k) = costate_;
     gradient.col(k).noalias() += b_[s].transpose() * costate_;
     gradient.col(k) += d_u_ + lambda * wear_gradient_[s].tail(nu_);
     if (k > 0) gradient.col(k - 1) += d_u_before_;

@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <algorithm>
 #include <cstdio>
-#include <cstdlib>
+#include <numeric>
+#include <vector>
 #include <string>
 
 #include "support/config_errors.hpp"
@@ -21,51 +23,62 @@ namespace {
 
 using namespace std::chrono_literals;
 
+// Gauss-Newton SQP run to convergence, without learnt curvature (which needs no memory to converge).
 RtiOptions converging() {
   RtiOptions options;
   options.max_iterations = 500;
   options.tolerance = 1e-12;
+  options.stage_quasi_newton = false;
   return options;
 }
 
 // A deadline no solve can reach: on a clock that never moves.
 Deadline generous(const WorkClock& stopped) { return Deadline(stopped.now() + 10s, stopped); }
 
-TEST(RtiSolver, OneIterationPerCycleFromTheShiftedPlanStaysWithinAPercentOfEachCyclesOptimum) {
-  // Receding horizon on the sidestep problem: both solvers start from their own shifted plan each
-  // cycle; the converging one sets each cycle's optimum.
+// Receding horizon on the sidestep problem: the real-time solver starts each cycle from its own
+// shifted plan; a Gauss-Newton SQP run to convergence from the same plan sets each cycle's optimum.
+// Returns the gap of each cycle's real-time plan to that optimum.
+std::vector<double> real_time_gaps(const RtiOptions& options, int cycles) {
   testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
-  RtiOptions options;
-  options.max_iterations = std::getenv("ITS") ? std::atoi(std::getenv("ITS")) : 5;
   RtiSolver real_time(s.problem, options);
   RtiSolver reference(s.problem, converging());
   const WorkClock stopped;
-  Solution plan, optimum;
+  Solution plan;
   plan.resize(10, 3, 20);
-  optimum.resize(10, 3, 20);
   Eigen::MatrixXd held = s.problem.previous_input().replicate(1, 20);
   InitialGuesses cold;
   cold.add(&held);
   SolveSummary summary;
-  ASSERT_TRUE(has_solution(reference.solve(s.problem, cold, generous(stopped), &optimum, &summary)));
-  plan = optimum;  // both begin at the first cycle's optimum
-  double worst_gap = 0.0;
-  for (int cycle = 1; cycle <= 15; ++cycle) {
-    // The plant follows the real-time plan; the reference is re-solved on the same problem.
-    s.next_cycle(cycle, &plan);
+  EXPECT_TRUE(has_solution(reference.solve(s.problem, cold, generous(stopped), &plan, &summary)));
+  std::vector<double> gaps;
+  for (int cycle = 1; cycle <= cycles; ++cycle) {
+    s.next_cycle(cycle, &plan);  // the plant follows the real-time plan
     Eigen::MatrixXd shifted = plan.inputs;
     InitialGuesses warm;
     warm.add(&shifted);
-    ASSERT_TRUE(has_solution(real_time.solve(s.problem, warm, generous(stopped), &plan, &summary))) << summary.reason;
+    EXPECT_TRUE(has_solution(real_time.solve(s.problem, warm, generous(stopped), &plan, &summary))) << summary.reason;
+    EXPECT_LE(summary.iterations, options.max_iterations);
     Solution converged;
     converged.resize(10, 3, 20);
-    ASSERT_TRUE(has_solution(reference.solve(s.problem, warm, generous(stopped), &converged, &summary)));
-    const double gap = plan.cost / converged.cost - 1.0;
-    std::printf("[          ] cycle %2d: real-time %.6f, converged %.6f, gap %+.4f %% (damping %g, fraction %g, qp %d)\n", cycle, plan.cost,
-                converged.cost, 100.0 * gap, real_time.last_details().damping, real_time.last_details().step_fraction, real_time.last_details().qp_iterations);
-    worst_gap = std::max(worst_gap, gap);
+    EXPECT_TRUE(has_solution(reference.solve(s.problem, warm, generous(stopped), &converged, &summary)));
+    gaps.push_back(plan.cost / converged.cost - 1.0);
   }
-  EXPECT_LE(worst_gap, 0.015);
+  return gaps;
+}
+
+TEST(RtiSolver, OneIterationPerCycleTracksEachCyclesOptimumOnceItsStageCurvatureIsLearnt) {
+  const std::vector<double> with = real_time_gaps(RtiOptions{}, 15);
+  for (std::size_t c = 0; c < with.size(); ++c) std::printf("[          ] cycle %2zu: gap %+.4f %%\n", c + 1, 100.0 * with[c]);
+  // Measured: at most 3.6 % while the curvature is learnt (cycles 3-8), under 0.12 % from cycle 11.
+  EXPECT_LE(*std::max_element(with.begin(), with.end()), 0.05);
+  EXPECT_LE(*std::max_element(with.end() - 5, with.end()), 0.002);
+  // Gauss-Newton alone misses the wear's and the dynamics' curvature: its steps overshoot, the line
+  // search cuts them (to 1/32), and one iteration per cycle fell 20 % behind the optimum.
+  RtiOptions gauss_newton;
+  gauss_newton.stage_quasi_newton = false;
+  const std::vector<double> without = real_time_gaps(gauss_newton, 15);
+  EXPECT_GT(*std::max_element(without.begin(), without.end()), 0.1);
+  EXPECT_LT(std::accumulate(with.end() - 5, with.end(), 0.0), 0.1 * std::accumulate(without.end() - 5, without.end(), 0.0));
 }
 
 TEST(RtiSolver, ReachesTheLinearQuadraticOptimumInputsWhenRunToConvergence) {

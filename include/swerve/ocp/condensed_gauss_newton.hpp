@@ -14,6 +14,7 @@
 
 #include "swerve/ocp/ocp_derivatives.hpp"
 #include "swerve/ocp/ocp_problem.hpp"
+#include "swerve/ocp/stage_quasi_newton.hpp"
 
 namespace swerve {
 
@@ -30,17 +31,22 @@ class CondensedGaussNewton {
 
   // H (nu N x nu N, stages in order, u_0 first) at the plan whose stages `linearised` holds (its
   // cost_and_gradient or linearize_stages on every stage of `states`, the rollout, nx x N+1).
-  // With `wear_curvature` off, the wear term adds nothing to H. false on wrong sizes or a
-  // non-finite result. noexcept.
+  // With `wear_curvature` off, the wear term adds nothing to H. With `stage_curvature`, each
+  // stage's learnt curvature B_k adds M_k^T B_k M_k (M_k = d(x_k, u_k)/dU). false on wrong sizes or
+  // a non-finite result. noexcept.
   bool hessian(const OcpProblem& problem, const OcpDerivatives& linearised,
                const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
-               Eigen::Ref<Eigen::MatrixXd> hessian) noexcept;
+               Eigen::Ref<Eigen::MatrixXd> hessian, const StageQuasiNewton* stage_curvature = nullptr) noexcept;
 
  private:
+  // hessian += M_k^T B_k M_k, with sensitivity_ holding dx_k/dU.
+  void add_stage_curvature(int k, const Eigen::MatrixXd& curvature, Eigen::Ref<Eigen::MatrixXd> hessian) noexcept;
+
   int horizon_, nx_, nu_, n_;
   Eigen::MatrixXd sensitivity_, next_sensitivity_;  // nx x n: dx_k/dU and dx_{k+1}/dU
   Eigen::MatrixXd residual_jacobian_;               // rows x n: one stage's residuals' dr/dU
   Eigen::VectorXd wear_row_;                        // n: dW_k/dU
+  Eigen::MatrixXd stage_map_, curved_map_;          // nz x n: M_k = d(x_k, u_k)/dU and B_k M_k
 };
 
 }  // namespace swerve

@@ -22,6 +22,7 @@ class BoundedInputQp {
   };
   struct Result {
     bool converged = false;
+    bool not_positive_definite = false;  // the normal matrix failed to factorise: is H definite?
     int iterations = 0;
     double objective = 0.0;  // 1/2 z^T H z + q^T z at the answer
     const char* reason = "solve() not called";  // static text

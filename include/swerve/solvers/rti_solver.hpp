@@ -35,6 +35,10 @@ struct RtiOptions {
   // predicted well, and is carried from one solve to the next.
   double damping = 1e-6;
   bool wear_curvature = true;      // the wear's generalised Gauss-Newton curvature (else gradient only)
+  // The curvature Gauss-Newton leaves out (the wear's and the dynamics' second derivatives), learnt
+  // per stage from successive linearisations by damped BFGS and carried across solves
+  // (StageQuasiNewton). Off: the Gauss-Newton Hessian alone.
+  bool stage_quasi_newton = true;
   static const OptionFields<RtiOptions>& fields();  // the rules, read by the YAML loader too
   void validate() const;                             // ConfigError naming the field and value
 };
