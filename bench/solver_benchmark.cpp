@@ -9,6 +9,7 @@
 // time per iteration, cost. Goal (issues 9, 17): Ipopt warm, 4 modules, N = 20: p99 <= 10 ms.
 //   BM_Solver_CostAtBudget: the cost each backend reaches warm within 2, 5, 10 and 20 ms, against
 // a tight Ipopt reference (4 and 10 modules, N = 20).
+//   BM_Solver_RtiCycle: the real-time iteration per cycle, its time and gap to each cycle's optimum.
 //   BM_Solver_GapToIpoptReference: a scenario's closed loop (0 curve, 1 offset60, 2 curve_smooth)
 // with the default SA controller at a solve budget of budget_ms and an SA polish share of
 // polish_pct % (knot_polish: whether the knot-space polish stands in where the exact gradient does
@@ -34,13 +35,15 @@ namespace {
 
 using namespace std::chrono_literals;
 
-const char* const kBackends[] = {"sa", "nlopt", "ipopt", "ceres"};
+const char* const kBackends[] = {"sa", "nlopt", "ipopt", "ceres", "rti"};
+constexpr int kBackendCount = 5;
 
 SolverConfig converging(const std::string& backend) {
   SolverConfig config;
   config.backend = backend;
   config.ipopt.max_iterations = 3000;
   config.ceres.max_iterations = 3000;
+  config.rti.max_iterations = 3000;
   return config;
 }
 
@@ -130,7 +133,7 @@ void BM_Solver_Warm(benchmark::State& state) {
 
 void solver_grid(benchmark::internal::Benchmark* b) {
   b->ArgNames({"backend", "modules", "N"});
-  for (int backend = 0; backend < 4; ++backend) {
+  for (int backend = 0; backend < kBackendCount; ++backend) {
     for (int modules : {4, 8}) {
       for (int horizon : {10, 20, 40}) b->Args({backend, modules, horizon});
     }
@@ -227,8 +230,57 @@ void BM_Solver_CostAtBudget(benchmark::State& state) {
 }
 BENCHMARK(BM_Solver_CostAtBudget)
     ->ArgNames({"backend", "modules", "budget_ms"})
-    ->ArgsProduct({{0, 1, 2, 3}, {4, 10}, {2, 5, 10, 20}})
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {4, 10}, {2, 5, 10, 20}})
     ->Iterations(10)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+
+// The real-time iteration (rti, its defaults: one SQP iteration per cycle) on the receding-horizon
+// sidestep sequence of BM_Solver_Warm, 4 and 10 modules, N = 20: the time of each cycle (p50, p99),
+// and each cycle's cost against a Gauss-Newton SQP run to convergence on the same problem from the
+// same shifted plan (untimed): the gap's median and maximum in %. Goal: 10 modules, <= 2 ms a cycle.
+void BM_Solver_RtiCycle(benchmark::State& state) {
+  const int modules = static_cast<int>(state.range(0));
+  const int horizon = 20;
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, horizon, -1.0, modules);
+  SolverConfig config;
+  config.backend = "rti";
+  std::unique_ptr<Solver> solver = make_solver(config, s.problem);
+  SolverConfig reference_config = converging("rti");
+  reference_config.rti.tolerance = 1e-12;
+  reference_config.rti.stage_quasi_newton = false;
+  std::unique_ptr<Solver> reference = make_solver(reference_config, s.problem);
+  Solution plan, converged;
+  plan.resize(s.problem.state_size(), s.problem.input_size(), horizon);
+  converged.resize(s.problem.state_size(), s.problem.input_size(), horizon);
+  Eigen::MatrixXd guess = s.problem.previous_input().replicate(1, horizon);
+  InitialGuesses guesses;
+  guesses.add(&guess);
+  SolveSummary summary;
+  reference->solve(s.problem, guesses, SolverClock::now() + 600s, &plan, &summary);  // cycle 0, untimed
+  std::vector<double> seconds, gaps;
+  int cycle = 0;
+  for (auto _ : state) {
+    s.next_cycle(++cycle, &plan);
+    guess = plan.inputs;
+    const auto start = SolverClock::now();
+    solver->solve(s.problem, guesses, start + 600s, &plan, &summary);
+    const double elapsed = std::chrono::duration<double>(SolverClock::now() - start).count();
+    state.SetIterationTime(elapsed);
+    seconds.push_back(elapsed);
+    reference->solve(s.problem, guesses, SolverClock::now() + 600s, &converged, &summary);
+    gaps.push_back(100.0 * (plan.cost / converged.cost - 1.0));
+  }
+  state.counters["p50_ms"] = 1e3 * percentile(seconds, 50.0);
+  state.counters["p99_ms"] = 1e3 * percentile(seconds, 99.0);
+  state.counters["gap_p50_pct"] = percentile(gaps, 50.0);
+  state.counters["gap_max_pct"] = gaps.empty() ? 0.0 : *std::max_element(gaps.begin(), gaps.end());
+}
+BENCHMARK(BM_Solver_RtiCycle)
+    ->ArgNames({"modules"})
+    ->Arg(4)
+    ->Arg(10)
+    ->Iterations(40)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);
 
