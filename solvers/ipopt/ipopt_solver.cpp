@@ -23,13 +23,6 @@ double clamp_to_ipopt(double bound) { return std::clamp(bound, -kIpoptInfinity, 
 
 }  // namespace
 
-
-// An estimate of a duration after a new measurement: it rises at once and falls halfway, so a
-// slower run is believed and a faster one averaged.
-static Duration updated_estimate(Duration estimate, Duration measured) {
-  return measured > estimate ? measured : (measured + estimate) / 2;
-}
-
 // Writes a sparse structure's (row, column) pairs into Ipopt's triplet arrays, in order.
 struct TripletWriter {
   Ipopt::Index* rows;

@@ -25,11 +25,6 @@ constexpr double kDampingAfterARefusal = 1e-6;
 // Times the damping grows tenfold within one iteration while the QP's matrix is not positive definite.
 constexpr int kDampingRetries = 8;
 
-// An estimate of a duration after a new measurement: it rises at once and falls halfway, so a
-// slower iteration is believed and a faster one averaged.
-Duration updated_estimate(Duration estimate, Duration measured) noexcept {
-  return measured > estimate ? measured : (measured + estimate) / 2;
-}
 
 }  // namespace
 

@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 
 #include <random>
+#include <vector>
 
 #include "support/linear_models.hpp"
 
@@ -98,6 +99,37 @@ TEST(StageQuasiNewton, LearnsTheStageLagrangianHessianOfTheDoubleIntegratorFromS
     const Eigen::MatrixXd& b = memory.block(k);
     EXPECT_LE((b.bottomRightCorner(3, 3) - expected * Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-6);
     EXPECT_LE(b.topLeftCorner(6, 6).cwiseAbs().maxCoeff(), 1e-6);
+  }
+}
+
+TEST(StageQuasiNewton, AfterARecedingHorizonShiftEachStagePairsWithTheLastSolvesStageAhead) {
+  // The double integrator's plan moved on by one step is the same points, stage k now where stage
+  // k + 1 was: each stage's pair is then empty (s = 0) and its curvature the one it takes over
+  // unchanged. Paired with its own index instead, every stage would see a non-zero s and change.
+  const testing::DoubleIntegratorModel model(0.5);
+  OcpProblem problem = testing::make_lq_problem(model, 5);
+  OcpDerivatives derivatives(problem);
+  StageQuasiNewton memory(problem);
+  std::mt19937 random(8);
+  std::normal_distribution<double> normal(0.0, 0.3);
+  Eigen::MatrixXd inputs(3, 5), states(6, 6), gradient(3, 5);
+  for (int solve = 0; solve < 6; ++solve) {
+    memory.begin_solve();
+    for (int i = 0; i < inputs.size(); ++i) inputs.data()[i] = normal(random);
+    derivatives.cost_and_gradient(problem, inputs, states, gradient);
+    memory.update(problem, derivatives, states, inputs, false);
+  }
+  std::vector<Eigen::MatrixXd> before;
+  for (int k = 0; k < 5; ++k) before.push_back(memory.block(k));
+  problem.set_initial_state(states.col(1));
+  Eigen::MatrixXd shifted(3, 5);
+  shifted << inputs.rightCols(4), inputs.col(4);
+  memory.begin_solve();
+  derivatives.cost_and_gradient(problem, shifted, states, gradient);
+  memory.update(problem, derivatives, states, shifted, false);
+  for (int k = 0; k + 1 < 5; ++k) {
+    EXPECT_TRUE(before[static_cast<std::size_t>(k) + 1].isZero(0.0) == false);
+    EXPECT_EQ(memory.block(k), before[static_cast<std::size_t>(k) + 1]) << "stage " << k;
   }
 }
 

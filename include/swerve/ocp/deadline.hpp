@@ -30,6 +30,11 @@ inline Duration to_duration(double seconds) noexcept {
   return std::chrono::duration_cast<Duration>(std::chrono::duration<double>(seconds));
 }
 inline double to_seconds(Duration duration) noexcept { return std::chrono::duration<double>(duration).count(); }
+// A backend's estimate of a recurring duration (an iteration, a startup) after a new measurement:
+// it rises at once and falls halfway, so a slower run is believed and a faster one averaged.
+inline Duration updated_estimate(Duration estimate, Duration measured) noexcept {
+  return measured > estimate ? measured : (measured + estimate) / 2;
+}
 
 // A clock that advances by the work done rather than the time taken: `per_read` at every read
 // (the solvers read once per proposal or iteration, the controller a few times per step), plus
