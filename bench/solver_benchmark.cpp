@@ -147,22 +147,25 @@ BENCHMARK(BM_Solver_Warm)->Apply(solver_grid)->Iterations(10)->UseManualTime()->
 // 4 and 10 modules at N = 20, 20 cycles.
 void BM_Solver_IpoptHessian(benchmark::State& state) {
   const bool exact = state.range(0) == 0;
+  const bool learnt = state.range(0) == 2;
   const int modules = static_cast<int>(state.range(1));
   const int horizon = static_cast<int>(state.range(2));
   testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, horizon, -1.0, modules);
   SolverConfig config = converging("ipopt");
-  if (!exact) {
+  if (learnt) {
+    config.ipopt.hessian = "stage-quasi-newton";
+  } else if (!exact) {
     config.ipopt.hessian = "limited-memory";
     config.ipopt.warm_start_multipliers = false;
     config.ipopt.warm_mu_init = 1e-4;
   }
   std::unique_ptr<Solver> solver = make_solver(config, s.problem);
   run_warm_cycles(state, *solver, s);
-  state.SetLabel(exact ? "exact" : "limited-memory");
+  state.SetLabel(exact ? "exact" : learnt ? "stage-quasi-newton" : "limited-memory");
 }
 BENCHMARK(BM_Solver_IpoptHessian)
     ->ArgNames({"hessian", "modules", "N"})
-    ->ArgsProduct({{0, 1}, {4, 10}, {20}})
+    ->ArgsProduct({{0, 1, 2}, {4, 10}, {20}})
     ->Iterations(20)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);

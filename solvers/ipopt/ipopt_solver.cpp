@@ -10,11 +10,16 @@
 
 #include "swerve/core/config_error.hpp"
 #include "swerve/kinematics/module_state.hpp"
+#include "swerve/ocp/condensed_gauss_newton.hpp"
 #include "swerve/ocp/ocp_derivatives.hpp"
+#include "swerve/ocp/stage_quasi_newton.hpp"
 #include "swerve/models/vehicle_model.hpp"
 
 namespace swerve {
 namespace {
+
+// Where the Hessian of the Lagrangian comes from (IpoptOptions::hessian).
+enum class IpoptHessian { kExact, kStageQuasiNewton, kLimitedMemory };
 
 constexpr double kIpoptInfinity = 1e20;  // beyond Ipopt's nlp_{lower,upper}_bound_inf (1e19)
 constexpr double kNoCpuTimeLimit = 1e9;  // s: no limit of Ipopt's own
@@ -41,9 +46,9 @@ struct TripletWriter {
 // its own block and u_k's rows against the block before.
 class MultipleShootingNlp final : public Ipopt::TNLP {
  public:
-  MultipleShootingNlp(const OcpProblem& shape, bool exact_hessian)
+  MultipleShootingNlp(const OcpProblem& shape, IpoptHessian hessian)
       : horizon_(shape.horizon()), nx_(shape.state_size()), nu_(shape.input_size()), block_(nu_ + nx_),
-        exact_hessian_(exact_hessian), derivatives_(shape) {
+        hessian_kind_(hessian), exact_hessian_(hessian != IpoptHessian::kLimitedMemory), derivatives_(shape) {
     for (int i = 0; i < nu_; ++i) {
       if (std::isfinite(shape.bounds().max_step[i])) rate_inputs_.push_back(i);
     }
@@ -58,8 +63,13 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     constraints_ = Eigen::VectorXd::Zero(constraints());
     z_lower_ = Eigen::VectorXd::Zero(variables());
     z_upper_ = Eigen::VectorXd::Zero(variables());
+    if (hessian_kind_ == IpoptHessian::kStageQuasiNewton) {
+      quasi_newton_ = std::make_unique<StageQuasiNewton>(shape);
+      stage_points_ = Eigen::MatrixXd::Zero(nx_ + nu_, horizon_);
+      stage_costates_ = Eigen::MatrixXd::Zero(nx_, horizon_);
+    }
     if (exact_hessian_) {
-      probe_ = std::make_unique<OcpDerivatives>(shape);
+      if (hessian_kind_ == IpoptHessian::kExact) probe_ = std::make_unique<OcpDerivatives>(shape);
       hessian_blocks_.assign(static_cast<std::size_t>(horizon_), Eigen::MatrixXd::Zero(block_, block_));
       hessian_couplings_.assign(static_cast<std::size_t>(horizon_), Eigen::MatrixXd::Zero(nu_, nx_));
       const int nz = nx_ + nu_;
@@ -87,6 +97,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
       start_.segment(k * block_ + nu_, nx_) = states.col(k + 1);
     }
     use_warm_multipliers_ = warm_multipliers;
+    if (quasi_newton_ != nullptr) quasi_newton_->begin_solve();
     have_final_ = false;
     iterations_ = 0;
     evaluations_ = 0;
@@ -496,6 +507,11 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
         diagonal(i, i) += obj_factor * (effort_weight + rate_weight + (k + 1 < horizon_ ? rate_weight : 0.0));
       }
     }
+    if (hessian_kind_ == IpoptHessian::kStageQuasiNewton) {
+      learnt_stage_blocks(x, obj_factor, multipliers);
+      hessian_time_ += deadline_.now() - started;
+      return true;
+    }
     for (int k = 0; k < horizon_; ++k) {
       if (k > 0 && !hessian_fits(started, k)) return false;
       // Wear and dynamics of stage k over z_k = [x_k; u_k]; x_0 is no variable, so only u_0 there.
@@ -528,6 +544,36 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
     return true;
   }
 
+  // The wear's and the dynamics' curvature of each stage learnt from the iterates (StageQuasiNewton:
+  // damped BFGS on obj_factor lambda W - mu^T F, i.e. on lambda W + nu^T F with nu = -mu /
+  // obj_factor), plus the wear's generalised Gauss-Newton term, added to the blocks at x. In
+  // Ipopt's restoration phase (obj_factor 0) the blocks keep the constraint-free part only.
+  void learnt_stage_blocks(const Ipopt::Number* x, double obj_factor, const Ipopt::Number* multipliers) {
+    if (!(obj_factor > 0.0)) return;
+    for (int k = 0; k < horizon_; ++k) {
+      stage_points_.col(k).head(nx_) = state_at(x, k);
+      stage_points_.col(k).tail(nu_) = input(x, k);
+      stage_costates_.col(k) = -Eigen::Map<const Eigen::VectorXd>(multipliers + k * nx_, nx_) / obj_factor;
+    }
+    quasi_newton_->update_at(*problem_, derivatives_, stage_points_, stage_costates_, true);
+    const double lambda = problem_->weights().wear;
+    for (int k = 0; k < horizon_; ++k) {
+      const std::size_t stage = static_cast<std::size_t>(k);
+      stage_hessian_ = quasi_newton_->block(k);
+      if (lambda > 0.0) {
+        const Eigen::VectorXd& g = derivatives_.wear_gradient(k);
+        const double weight = lambda / (2.0 * std::max(derivatives_.wear(k), CondensedGaussNewton::kWearFloor));
+        stage_hessian_.noalias() += weight * g * g.transpose();
+      }
+      stage_hessian_ *= obj_factor;
+      hessian_blocks_[stage].topLeftCorner(nu_, nu_) += stage_hessian_.bottomRightCorner(nu_, nu_);
+      if (k > 0) {
+        hessian_blocks_[stage - 1].bottomRightCorner(nx_, nx_) += stage_hessian_.topLeftCorner(nx_, nx_);
+        hessian_couplings_[stage] = stage_hessian_.bottomLeftCorner(nu_, nx_);
+      }
+    }
+  }
+
   // Whether the rest of the Hessian, after `done` of its stages since `started`, and the rest of
   // the iteration still end before the deadline. The rest (factorisation, line search, the next
   // Jacobians) is measured in past iterations (x1.25); before the first, a whole Hessian is
@@ -544,7 +590,8 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   }
 
   int horizon_, nx_, nu_, block_;
-  bool exact_hessian_;
+  IpoptHessian hessian_kind_;
+  bool exact_hessian_;  // a Hessian of Ipopt's own structure (exact or learnt), not Ipopt's L-BFGS
   int rate_count_ = 0;
   std::vector<int> rate_inputs_;
   OcpDerivatives derivatives_;
@@ -556,6 +603,9 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
   // The exact Hessian: a second linearisation scratch (derivatives_ keeps the iterate's Jacobians
   // for eval_jac_g), per stage its diagonal block and u_k's coupling to x_k, and scratch.
   std::unique_ptr<OcpDerivatives> probe_;
+  // The learnt Hessian: the stage memory, and this iterate's stage points and scaled multipliers.
+  std::unique_ptr<StageQuasiNewton> quasi_newton_;
+  Eigen::MatrixXd stage_points_, stage_costates_;
   std::vector<Eigen::MatrixXd> hessian_blocks_, hessian_couplings_;
   Eigen::VectorXd point_, probe_next_, gradient_, gradient_step_, tracked_, tracked_step_;
   Eigen::MatrixXd stage_hessian_, tracking_hessian_;
@@ -573,13 +623,15 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
 };
 
 struct IpoptSolver::Impl {
-  Impl(const OcpProblem& shape, bool exact)
-      : exact_hessian(exact), nlp(new MultipleShootingNlp(shape, exact)), app(IpoptApplicationFactory()), start(shape) {
+  Impl(const OcpProblem& shape, IpoptHessian hessian)
+      : exact_hessian(hessian == IpoptHessian::kExact), hessian_kind(hessian),
+        nlp(new MultipleShootingNlp(shape, hessian)), app(IpoptApplicationFactory()), start(shape) {
     inputs = best_inputs = Eigen::MatrixXd::Zero(shape.input_size(), shape.horizon());
     states = best_states = Eigen::MatrixXd::Zero(shape.state_size(), shape.horizon() + 1);
     stage_costs = stage_wear = best_stage_wear = Eigen::VectorXd::Zero(shape.horizon());
   }
   const bool exact_hessian;  // options.hessian == "exact", read once
+  const IpoptHessian hessian_kind;
   Ipopt::SmartPtr<MultipleShootingNlp> nlp;
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app;
   bool have_multipliers = false;
@@ -682,7 +734,10 @@ SolveStatus status_of(Ipopt::ApplicationReturnStatus status, bool improved, Solv
 IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options)
     : Solver(problem), options_(std::move(options)) {
   options_.validate();
-  impl_ = std::make_unique<Impl>(problem, options_.hessian == "exact");
+  const IpoptHessian hessian = options_.hessian == "exact"                ? IpoptHessian::kExact
+                               : options_.hessian == "stage-quasi-newton" ? IpoptHessian::kStageQuasiNewton
+                                                                          : IpoptHessian::kLimitedMemory;
+  impl_ = std::make_unique<Impl>(problem, hessian);
   impl_->startup_estimate = to_duration(options_.startup_estimate);
   Ipopt::IpoptApplication& app = *impl_->app;
   app.Options()->SetStringValue("sb", "yes");  // no banner
@@ -693,7 +748,7 @@ IpoptSolver::IpoptSolver(const OcpProblem& problem, IpoptOptions options)
   app.Options()->SetIntegerValue("max_iter", options_.max_iterations);
   app.Options()->SetStringValue("mu_strategy", options_.mu_strategy);
   app.Options()->SetStringValue("linear_solver", options_.linear_solver);
-  if (impl_->exact_hessian) {
+  if (impl_->hessian_kind != IpoptHessian::kLimitedMemory) {
     app.Options()->SetStringValue("hessian_approximation", "exact");
   } else {
     app.Options()->SetStringValue("hessian_approximation", "limited-memory");

@@ -23,7 +23,7 @@ constexpr double kPowell = 0.2;
 StageQuasiNewton::StageQuasiNewton(const OcpProblem& shape)
     : horizon_(shape.horizon()), nx_(shape.state_size()), nu_(shape.input_size()), nz_(nx_ + nu_) {
   const auto n = static_cast<std::size_t>(horizon_);
-  points_ = last_points_ = Eigen::MatrixXd::Zero(nz_, horizon_);
+  points_ = last_points_ = incoming_ = Eigen::MatrixXd::Zero(nz_, horizon_);
   a_.assign(n, Eigen::MatrixXd::Zero(nx_, nx_));
   last_a_ = a_;
   b_.assign(n, Eigen::MatrixXd::Zero(nx_, nu_));
@@ -91,8 +91,17 @@ bool StageQuasiNewton::shifted(const Eigen::MatrixXd& points) const noexcept {
 void StageQuasiNewton::update(const OcpProblem& problem, const OcpDerivatives& linearised,
                               const Eigen::Ref<const Eigen::MatrixXd>& states,
                               const Eigen::Ref<const Eigen::MatrixXd>& inputs, bool wear_curvature) noexcept {
+  if (states.rows() != nx_ || states.cols() != horizon_ + 1 || inputs.rows() != nu_ || inputs.cols() != horizon_) return;
+  incoming_.topRows(nx_) = states.leftCols(horizon_);
+  incoming_.bottomRows(nu_) = inputs;
+  update_at(problem, linearised, incoming_, linearised.costates(), wear_curvature);
+}
+
+void StageQuasiNewton::update_at(const OcpProblem& problem, const OcpDerivatives& linearised,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& points,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& costates, bool wear_curvature) noexcept {
   if (problem.state_size() != nx_ || problem.input_size() != nu_ || problem.horizon() != horizon_ ||
-      states.rows() != nx_ || states.cols() != horizon_ + 1 || inputs.rows() != nu_ || inputs.cols() != horizon_) {
+      points.rows() != nz_ || points.cols() != horizon_ || costates.rows() != nx_ || costates.cols() != horizon_) {
     return;
   }
   // This linearisation becomes the remembered one: the buffers swap, and the last one is read from
@@ -103,10 +112,7 @@ void StageQuasiNewton::update(const OcpProblem& problem, const OcpDerivatives& l
   std::swap(wear_, last_wear_);
   std::swap(curvature_, last_curvature_);
   std::swap(remembered_, last_remembered_);
-  for (int k = 0; k < horizon_; ++k) {
-    points_.col(k).head(nx_) = states.col(k);
-    points_.col(k).tail(nu_) = inputs.col(k);
-  }
+  points_ = points;
   const int offset = new_solve_ && shifted(points_) ? 1 : 0;
   new_solve_ = false;
   const double lambda = problem.weights().wear;
@@ -119,8 +125,8 @@ void StageQuasiNewton::update(const OcpProblem& problem, const OcpDerivatives& l
     curvature_[stage] = last_curvature_[last];
     remembered_[stage] = 1;
     if (!last_remembered_[last]) continue;
-    // The pair at this solve's costate: both gradients of the same stage function.
-    const Eigen::Ref<const Eigen::VectorXd> mu = linearised.costate(k);
+    // The pair at this update's multipliers: both gradients of the same stage function.
+    const Eigen::Ref<const Eigen::VectorXd> mu = costates.col(k);
     lagrangian_gradient(lambda, a_[stage], b_[stage], wear_[stage], mu, &gradient_);
     lagrangian_gradient(lambda, last_a_[last], last_b_[last], last_wear_[last], mu, &last_gradient_);
     s_ = points_.col(k) - last_points_.col(static_cast<Eigen::Index>(last));

@@ -71,6 +71,7 @@ class OcpDerivatives {
   // After a gradient (cost_and_gradient or gradient_of_stages): the costate of stage k's dynamics,
   // dJ/dx_{k+1} of the whole cost, i.e. the multiplier of x_{k+1} = F(x_k, u_k) (nx; column k).
   Eigen::Ref<const Eigen::VectorXd> costate(int k) const noexcept { return costates_.col(k); }
+  const Eigen::MatrixXd& costates() const noexcept { return costates_; }  // nx x N, column k = costate(k)
 
  private:
   int horizon_, nx_, nu_;

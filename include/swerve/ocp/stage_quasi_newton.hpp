@@ -42,6 +42,12 @@ class StageQuasiNewton {
   void update(const OcpProblem& problem, const OcpDerivatives& linearised,
               const Eigen::Ref<const Eigen::MatrixXd>& states, const Eigen::Ref<const Eigen::MatrixXd>& inputs,
               bool wear_curvature) noexcept;
+  // The same for stage points z_k = (x_k, u_k) (nz x N) and any multipliers of the dynamics
+  // (nx x N; e.g. a multiple-shooting solver's, with its sign and objective scaling undone) in
+  // place of the single-shooting costates.
+  void update_at(const OcpProblem& problem, const OcpDerivatives& linearised,
+                 const Eigen::Ref<const Eigen::MatrixXd>& points, const Eigen::Ref<const Eigen::MatrixXd>& costates,
+                 bool wear_curvature) noexcept;
 
   // B_k (nz x nz, symmetric positive semi-definite).
   const Eigen::MatrixXd& block(int k) const noexcept { return curvature_[static_cast<std::size_t>(k)]; }
@@ -63,7 +69,7 @@ class StageQuasiNewton {
   int horizon_, nx_, nu_, nz_;
   bool new_solve_ = true;
   // Per stage, double-buffered (this linearisation and the last): z, A, B, dW, validity, B_k.
-  Eigen::MatrixXd points_, last_points_;  // nz x N
+  Eigen::MatrixXd points_, last_points_, incoming_;  // nz x N
   std::vector<Eigen::MatrixXd> a_, last_a_, b_, last_b_, curvature_, last_curvature_;
   std::vector<Eigen::VectorXd> wear_, last_wear_;
   std::vector<char> remembered_, last_remembered_;
