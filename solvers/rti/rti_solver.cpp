@@ -195,23 +195,36 @@ SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses&
   s.states = s.start.states();
   s.stage_wear = s.start.stage_wear();
   double cost = start_cost;
-  // Before any iteration was measured: its linearisation (kJacobianRolloutCost rollouts), the
-  // condensing and QP (about one more) and the line search's first rollout.
+  // The linearisation gives up between stages where one more would leave less than the QP and the
+  // line search's first rollout (two rollouts' time) before the deadline, so an iteration whose
+  // time is not yet known can always be tried: it ends on time either way, and is then measured.
   const Duration rollout_time = s.start.longest_rollout();
-  const Duration first_estimate = (kJacobianRolloutCost + 2) * rollout_time;
+  const Deadline linearisation_stop = deadline.earlier_by(2 * rollout_time);
   const char* reason = "stopped at max_iterations";
   SolveStatus status = SolveStatus::kBudgetExhausted;
   int iterations = 0;
   for (; iterations < options_.max_iterations; ++iterations) {
     const TimePoint iteration_start = deadline.now();
-    const Duration estimate = s.iteration_estimate > Duration::zero() ? s.iteration_estimate : first_estimate;
-    if (iteration_start + estimate >= deadline.at()) {
+    const bool known_too_slow =
+        s.iteration_estimate > Duration::zero() && iteration_start + s.iteration_estimate >= deadline.at();
+    if (known_too_slow || iteration_start >= linearisation_stop.at()) {
+      // Measured too slow for what is left: a quarter less is believed after a skipped solve, so a
+      // budget that fits is found again after a slow cycle.
+      if (known_too_slow && iterations == 0) s.iteration_estimate = s.iteration_estimate * 3 / 4;
       reason = iterations == 0 ? "the deadline left no time for an iteration; returning the start"
                                : "stopped at the deadline";
       break;
     }
     double slope = 0.0, predicted = 0.0;
-    if (!s.gauss_newton_step(problem, options_, deadline, &details_, &slope, &predicted, &reason, &status)) break;
+    if (!s.gauss_newton_step(problem, options_, linearisation_stop, &details_, &slope, &predicted, &reason, &status)) {
+      // Given up inside the linearisation: the whole iteration, extrapolated from its stages.
+      const int done = s.derivatives.completed_stages();
+      if (done > 0 && done < problem.horizon()) {
+        const Duration whole = (deadline.now() - iteration_start) * problem.horizon() / done + 2 * rollout_time;
+        s.iteration_estimate = updated_estimate(s.iteration_estimate, whole);
+      }
+      break;
+    }
     if (!(predicted > options_.tolerance * (1.0 + std::abs(cost))) || slope >= 0.0) {
       reason = "converged: the Gauss-Newton step predicts no decrease";
       status = SolveStatus::kConverged;

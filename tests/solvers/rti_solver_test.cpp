@@ -121,6 +121,38 @@ TEST(RtiSolver, NeverReturnsAPlanWorseThanItsStartEvenWithoutDampingOrWearCurvat
   }
 }
 
+TEST(RtiSolver, TriesAnIterationWhoseTimeIsUnknownAndStillEndsByTheDeadline) {
+  // On a clock charged per model evaluation (10 us a step, 50 us a step with Jacobians): a rollout
+  // of N = 20 costs 0.2 ms and a linearisation 1 ms. With 1.9 ms, the start's rollout, a
+  // linearisation and the line search's rollout fit (1.4 ms). The first solve has no measured
+  // iteration; a rule that priced it at ten rollouts (2 ms) never tried one, and on a 16-module
+  // envelope draw the controller then only ever returned its start.
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
+  testing::WorkClock clock;
+  const testing::ClockedModel model(s.model, &clock, 10e-6, 50e-6);
+  const std::unique_ptr<OcpProblem> problem = testing::problem_on(model, s.problem);
+  RtiSolver solver(*problem, RtiOptions{});
+  Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
+  cruise.row(0).setConstant(0.5);
+  InitialGuesses guesses;
+  guesses.add(&cruise);
+  Solution solution;
+  solution.resize(10, 3, 20);
+  SolveSummary summary;
+  const TimePoint start = clock.now();
+  ASSERT_TRUE(has_solution(solver.solve(*problem, guesses, Deadline(start + 1900us, clock), &solution, &summary)))
+      << summary.reason;
+  EXPECT_EQ(summary.iterations, 1) << summary.reason;
+  EXPECT_LT(solution.cost, summary.initial_cost);
+  EXPECT_LE(clock.now() - start, 1900us);
+  // With 1.1 ms the linearisation cannot finish: it gives up between stages, on time, and the start
+  // is returned.
+  const TimePoint second = clock.now();
+  ASSERT_TRUE(has_solution(solver.solve(*problem, guesses, Deadline(second + 1100us, clock), &solution, &summary)));
+  EXPECT_EQ(summary.iterations, 0) << summary.reason;
+  EXPECT_LE(clock.now() - second, 1100us);
+}
+
 TEST(RtiSolver, RejectsBadOptionsNamingTheFieldAndValue) {
   testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
   const auto message_for = [&](RtiOptions options) {
