@@ -562,7 +562,7 @@ class MultipleShootingNlp final : public Ipopt::TNLP {
       stage_hessian_ = quasi_newton_->block(k);
       if (lambda > 0.0) {
         const Eigen::VectorXd& g = derivatives_.wear_gradient(k);
-        const double weight = lambda / (2.0 * std::max(derivatives_.wear(k), CondensedGaussNewton::kWearFloor));
+        const double weight = CondensedGaussNewton::wear_curvature_weight(lambda, derivatives_.wear(k));
         stage_hessian_.noalias() += weight * g * g.transpose();
       }
       stage_hessian_ *= obj_factor;

@@ -2,7 +2,6 @@
 
 #include <Eigen/Dense>
 
-#include <algorithm>
 #include <utility>
 
 namespace swerve {
@@ -42,7 +41,7 @@ bool CondensedGaussNewton::hessian(const OcpProblem& problem, const OcpDerivativ
       const Eigen::VectorXd& gradient = linearised.wear_gradient(k);
       wear_row_.head(moving - nu_).noalias() = sensitivity_.leftCols(moving - nu_).transpose() * gradient.head(nx_);
       wear_row_.segment(moving - nu_, nu_) = gradient.tail(nu_);
-      const double weight = lambda / (2.0 * std::max(linearised.wear(k), kWearFloor));
+      const double weight = wear_curvature_weight(lambda, linearised.wear(k));
       hessian.topLeftCorner(moving, moving).selfadjointView<Eigen::Lower>().rankUpdate(wear_row_.head(moving), weight);
     }
     if (stage_curvature != nullptr) add_stage_curvature(k, stage_curvature->block(k), hessian);

@@ -132,7 +132,7 @@ void StageQuasiNewton::update_at(const OcpProblem& problem, const OcpDerivatives
     s_ = points_.col(k) - last_points_.col(static_cast<Eigen::Index>(last));
     y_ = gradient_ - last_gradient_;
     if (wear_curvature && lambda > 0.0) {
-      const double weight = lambda / (2.0 * std::max(linearised.wear(k), CondensedGaussNewton::kWearFloor));
+      const double weight = CondensedGaussNewton::wear_curvature_weight(lambda, linearised.wear(k));
       y_ -= weight * wear_[stage].dot(s_) * wear_[stage];
     }
     damped_bfgs(&curvature_[stage], s_, y_, &bs_, &r_);

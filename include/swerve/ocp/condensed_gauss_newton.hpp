@@ -23,6 +23,11 @@ class CondensedGaussNewton {
   // A stage's wear under this (J) counts as this for its curvature grad W grad W^T / (2 W): a stage
   // that wears nothing would otherwise make its gradient's direction infinitely stiff.
   static constexpr double kWearFloor = 1e-9;
+  // The factor of grad W grad W^T in a stage's wear curvature lambda grad W grad W^T / (2 W): the one
+  // rule of the condensed Hessian, the learnt curvature's structured secant and Ipopt's blocks.
+  static double wear_curvature_weight(double lambda, double stage_wear) noexcept {
+    return lambda / (2.0 * (stage_wear > kWearFloor ? stage_wear : kWearFloor));
+  }
 
   // Sized for the problem's shape; hessian() then allocates nothing.
   explicit CondensedGaussNewton(const OcpProblem& shape);

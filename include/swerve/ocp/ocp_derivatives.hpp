@@ -68,10 +68,9 @@ class OcpDerivatives {
   double wear(int k) const noexcept { return wear_[k]; }
   // [dW_k/dx_k; dW_k/du_k] (nx + nu).
   const Eigen::VectorXd& wear_gradient(int k) const noexcept { return wear_gradient_[static_cast<std::size_t>(k)]; }
-  // After a gradient (cost_and_gradient or gradient_of_stages): the costate of stage k's dynamics,
-  // dJ/dx_{k+1} of the whole cost, i.e. the multiplier of x_{k+1} = F(x_k, u_k) (nx; column k).
-  Eigen::Ref<const Eigen::VectorXd> costate(int k) const noexcept { return costates_.col(k); }
-  const Eigen::MatrixXd& costates() const noexcept { return costates_; }  // nx x N, column k = costate(k)
+  // After a gradient (cost_and_gradient or gradient_of_stages), column k: the costate of stage k's
+  // dynamics, dJ/dx_{k+1} of the whole cost, i.e. the multiplier of x_{k+1} = F(x_k, u_k) (nx x N).
+  const Eigen::MatrixXd& costates() const noexcept { return costates_; }
 
  private:
   int horizon_, nx_, nu_;
@@ -85,7 +84,7 @@ class OcpDerivatives {
   std::vector<Eigen::VectorXd> wear_gradient_;
   Eigen::VectorXd wear_;
   Eigen::VectorXd costate_, d_x_next_, d_u_, d_u_before_, scratch_;
-  Eigen::MatrixXd costates_;  // nx x N: costate(k) of the last gradient
+  Eigen::MatrixXd costates_;  // nx x N: the last gradient's costates
 };
 
 }  // namespace swerve
