@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "swerve/app/option_reader.hpp"
+#include "swerve/app/trajectory_file.hpp"
 #include "swerve/app/vehicle_config.hpp"
 
 namespace swerve {
@@ -31,18 +32,41 @@ Eigen::Vector2d get_point_or(const ConfigNode& node, const std::string& key, con
   return {xy[0], xy[1]};
 }
 
-// `max_speed` (m/s): the vehicle's drive speed, which a CSV reference's steps may not exceed.
-std::shared_ptr<const Reference> load_reference(const ConfigNode& node, const std::string& scenario_file,
-                                                double max_speed, std::string* description) {
-  const std::string type = node.get_choice("type", {"line", "arc", "sine", "figure_eight", "csv"});
-  if (type == "csv") {
-    const std::string file = resolve_beside(scenario_file, node.get_string("file"));
-    *description = "csv " + file;
-    try {
-      return load_reference_csv(file, max_speed);
-    } catch (const ConfigError& error) {
-      node.fail_at("file", std::string("cannot load: ") + error.what());
+// A reference read from a file: `type` csv, choreo or pose_list.
+std::shared_ptr<const Reference> load_reference_file(const ConfigNode& node, const std::string& type,
+                                                     const std::string& scenario_file, double max_speed, int modules,
+                                                     std::string* description) {
+  const std::string file = resolve_beside(scenario_file, node.get_string("file"));
+  ChoreoOptions choreo;
+  if (type == "choreo") {
+    choreo.trajectory = node.get_string_or("trajectory", "");
+    choreo.split = node.get_int_or("split", -1, -1, 1 << 20);
+    choreo.modules = modules;
+    choreo.max_speed = max_speed;
+  }
+  *description = type + " " + file + (choreo.trajectory.empty() ? "" : " trajectory " + choreo.trajectory) +
+                 (choreo.split >= 0 ? " split " + std::to_string(choreo.split) : "");
+  try {
+    if (type == "csv") return load_reference_csv(file, max_speed);
+    const Eigen::MatrixXd rows = type == "choreo" ? load_choreo_trajectory(file, choreo) : load_pose_list(file, max_speed);
+    std::vector<std::vector<double>> samples(static_cast<std::size_t>(rows.rows()));
+    for (Eigen::Index k = 0; k < rows.rows(); ++k) {
+      for (Eigen::Index c = 0; c < rows.cols(); ++c) samples[static_cast<std::size_t>(k)].push_back(rows(k, c));
     }
+    return std::make_shared<SampledReference>(samples);
+  } catch (const ConfigError& error) {
+    node.fail_at("file", std::string("cannot load: ") + error.what());
+  }
+}
+
+// `max_speed` (m/s): the vehicle's drive speed, which a recorded reference's steps may not exceed;
+// `modules`: the vehicle's module count, which a Choreo file's module forces must match.
+std::shared_ptr<const Reference> load_reference(const ConfigNode& node, const std::string& scenario_file,
+                                                double max_speed, int modules, std::string* description) {
+  const std::string type =
+      node.get_choice("type", {"line", "arc", "sine", "figure_eight", "csv", "choreo", "pose_list"});
+  if (type == "csv" || type == "choreo" || type == "pose_list") {
+    return load_reference_file(node, type, scenario_file, max_speed, modules, description);
   }
   SpeedProfile profile;
   profile.speed = node.get_double_or("speed", profile.speed, Bound::positive());
@@ -179,7 +203,7 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
   s.name = node.get_string("name");
   s.description = node.get_string_or("description", "");
   s.reference = load_reference(node.child("reference"), file_path, s.vehicle.layout.limits().max_drive_speed,
-                               &s.reference_description);
+                               s.vehicle.layout.size(), &s.reference_description);
   // By default the run lasts as long as the reference moves: a constant-speed reference that ends
   // holds its final pose, and the step stop that asks for is not part of the paper's experiments
   // (it added up to 28 J to a 47 J curve run, more than the whole path did to the baseline).

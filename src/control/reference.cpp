@@ -407,6 +407,21 @@ ReferenceSample SampledReference::sample(double t_relative) const noexcept {
   return spline_.sample(spline_.first_time() + t_relative);
 }
 
+std::string reference_step_problem(const double* previous, const double* row, double max_speed,
+                                   const std::string& previous_name) {
+  const double dt = row[0] - previous[0];
+  if (!(dt > 0.0)) {
+    return "t = " + Bound::number(row[0]) + " is not after " + previous_name + "'s t = " + Bound::number(previous[0]);
+  }
+  const double step = std::hypot(row[1] - previous[1], row[2] - previous[2]);
+  if (std::isfinite(max_speed) && step > 1.01 * max_speed * dt) {
+    return "the position moves " + Bound::number(step) + " m in " + Bound::number(dt) + " s from " + previous_name +
+           " (" + Bound::number(step / dt) + " m/s), faster than the vehicle's drive speed of " +
+           Bound::number(max_speed) + " m/s";
+  }
+  return {};
+}
+
 std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path, double max_speed) {
   // Read whole and bounded: a directory, /dev/zero or a pipe named as the CSV is refused before
   // reading (a getline on /dev/zero grew one line until the process ran out of memory).
@@ -449,19 +464,9 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
              " values, got " + std::to_string(row.size()));
     }
     if (!rows.empty() && std::isfinite(row[0]) && std::isfinite(rows.back()[0])) {
-      const std::vector<double>& previous = rows.back();
-      const std::string at = shown + ":" + std::to_string(line_number) + ": ";
-      const double dt = row[0] - previous[0];
-      if (!(dt > 0.0)) {
-        reject(at + "t = " + Bound::number(row[0]) + " is not after line " + std::to_string(previous_line) + "'s t = " +
-               Bound::number(previous[0]));
-      }
-      const double step = std::hypot(row[1] - previous[1], row[2] - previous[2]);
-      if (std::isfinite(max_speed) && step > 1.01 * max_speed * dt) {
-        reject(at + "the position moves " + Bound::number(step) + " m in " + Bound::number(dt) + " s from line " +
-               std::to_string(previous_line) + " (" + Bound::number(step / dt) +
-               " m/s), faster than the vehicle's drive speed of " + Bound::number(max_speed) + " m/s");
-      }
+      const std::string problem =
+          reference_step_problem(rows.back().data(), row.data(), max_speed, "line " + std::to_string(previous_line));
+      if (!problem.empty()) reject(shown + ":" + std::to_string(line_number) + ": " + problem);
     }
     rows.push_back(std::move(row));
     previous_line = line_number;

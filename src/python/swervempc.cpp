@@ -19,6 +19,7 @@
 #include "swerve/app/scenario_config.hpp"
 #include "swerve/app/scenario_runner.hpp"
 #include "swerve/app/sweep.hpp"
+#include "swerve/app/trajectory_file.hpp"
 #include "swerve/app/vehicle_config.hpp"
 #include "swerve/control/reference.hpp"
 #include "swerve/sim/simulator.hpp"
@@ -422,6 +423,34 @@ void bind_reference(py::module_& m) {
       .def_property_readonly("version", &TrajectoryReference::version,
                              "Trajectories taken up so far (by a controller cycle or sample()); 0 before any")
       .def_property_readonly("duration", &TrajectoryReference::duration);
+  const auto rows_array = [](const Eigen::MatrixXd& rows) {
+    Array a({static_cast<py::ssize_t>(rows.rows()), static_cast<py::ssize_t>(rows.cols())});
+    for (Eigen::Index i = 0; i < rows.rows(); ++i) {
+      for (Eigen::Index j = 0; j < rows.cols(); ++j) a.mutable_at(i, j) = rows(i, j);
+    }
+    return a;
+  };
+  m.def(
+      "load_choreo_trajectory",
+      [rows_array](const std::string& path, const std::string& trajectory, int split, int modules, double max_speed) {
+        ChoreoOptions options;
+        options.trajectory = trajectory;
+        options.split = split;
+        options.modules = modules;
+        options.max_speed = max_speed;
+        return rows_array(load_choreo_trajectory(path, options));
+      },
+      py::arg("path"), py::arg("trajectory") = "", py::arg("split") = -1, py::arg("modules") = 0,
+      py::arg("max_speed") = std::numeric_limits<double>::infinity(),
+      "Rows (t, x, y, psi[, vx, vy, r], body-frame twist) of a Choreo .traj file, or of <path>/<trajectory>.traj "
+      "when path is a folder; split k: its k-th segment; modules > 0: the module forces' count to check. "
+      "ValueError naming the file, sample and field");
+  m.def(
+      "load_pose_list", [rows_array](const std::string& path, double max_speed) {
+        return rows_array(load_pose_list(path, max_speed));
+      },
+      py::arg("path"), py::arg("max_speed") = std::numeric_limits<double>::infinity(),
+      "Rows (t, x, y, psi) of a JSON pose list (flat t/x/y/psi objects or nav_msgs/Path-like stamped poses)");
 }
 
 void bind_controller(py::module_& m) {

@@ -122,6 +122,30 @@ class TrajectoryReference(unittest.TestCase):
             reference.sample(float("nan"))
 
 
+    def test_choreo_and_pose_list_files_load_as_rows_the_reference_takes(self):
+        import tempfile
+        folder = tempfile.mkdtemp()
+        with open(os.path.join(folder, "ahead.traj"), "w") as out:
+            # Facing +y (heading pi/2) while moving along +x: body twist (0, -1, 0).
+            out.write('{"name": "ahead", "trajectory": {"sampleType": "Swerve", "samples": ['
+                      '{"t": 0, "x": 0, "y": 0, "heading": 1.5707963267948966, "vx": 1, "vy": 0, "omega": 0},'
+                      '{"t": 1, "x": 1, "y": 0, "heading": 1.5707963267948966, "vx": 1, "vy": 0, "omega": 0}]}}')
+        rows = sm.load_choreo_trajectory(folder, trajectory="ahead")
+        self.assertEqual(rows.shape, (2, 7))
+        np.testing.assert_allclose(rows[1, 4:], [0.0, -1.0, 0.0], atol=1e-15)
+        reference = sm.TrajectoryReference(16)
+        reference.publish(rows)
+        pose, _ = reference.sample(0.5)
+        self.assertAlmostEqual(pose[0], 0.5)
+        poses = os.path.join(folder, "poses.json")
+        with open(poses, "w") as out:
+            out.write('[{"t": 0, "x": 0, "y": 0, "psi": 0}, {"t": 1, "x": 1, "y": 0}]')
+        with self.assertRaisesRegex(ValueError, "sample 1: missing 'psi'"):
+            sm.load_pose_list(poses)
+        with self.assertRaisesRegex(ValueError, "split 3 asked for"):
+            sm.load_choreo_trajectory(os.path.join(folder, "ahead.traj"), split=3)
+
+
 class Plant(unittest.TestCase):
     def drive(self, plant, periods):
         for _ in range(periods):
