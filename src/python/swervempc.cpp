@@ -328,6 +328,130 @@ void bind_vehicle(py::module_& m) {
   m.def("load_vehicle", &load_vehicle_config_file, py::arg("path"), "Loads a vehicle file (its `vehicle:` section)");
 }
 
+// ---- kinematics -----------------------------------------------------------------------------------
+// A vehicle's kinematics with the heading memory its command chain keeps (flip decisions, held
+// headings), so successive command() calls behave as on the vehicle.
+class PyKinematics {
+ public:
+  PyKinematics(const VehicleParams& vehicle, const KinematicsOptions& options)
+      : kinematics_(vehicle.layout, options), memory_(vehicle.layout.size()), modules_(vehicle.layout.size()) {}
+
+  py::tuple inverse(const Array& twist_body, const py::object& center_of_rotation) const {
+    ModuleStates states(modules_);
+    check("inverse",
+          kinematics_.inverse(vector_of(twist_body, 3, "twist_body"), &states, center_of(center_of_rotation)));
+    return speeds_and_angles(states);
+  }
+  Array forward(const Array& speeds, const Array& angles) const {
+    Eigen::Vector3d twist;
+    check("forward", kinematics_.forward(states_of(speeds, angles), &twist));
+    return array_of(Eigen::VectorXd(twist));
+  }
+  py::tuple command(const Array& twist_body, const py::object& center_of_rotation, const py::object& measured_angles) {
+    ModuleStates states(modules_);
+    ModuleStates measured(modules_);
+    const bool has_measured = !measured_angles.is_none();
+    if (has_measured) {
+      const Eigen::VectorXd angles = vector_of(measured_angles.cast<Array>(), modules_, "measured_angles");
+      for (int i = 0; i < modules_; ++i) measured[i].angle = angles[i];
+    }
+    check("command", kinematics_.command(vector_of(twist_body, 3, "twist_body"), &memory_, &states,
+                                         center_of(center_of_rotation), has_measured ? &measured : nullptr));
+    return speeds_and_angles(states);
+  }
+  // WPILib's optimize per module: (angle + pi, -speed) when that steers less from current_angles.
+  py::tuple flip(const Array& speeds, const Array& angles, const Array& current_angles) const {
+    ModuleStates states = states_of(speeds, angles);
+    const Eigen::VectorXd current = vector_of(current_angles, modules_, "current_angles");
+    if (!current.allFinite()) throw py::value_error("current_angles: must be finite");
+    for (int i = 0; i < modules_; ++i) states[i] = optimize_module(states[i], current[i]);
+    return speeds_and_angles(states);
+  }
+  Array desaturate(const Array& speeds, double max_speed) const {
+    const Eigen::VectorXd v = vector_of(speeds, modules_, "speeds");
+    ModuleStates states(modules_);
+    for (int i = 0; i < modules_; ++i) states[i].speed = v[i];
+    check("desaturate", Kinematics::desaturate(max_speed, &states));
+    Eigen::VectorXd out(modules_);
+    for (int i = 0; i < modules_; ++i) out[i] = states[i].speed;
+    return array_of(out);
+  }
+  Array desaturate_twist(const Array& twist_body, double max_module_speed, const std::string& priority) const {
+    DesaturationPriority chosen = DesaturationPriority::kProportional;
+    if (priority == "keep_rotation") {
+      chosen = DesaturationPriority::kKeepRotation;
+    } else if (priority == "keep_translation") {
+      chosen = DesaturationPriority::kKeepTranslation;
+    } else if (priority != "proportional") {
+      throw py::value_error("priority = '" + priority + "': expected proportional, keep_rotation or keep_translation");
+    }
+    Eigen::Vector3d out;
+    check("desaturate_twist",
+          kinematics_.desaturate_twist(vector_of(twist_body, 3, "twist_body"), max_module_speed, chosen, &out));
+    return array_of(Eigen::VectorXd(out));
+  }
+  void reset() noexcept { memory_.reset(); }
+  int modules() const noexcept { return modules_; }
+
+ private:
+  static void check(const char* what, KinematicsStatus status) {
+    if (status != KinematicsStatus::kOk) throw py::value_error(std::string(what) + ": " + to_string(status));
+  }
+  ModuleStates states_of(const Array& speeds, const Array& angles) const {
+    const Eigen::VectorXd v = vector_of(speeds, modules_, "speeds");
+    const Eigen::VectorXd a = vector_of(angles, modules_, "angles");
+    ModuleStates states(modules_);
+    for (int i = 0; i < modules_; ++i) states[i] = {v[i], a[i]};
+    return states;
+  }
+  static Eigen::Vector2d center_of(const py::object& center_of_rotation) {
+    if (center_of_rotation.is_none()) return Eigen::Vector2d::Zero();
+    return vector_of(center_of_rotation.cast<Array>(), 2, "center_of_rotation");
+  }
+  py::tuple speeds_and_angles(const ModuleStates& states) const {
+    Eigen::VectorXd speeds(modules_), angles(modules_);
+    for (int i = 0; i < modules_; ++i) speeds[i] = states[i].speed, angles[i] = states[i].angle;
+    return py::make_tuple(array_of(speeds), array_of(angles));
+  }
+
+  Kinematics kinematics_;
+  ModuleHeadingMemory memory_;
+  int modules_;
+};
+
+void bind_kinematics(py::module_& m) {
+  py::class_<PyKinematics>(m, "Kinematics",
+                           "Inverse/forward kinematics of a vehicle's layout and the module command chain "
+                           "(desaturate, singularity hold, flip with memory, cosine scaling)")
+      .def(py::init([](const VehicleParams& vehicle, double flip_hysteresis, bool whole_robot_flip,
+                       bool cosine_scaling) {
+             KinematicsOptions options;
+             options.flip_hysteresis = flip_hysteresis;
+             options.whole_robot_flip = whole_robot_flip;
+             options.cosine_scaling = cosine_scaling;
+             return PyKinematics(vehicle, options);  // ConfigError (ValueError) names a bad option
+           }),
+           py::arg("vehicle"), py::arg("flip_hysteresis") = KinematicsOptions{}.flip_hysteresis,
+           py::arg("whole_robot_flip") = false, py::arg("cosine_scaling") = true)
+      .def_property_readonly("module_count", &PyKinematics::modules)
+      .def("inverse", &PyKinematics::inverse, py::arg("twist_body"), py::arg("center_of_rotation") = py::none(),
+           "(speeds m/s, angles rad) per module for the body twist (vx, vy, r) about the centre of rotation")
+      .def("forward", &PyKinematics::forward, py::arg("speeds"), py::arg("angles"),
+           "The least-squares body twist (vx, vy, r) of the module velocities")
+      .def("command", &PyKinematics::command, py::arg("twist_body"),
+           py::arg("center_of_rotation") = py::none(), py::arg("measured_angles") = py::none(),
+           "The command chain for hardware (inverse, desaturate to the layout's drive speed, singularity hold, "
+           "flip with hysteresis, cosine scaling against measured_angles); remembers headings between calls")
+      .def("flip", &PyKinematics::flip, py::arg("speeds"), py::arg("angles"), py::arg("current_angles"),
+           "Per module, (angle + pi, -speed) when that steers less from current_angles (no memory)")
+      .def("desaturate", &PyKinematics::desaturate, py::arg("speeds"), py::arg("max_speed"),
+           "Every speed scaled by one factor so none exceeds max_speed (signs kept)")
+      .def("desaturate_twist", &PyKinematics::desaturate_twist, py::arg("twist_body"), py::arg("max_module_speed"),
+           py::arg("priority") = "proportional",
+           "The largest twist within the module speed limit: proportional, keep_rotation or keep_translation")
+      .def("reset", &PyKinematics::reset, "Forgets the remembered headings and flip decisions");
+}
+
 void bind_controller_config(py::module_& m) {
   py::class_<ControllerConfig>(m, "ControllerConfig",
                                "A controller file's settings; change them, then make_controller validates them")
@@ -583,6 +707,7 @@ PYBIND11_MODULE(swervempc, m) {
     }
   });
   bind_vehicle(m);
+  bind_kinematics(m);
   bind_controller_config(m);
   bind_reference(m);
   bind_controller(m);

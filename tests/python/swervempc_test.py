@@ -146,6 +146,37 @@ class TrajectoryReference(unittest.TestCase):
             sm.load_choreo_trajectory(os.path.join(folder, "ahead.traj"), split=3)
 
 
+class Kinematics(unittest.TestCase):
+    def test_inverse_forward_flip_and_desaturate_on_the_four_module_agv(self):
+        kin = sm.Kinematics(sm.load_vehicle(VEHICLE))
+        n = kin.module_count
+        # Pure translation along +y: every module at 1 m/s pointing at +90 deg.
+        speeds, angles = kin.inverse(np.array([0.0, 1.0, 0.0]))
+        np.testing.assert_allclose(speeds, np.ones(n), atol=1e-12)
+        np.testing.assert_allclose(angles, np.full(n, math.pi / 2), atol=1e-12)
+        # Forward kinematics recovers a rotation's twist from its own inverse.
+        twist = np.array([0.3, -0.2, 0.7])
+        np.testing.assert_allclose(kin.forward(*kin.inverse(twist)), twist, atol=1e-12)
+        # A module at 0 rad asked for 180 deg drives backwards instead.
+        flipped_speeds, flipped_angles = kin.flip(np.ones(n), np.full(n, math.pi), np.zeros(n))
+        np.testing.assert_allclose(flipped_speeds, -np.ones(n), atol=1e-12)
+        np.testing.assert_allclose(flipped_angles, np.zeros(n), atol=1e-12)
+        # One factor for all: the fastest goes to the limit, the ratios stay.
+        np.testing.assert_allclose(kin.desaturate(np.array([4.0, 2.0, -1.0, 0.0]), 2.0), [2.0, 1.0, -0.5, 0.0])
+        # The command chain remembers headings: standing still holds the last direction.
+        kin.command(np.array([0.0, 1.0, 0.0]))
+        _, held = kin.command(np.zeros(3))
+        np.testing.assert_allclose(held, np.full(n, math.pi / 2), atol=1e-12)
+        with self.assertRaisesRegex(ValueError, "twist_body: expected a 1-D array of 3 values"):
+            kin.inverse(np.zeros(2))
+        with self.assertRaisesRegex(ValueError, "inverse: non_finite_input"):
+            kin.inverse(np.array([float("nan"), 0.0, 0.0]))
+        with self.assertRaisesRegex(ValueError, "priority = 'fast'"):
+            kin.desaturate_twist(np.zeros(3), 1.0, "fast")
+        with self.assertRaisesRegex(ValueError, "flip_hysteresis"):
+            sm.Kinematics(sm.load_vehicle(VEHICLE), flip_hysteresis=-1.0)
+
+
 class Plant(unittest.TestCase):
     def drive(self, plant, periods):
         for _ in range(periods):
