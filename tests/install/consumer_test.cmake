@@ -6,6 +6,9 @@
 #   sa_only            COMPONENTS sa configures with NLopt, Ipopt, Ceres and nlohmann-json unfindable,
 #                      and loads the SA backend and what it builds on, not the other backends
 #   unknown_component  COMPONENTS nonsense must fail to configure and name the component
+#   python_clean       the installed Python module imports in a clean interpreter (no environment,
+#                      no PYTHONPATH) through the .pth the install wrote (into WORK_DIR/site here,
+#                      rather than the machine's site folder)
 #   -DMODE=... -DBUILD_DIR=... -DSOURCE_DIR=... -DWORK_DIR=... -DBUILD_TYPE=...
 set(prefix ${WORK_DIR}/prefix)
 function(run_step)
@@ -35,7 +38,9 @@ endfunction()
 
 if(MODE STREQUAL "install")
   file(REMOVE_RECURSE ${WORK_DIR})
-  run_step(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
+  # The Python module's .pth goes to a folder of the test's own, not the machine's site-packages.
+  run_step(${CMAKE_COMMAND} -E env SWERVE_PYTHON_PTH_DIR=${WORK_DIR}/site
+           ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
   if(NOT EXISTS ${prefix}/bin/swerve-mpc)
     message(FATAL_ERROR "swerve-mpc was not installed into ${prefix}/bin")
   endif()
@@ -82,6 +87,20 @@ elseif(MODE STREQUAL "unknown_component")
                   RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(code EQUAL 0 OR NOT err MATCHES "SwerveMPC has no component 'warp_drive'")
     message(FATAL_ERROR "expected a configure error naming 'warp_drive', got (${code}):\n${out}\n${err}")
+  endif()
+
+elseif(MODE STREQUAL "python_clean")
+  file(STRINGS ${WORK_DIR}/site/swervempc.pth registered)
+  if(NOT registered MATCHES "^${prefix}/.*dist-packages$")
+    message(FATAL_ERROR "swervempc.pth names '${registered}', not a folder under ${prefix}")
+  endif()
+  # -I: no PYTHON* variables, no user site; -S then site.addsitedir: the site folder read exactly as
+  # the interpreter reads its own at start-up (.pth files included). SWERVE_TEST_PYTHON: the interpreter.
+  run_step(env -i $ENV{SWERVE_TEST_PYTHON} -I -S -c
+           # (newlines, not semicolons: run_step's arguments are a CMake list)
+           "import site\nsite.addsitedir('${WORK_DIR}/site')\nimport swervempc as sm\nprint('swervempc', sm.__version__, sm.Kinematics)")
+  if(NOT last_output MATCHES "swervempc [0-9]+\\.[0-9]+\\.[0-9]+")
+    message(FATAL_ERROR "python_clean printed:\n${last_output}")
   endif()
 
 else()
