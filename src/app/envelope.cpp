@@ -743,6 +743,7 @@ void EnvelopeOptions::validate() const {
     }
   }
   if (out_dir.empty()) throw_invalid_field(kOwner, "out_dir", "''", "must name a directory");
+  shard.validate();
   if (controller_file.empty())
     throw_invalid_field(kOwner, "controller_file", "''", "must name a controller file");
   if (baseline_file.empty())
@@ -1009,41 +1010,59 @@ EnvelopeResult run_envelope(const EnvelopeOptions& options, const EnvelopeCallba
   const std::vector<ReferenceFamily> families = options.family_list();
   EnvelopeResult result;
   result.options = options;
-  result.draws.resize(static_cast<std::size_t>(options.draws));
+  std::vector<int> indices;  // this shard's draws
+  for (int i = 0; i < options.draws; ++i) {
+    if (options.shard.owns(i)) indices.push_back(i);
+  }
+  const auto total = static_cast<int>(indices.size());
+  result.draws.resize(indices.size());
   std::atomic<int> next{0};
   std::mutex done_lock;
   int done = 0;
   const auto worker = [&]() {
-    for (int i = next++; i < options.draws; i = next++) {
+    for (int k = next++; k < total; k = next++) {
+      const int i = indices[static_cast<std::size_t>(k)];
       const std::string dir = (std::filesystem::path(options.out_dir) / "draws" / std::to_string(i)).string();
       DrawResult r;
       try {
         r = run_draw(draw_case(options.seed, i, families), dir, options);
       } catch (const std::exception& error) {  // drawing itself failed: still reported, never dropped
-        r.draw.seed = options.seed;
-        r.draw.index = i;
-        r.draw.family = families[static_cast<std::size_t>(i) % families.size()];
-        r.scenario_file = (std::filesystem::path(dir) / "scenario.yaml").string();
-        r.error = std::string("drawing failed: ") + error.what();
-        r.goals = evaluate_goals(r.wear_mpc, r.baseline);
+        r = undrawn_result(options.seed, i, families, dir, error.what());
       }
       const std::lock_guard<std::mutex> hold(done_lock);
-      result.draws[static_cast<std::size_t>(i)] = std::move(r);
+      result.draws[static_cast<std::size_t>(k)] = std::move(r);
       ++done;
-      if (on_done) on_done(result.draws[static_cast<std::size_t>(i)], done, options.draws);
+      if (on_done) on_done(result.draws[static_cast<std::size_t>(k)], done, total);
     }
   };
-  const int threads = std::min(options.jobs, options.draws);
+  const int threads = std::max(1, std::min(options.jobs, total));
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
   worker();
   for (std::thread& t : pool) t.join();
-  for (const DrawResult& r : result.draws) {
-    if (r.goals.all()) ++result.met;
-    if (r.goals.gross) ++result.gross;
-    if (!r.error.empty() || !r.goals.ran) ++result.failed;
-  }
+  count_goals(&result);
   return result;
+}
+
+DrawResult undrawn_result(std::uint64_t seed, int index, const std::vector<ReferenceFamily>& families,
+                          const std::string& dir, const std::string& why) {
+  DrawResult r;
+  r.draw.seed = seed;
+  r.draw.index = index;
+  r.draw.family = families[static_cast<std::size_t>(index) % families.size()];
+  r.scenario_file = (std::filesystem::path(dir) / "scenario.yaml").string();
+  r.error = "drawing failed: " + why;
+  r.goals = evaluate_goals(r.wear_mpc, r.baseline);
+  return r;
+}
+
+void count_goals(EnvelopeResult* result) {
+  result->met = result->gross = result->failed = 0;
+  for (const DrawResult& r : result->draws) {
+    if (r.goals.all()) ++result->met;
+    if (r.goals.gross) ++result->gross;
+    if (!r.error.empty() || !r.goals.ran) ++result->failed;
+  }
 }
 
 // ---- Reports ----------------------------------------------------------------------------------

@@ -16,6 +16,7 @@ const std::vector<Command>& all_commands() {
       make_tune_command(),
       make_bench_targets_command(),
       make_envelope_command(),
+      make_merge_command(),
       make_check_config_command(),
       make_config_reference_command(),
   };

@@ -63,5 +63,6 @@ Command make_sweep_command();
 Command make_tune_command();
 Command make_bench_targets_command();
 Command make_envelope_command();
+Command make_merge_command();
 
 }  // namespace swerve::cli

@@ -33,6 +33,7 @@ struct EnvelopeArguments {
   bool wall_clock = false;
   WorkClockRates work_clock;  // per_read_s 0: not given (the envelope's default work clock)
   bool quiet = false;
+  std::string shard;  // "I/N"; empty: the whole run
 };
 
 template <typename Integer>
@@ -107,6 +108,7 @@ int run(const EnvelopeArguments& a, bool families_given) {
   }
   options.work_clock_evaluation = a.work_clock.per_module_evaluation_s;
   try {
+    if (!a.shard.empty()) options.shard = parse_shard(a.shard);
     options.validate();
   } catch (const ConfigError& error) {
     throw UsageError(std::string("envelope: ") + error.what());
@@ -121,6 +123,15 @@ int run(const EnvelopeArguments& a, bool families_given) {
               << (cores > 1 ? cores - 1 : 1) << " or fewer for a wall-clock measurement)\n";
   }
   const EnvelopeResult result = run_envelope(options, progress_line(a.quiet));
+  if (!options.shard.whole()) {
+    // A shard's share is no envelope on its own: its record waits for `swerve-mpc merge`.
+    const std::string shard_path = options.out_dir + "/" + kShardFileName;
+    write_envelope_shard(result, shard_path);
+    std::cout << "envelope shard " << options.shard.text() << ": " << result.draws.size() << " of " << options.draws
+              << " draws, " << result.met << " meeting every goal\n"
+              << "written: " << shard_path << " (swerve-mpc merge <the shards' folders> -o <out>)\n";
+    return kExitOk;
+  }
   const std::string json_path = options.out_dir + "/envelope.json";
   write_envelope_json(result, json_path);
   std::cout << envelope_report(result);
@@ -166,6 +177,8 @@ Command make_envelope_command() {
         add_work_clock_option(app, &a->work_clock);
         if (CLI::Option* work = app.get_option_no_throw("--work-clock")) wall->excludes(work);
         app.add_flag("-q,--quiet", a->quiet, "No progress line");
+        app.add_option("--shard", a->shard,
+                       "I/N: run draws whose index is I modulo N and write <out>/shard.json for swerve-mpc merge");
         return [a, families]() { return run(*a, families->count() > 0); };
       }};
 }

@@ -1,5 +1,6 @@
 #include "swerve/core/text_file.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
@@ -59,10 +60,21 @@ std::string read_text_file(const std::string& file_path, const TextFileRules& ru
   if (!error && size > rules.max_bytes) throw ConfigError(file_too_large(file_path, std::to_string(size), rules));
   std::ifstream in(file_path, std::ios::binary);
   if (!in) throw ConfigError(shown + ": cannot open the file for reading (" + std::strerror(errno) + ")");
-  // Read at most one byte past the limit, so a file that grew since the size check stays bounded.
-  std::string text(rules.max_bytes + 1, '\0');
-  in.read(&text[0], static_cast<std::streamsize>(text.size()));
-  text.resize(static_cast<std::size_t>(in.gcount()));
+  // Sized for the file as measured (not for the limit: a buffer of the limit, zeroed, cost 256 MiB
+  // of memset per read of a small file under a large limit), growing if the file grew since, and
+  // read at most one byte past the limit, so a growing file stays bounded.
+  const std::size_t measured = error ? 0 : static_cast<std::size_t>(size);
+  std::size_t capacity = std::min(rules.max_bytes, measured) + 1;
+  std::string text(capacity, '\0');
+  std::size_t filled = 0;
+  for (;;) {
+    in.read(&text[filled], static_cast<std::streamsize>(capacity - filled));
+    filled += static_cast<std::size_t>(in.gcount());
+    if (filled < capacity || capacity > rules.max_bytes) break;  // the end, or past the limit
+    capacity = std::min(rules.max_bytes + 1, 2 * capacity);
+    text.resize(capacity);
+  }
+  text.resize(filled);
   if (in.bad()) throw ConfigError(shown + ": read error");
   if (text.size() > rules.max_bytes) {
     throw ConfigError(file_too_large(file_path, "more than " + std::to_string(rules.max_bytes), rules));

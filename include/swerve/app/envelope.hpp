@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "swerve/app/shard.hpp"
 #include "swerve/ocp/deadline.hpp"
 #include "swerve/ocp/work_clock_rates.hpp"
 
@@ -52,6 +53,8 @@ struct EnvelopeOptions {
   double work_clock = kReferenceSecondsPerRead;
   // s per module evaluation the prediction model charges to that clock (0: reads only).
   double work_clock_evaluation = kReferenceSecondsPerModuleEvaluation;
+  // The share of the draws this run does (index % count == shard.index); whole: all of them.
+  Shard shard;
 
   // The families asked for, in the order given (every family when none is named). Call validate() first.
   std::vector<ReferenceFamily> family_list() const;
@@ -173,7 +176,7 @@ DrawResult run_draw(const Draw& draw, const std::string& dir, const EnvelopeOpti
 
 struct EnvelopeResult {
   EnvelopeOptions options;
-  std::vector<DrawResult> draws;  // by index
+  std::vector<DrawResult> draws;  // by index (a shard's: its own draws, in index order)
   int met = 0;                    // draws meeting every goal
   int gross = 0;
   int failed = 0;  // draws that could not be written, loaded or run to the end
@@ -182,11 +185,18 @@ struct EnvelopeResult {
   }
 };
 
+// A draw whose drawing itself threw (`why`): reported, never dropped, meeting no goal.
+DrawResult undrawn_result(std::uint64_t seed, int index, const std::vector<ReferenceFamily>& families,
+                          const std::string& dir, const std::string& why);
+// Sets met, gross and failed from the draws' goals.
+void count_goals(EnvelopeResult* result);
+
 // Called once a draw is done (under a lock: one call at a time), with the number done so far.
 using EnvelopeCallback = std::function<void(const DrawResult&, int done, int total)>;
 
-// Validates the options, draws every case and runs them on options.jobs threads; each draw in
-// <out_dir>/draws/<index>/. Throws ConfigError for bad options or controller files that cannot be read.
+// Validates the options, draws every case (of options.shard's share) and runs them on options.jobs
+// threads; each draw in <out_dir>/draws/<index>/. Throws ConfigError for bad options or controller
+// files that cannot be read.
 EnvelopeResult run_envelope(const EnvelopeOptions& options, const EnvelopeCallback& on_done = {});
 
 // The printed report: rate, ratio distributions, gross count, the ten worst draws.
@@ -194,5 +204,15 @@ std::string envelope_report(const EnvelopeResult& result);
 // <out_dir>/envelope.json's text; write_envelope_json writes it there (std::runtime_error on failure).
 std::string envelope_json(const EnvelopeResult& result);
 void write_envelope_json(const EnvelopeResult& result, const std::string& path);
+
+// A shard's record (<out_dir>/shard.json): the options and every draw's runs, losslessly (every
+// metric as written bit for bit, non-finite values included), for merge_envelope_shards.
+void write_envelope_shard(const EnvelopeResult& result, const std::string& path);
+// The whole envelope from the folders of shards 0..N-1 of one run (any order): their draw folders
+// copied into <out_dir>/draws/, and the result one unsharded run with out_dir would have given, so
+// that envelope_json and envelope_report of it are that run's byte for byte. Throws ConfigError
+// naming the folder for a missing or unreadable shard.json, a shard given twice or missing, shards
+// of different runs (seed, draws, families, controller files, clock) or a shard without its draws.
+EnvelopeResult merge_envelope_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir);
 
 }  // namespace swerve

@@ -1,0 +1,233 @@
+// The envelope's shards: each shard's record, and the merge of the records of shards 0..N-1 back
+// into the result one unsharded run gives (app/shard.hpp says why).
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "lossless_json.hpp"
+#include "swerve/app/envelope.hpp"
+#include "swerve/app/run_report.hpp"
+#include "swerve/core/config_error.hpp"
+#include "swerve/core/text_file.hpp"
+
+namespace swerve {
+namespace {
+
+using Json = nlohmann::json;
+namespace fs = std::filesystem;
+
+constexpr int kShardFormat = 1;
+
+Json run_record(const EnvelopeRun& run) {
+  return {{"ran", run.ran},
+          {"completed", run.completed},
+          {"failure", run.failure},
+          {"safe_stops", run.safe_stops},
+          {"metrics", lossless::metrics(run.metrics)}};
+}
+
+EnvelopeRun read_run(const Json& j, const std::string& where) {
+  EnvelopeRun run;
+  run.ran = lossless::member(j, "ran", where).get<bool>();
+  run.completed = lossless::member(j, "completed", where).get<bool>();
+  run.failure = lossless::member(j, "failure", where).get<std::string>();
+  run.safe_stops = lossless::member(j, "safe_stops", where).get<int>();
+  run.metrics = lossless::read_metrics(lossless::member(j, "metrics", where), where + ".metrics");
+  return run;
+}
+
+// What must agree between the shards of one run (everything in the options but jobs and out_dir).
+Json run_identity(const EnvelopeOptions& o) {
+  return {{"seed", o.seed},
+          {"draws", o.draws},
+          {"families", o.families},
+          {"controller_file", o.controller_file},
+          {"baseline_file", o.baseline_file},
+          {"work_clock", lossless::number(o.work_clock)},
+          {"work_clock_evaluation", lossless::number(o.work_clock_evaluation)}};
+}
+
+// `text` with every `from` (a shard's draw folder prefix) replaced by `to`.
+std::string moved(std::string text, const std::string& from, const std::string& to) {
+  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
+    text.replace(at, from.size(), to);
+  }
+  return text;
+}
+
+std::string draws_prefix(const std::string& out_dir) { return (fs::path(out_dir) / "draws").string() + "/"; }
+
+struct ShardRecord {
+  std::string dir;
+  Json json;
+  Shard shard;
+};
+
+ShardRecord read_shard(const std::string& dir) {
+  ShardRecord record;
+  record.dir = dir;
+  const std::string path = (fs::path(dir) / kShardFileName).string();
+  try {
+    record.json = Json::parse(config::read_text_file(path, {std::size_t{256} << 20, "shard records", "JSON"}));
+  } catch (const Json::exception& error) {
+    throw ConfigError(path + ": not valid JSON: " + error.what());
+  }
+  const Json& j = record.json;
+  if (!j.is_object() || j.value("command", "") != "envelope") {
+    throw ConfigError(path + ": not the record of an envelope shard (\"command\": \"envelope\")");
+  }
+  if (j.value("format", 0) != kShardFormat) {
+    throw ConfigError(path + ": record format " + j.value("format", Json()).dump() + ", this merge reads " +
+                      std::to_string(kShardFormat));
+  }
+  record.shard.index = lossless::member(j, "shard_index", path).get<int>();
+  record.shard.count = lossless::member(j, "shard_count", path).get<int>();
+  try {
+    record.shard.validate();
+  } catch (const ConfigError& error) {
+    throw ConfigError(path + ": " + error.what());
+  }
+  return record;
+}
+
+EnvelopeOptions read_options(const Json& j, const std::string& where) {
+  EnvelopeOptions o;
+  const Json& identity = lossless::member(j, "run", where);
+  o.seed = lossless::member(identity, "seed", where).get<std::uint64_t>();
+  o.draws = lossless::member(identity, "draws", where).get<int>();
+  o.families = lossless::member(identity, "families", where).get<std::vector<std::string>>();
+  o.controller_file = lossless::member(identity, "controller_file", where).get<std::string>();
+  o.baseline_file = lossless::member(identity, "baseline_file", where).get<std::string>();
+  o.work_clock = lossless::read_number(lossless::member(identity, "work_clock", where), where + ".work_clock");
+  o.work_clock_evaluation = lossless::read_number(lossless::member(identity, "work_clock_evaluation", where),
+                                                  where + ".work_clock_evaluation");
+  o.jobs = lossless::member(j, "jobs", where).get<int>();
+  o.out_dir = lossless::member(j, "out_dir", where).get<std::string>();
+  return o;
+}
+
+void copy_draw_folder(const std::string& from, const std::string& to) {
+  std::error_code error;
+  fs::remove_all(to, error);
+  fs::create_directories(fs::path(to).parent_path(), error);
+  fs::copy(from, to, fs::copy_options::recursive, error);
+  if (error) throw std::runtime_error(to + ": cannot copy the draw from " + from + " (" + error.message() + ")");
+}
+
+}  // namespace
+
+void write_envelope_shard(const EnvelopeResult& result, const std::string& path) {
+  const EnvelopeOptions& o = result.options;
+  Json draws = Json::array();
+  for (const DrawResult& r : result.draws) {
+    draws.push_back({{"index", r.draw.index},
+                     {"drawn", r.error.rfind("drawing failed: ", 0) != 0},
+                     {"scenario_file", r.scenario_file},
+                     {"error", r.error},
+                     {"wear_mpc", run_record(r.wear_mpc)},
+                     {"kinematic_baseline", run_record(r.baseline)}});
+  }
+  const Json j = {{"command", "envelope"},     {"format", kShardFormat},
+                  {"shard_index", o.shard.index}, {"shard_count", o.shard.count},
+                  {"run", run_identity(o)},     {"jobs", o.jobs},
+                  {"out_dir", o.out_dir},       {"draws", draws}};
+  const std::string temporary = path + ".tmp";
+  {
+    std::ofstream out(temporary);
+    if (!out || !(out << j.dump(1) << "\n") || !out.flush()) throw std::runtime_error(temporary + ": cannot write");
+  }
+  std::error_code error;
+  fs::rename(temporary, path, error);
+  if (error) throw std::runtime_error(path + ": cannot write (" + error.message() + ")");
+}
+
+EnvelopeResult merge_envelope_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir) {
+  if (shard_dirs.empty()) throw ConfigError("merge: give the output folders of the shards");
+  std::vector<ShardRecord> records;
+  for (const std::string& dir : shard_dirs) {
+    std::error_code error;
+    if (fs::exists(out_dir, error) && fs::equivalent(dir, out_dir, error)) {
+      throw ConfigError("merge: " + dir + " is the output folder itself; merge into another folder");
+    }
+    records.push_back(read_shard(dir));
+  }
+  const ShardRecord& first = records.front();
+  const int count = first.shard.count;
+  std::map<int, const ShardRecord*> by_index;
+  for (const ShardRecord& record : records) {
+    if (record.shard.count != count) {
+      throw ConfigError("merge: " + record.dir + " is shard " + record.shard.text() + ", but " + first.dir +
+                        " is of " + std::to_string(count) + " shards");
+    }
+    if (record.json.at("run") != first.json.at("run")) {
+      throw ConfigError("merge: " + record.dir + " is a shard of another envelope run than " + first.dir + " (" +
+                        record.json.at("run").dump() + " against " + first.json.at("run").dump() + ")");
+    }
+    const auto [at, inserted] = by_index.emplace(record.shard.index, &record);
+    if (!inserted) {
+      throw ConfigError("merge: shard " + record.shard.text() + " given twice (" + at->second->dir + " and " +
+                        record.dir + ")");
+    }
+  }
+  for (int i = 0; i < count; ++i) {
+    if (!by_index.count(i)) {
+      throw ConfigError("merge: shard " + std::to_string(i) + "/" + std::to_string(count) + " is missing");
+    }
+  }
+
+  EnvelopeResult result;
+  result.options = read_options(first.json, first.dir);
+  result.options.out_dir = out_dir;
+  result.options.shard = Shard{};
+  result.options.validate();
+  const std::vector<ReferenceFamily> families = result.options.family_list();
+  result.draws.resize(static_cast<std::size_t>(result.options.draws));
+  std::vector<bool> seen(result.draws.size(), false);
+  prepare_output_directory(out_dir);
+  for (const auto& [shard_index, record] : by_index) {
+    const std::string where = (fs::path(record->dir) / kShardFileName).string();
+    const std::string from = draws_prefix(lossless::member(record->json, "out_dir", where).get<std::string>());
+    const std::string to = draws_prefix(out_dir);
+    for (const Json& d : lossless::member(record->json, "draws", where)) {
+      const int index = lossless::member(d, "index", where).get<int>();
+      if (index < 0 || index >= result.options.draws || !record->shard.owns(index) ||
+          seen[static_cast<std::size_t>(index)]) {
+        throw ConfigError(where + ": draw " + std::to_string(index) + " does not belong to shard " +
+                          record->shard.text() + " of " + std::to_string(result.options.draws) + " draws");
+      }
+      seen[static_cast<std::size_t>(index)] = true;
+      const std::string draw_where = where + ": draw " + std::to_string(index);
+      const std::string dir = (fs::path(out_dir) / "draws" / std::to_string(index)).string();
+      const std::string error = moved(lossless::member(d, "error", draw_where).get<std::string>(), from, to);
+      DrawResult& r = result.draws[static_cast<std::size_t>(index)];
+      if (!lossless::member(d, "drawn", draw_where).get<bool>()) {
+        r = undrawn_result(result.options.seed, index, families, dir, error.substr(std::string("drawing failed: ").size()));
+      } else {
+        r.draw = draw_case(result.options.seed, index, families);
+        r.scenario_file = moved(lossless::member(d, "scenario_file", draw_where).get<std::string>(), from, to);
+        r.error = error;
+        r.wear_mpc = read_run(lossless::member(d, "wear_mpc", draw_where), draw_where + ".wear_mpc");
+        r.baseline = read_run(lossless::member(d, "kinematic_baseline", draw_where), draw_where + ".kinematic_baseline");
+        r.wear_mpc.failure = moved(r.wear_mpc.failure, from, to);
+        r.baseline.failure = moved(r.baseline.failure, from, to);
+        r.goals = evaluate_goals(r.wear_mpc, r.baseline);
+      }
+      const fs::path shard_draw = fs::path(record->dir) / "draws" / std::to_string(index);
+      std::error_code exists_error;
+      if (fs::exists(shard_draw, exists_error)) copy_draw_folder(shard_draw.string(), dir);
+    }
+  }
+  for (std::size_t i = 0; i < seen.size(); ++i) {
+    if (!seen[i]) {
+      const int owner = static_cast<int>(i) % count;
+      throw ConfigError("merge: " + by_index.at(owner)->dir + " (shard " + by_index.at(owner)->shard.text() +
+                        ") has no draw " + std::to_string(i) + ": did it finish?");
+    }
+  }
+  count_goals(&result);
+  return result;
+}
+
+}  // namespace swerve

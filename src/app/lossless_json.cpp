@@ -1,0 +1,99 @@
+#include "lossless_json.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "swerve/core/config_error.hpp"
+
+namespace swerve::lossless {
+
+nlohmann::json number(double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0.0 ? "inf" : "-inf";
+  return value;
+}
+
+double read_number(const nlohmann::json& value, const std::string& where) {
+  if (value.is_number()) return value.get<double>();
+  if (value.is_string()) {
+    const std::string text = value.get<std::string>();
+    if (text == "nan") return std::numeric_limits<double>::quiet_NaN();
+    if (text == "inf") return std::numeric_limits<double>::infinity();
+    if (text == "-inf") return -std::numeric_limits<double>::infinity();
+  }
+  throw ConfigError(where + ": expected a number, got " + value.dump());
+}
+
+const nlohmann::json& member(const nlohmann::json& j, const char* key, const std::string& where) {
+  if (!j.is_object() || !j.contains(key)) throw ConfigError(where + ": missing '" + key + "'");
+  return j.at(key);
+}
+
+namespace {
+
+// Every field of RunMetrics, once: the writer and the reader walk the same table.
+struct DoubleField {
+  const char* name;
+  double RunMetrics::*field;
+};
+struct IntField {
+  const char* name;
+  int RunMetrics::*field;
+};
+constexpr DoubleField kDoubles[] = {
+    {"tracking_rmse_m", &RunMetrics::tracking_rmse_m},
+    {"tracking_max_m", &RunMetrics::tracking_max_m},
+    {"heading_rmse_rad", &RunMetrics::heading_rmse_rad},
+    {"heading_max_rad", &RunMetrics::heading_max_rad},
+    {"wear_total", &RunMetrics::wear_total},
+    {"wear_imbalance", &RunMetrics::wear_imbalance},
+    {"frictional_energy_J", &RunMetrics::frictional_energy_J},
+    {"steering_effort", &RunMetrics::steering_effort},
+    {"steering_command_jerk", &RunMetrics::steering_command_jerk},
+    {"solve_time_mean_ms", &RunMetrics::solve_time_mean_ms},
+    {"solve_time_p50_ms", &RunMetrics::solve_time_p50_ms},
+    {"solve_time_p99_ms", &RunMetrics::solve_time_p99_ms},
+    {"solve_time_max_ms", &RunMetrics::solve_time_max_ms},
+    {"step_time_p99_ms", &RunMetrics::step_time_p99_ms},
+    {"step_time_max_ms", &RunMetrics::step_time_max_ms},
+    {"reference_delay_s", &RunMetrics::reference_delay_s},
+    {"solve_iterations_mean", &RunMetrics::solve_iterations_mean},
+};
+constexpr IntField kInts[] = {
+    {"steps", &RunMetrics::steps},
+    {"deadline_misses", &RunMetrics::deadline_misses},
+    {"late_solves", &RunMetrics::late_solves},
+    {"work_budget_cuts", &RunMetrics::work_budget_cuts},
+    {"fallbacks", &RunMetrics::fallbacks},
+    {"tracking_first_steps", &RunMetrics::tracking_first_steps},
+};
+
+}  // namespace
+
+nlohmann::json metrics(const RunMetrics& m) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const DoubleField& f : kDoubles) j[f.name] = number(m.*(f.field));
+  for (const IntField& f : kInts) j[f.name] = m.*(f.field);
+  nlohmann::json wear = nlohmann::json::array();
+  for (const double w : m.wear_per_module) wear.push_back(number(w));
+  j["wear_per_module"] = wear;
+  return j;
+}
+
+RunMetrics read_metrics(const nlohmann::json& j, const std::string& where) {
+  RunMetrics m;
+  for (const DoubleField& f : kDoubles) m.*(f.field) = read_number(member(j, f.name, where), where + "." + f.name);
+  for (const IntField& f : kInts) {
+    const nlohmann::json& value = member(j, f.name, where);
+    if (!value.is_number_integer()) throw ConfigError(where + "." + f.name + ": expected an integer, got " + value.dump());
+    m.*(f.field) = value.get<int>();
+  }
+  const nlohmann::json& wear = member(j, "wear_per_module", where);
+  if (!wear.is_array()) throw ConfigError(where + ".wear_per_module: expected an array");
+  for (std::size_t i = 0; i < wear.size(); ++i) {
+    m.wear_per_module.push_back(read_number(wear[i], where + ".wear_per_module[" + std::to_string(i) + "]"));
+  }
+  return m;
+}
+
+}  // namespace swerve::lossless
