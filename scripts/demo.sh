@@ -14,7 +14,7 @@ echo "Embedded default target: configs/targets/default.yaml; controller: configs
 echo
 for scenario in curve offset60; do
   echo "== $scenario (configs/scenarios/$scenario.yaml) =="
-  "$cli" run "configs/scenarios/$scenario.yaml" --out "$out_dir/$scenario"
+  "$cli" run "configs/scenarios/$scenario.yaml" --out "$out_dir/$scenario" --log csv,wpilog,mcap
   echo
 done
 # Runs each scenario quietly into $1/<name> (a layouts/ one as layouts_<name>) and appends its

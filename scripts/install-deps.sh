@@ -33,6 +33,18 @@ for list in "$@"; do
   esac
 done
 
+# The independent log readers the tests use (tests/node/package.json), from the npm registry, when
+# Node.js is on the machine and they are not installed yet.
+install_node_readers() {
+  local dir
+  dir="$(cd "$(dirname "$0")/.." && pwd)/tests/node"
+  if command -v npm >/dev/null && [ ! -d "$dir/node_modules/@mcap/core" ]; then
+    echo "install-deps: npm install in tests/node"
+    npm ci --prefix "$dir" --no-audit --no-fund --silent
+  fi
+}
+install_node_readers
+
 missing=()
 for package in "${packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed"; then

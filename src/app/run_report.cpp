@@ -189,13 +189,18 @@ void prepare_output_directory(const std::string& out_dir) {
 }
 
 void write_run_outputs(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs,
-                       const std::string& out_dir) {
+                       const std::string& out_dir, const LogFormats& formats) {
   namespace fs = std::filesystem;
   std::error_code error;
   prepare_output_directory(out_dir);
   const fs::path summary_path = fs::path(out_dir) / "summary.json";
   fs::remove(summary_path, error);  // a stale summary must not describe the new, partial logs
-  for (const ControllerRun& run : runs) write_csv(run, (fs::path(out_dir) / (run.name + ".csv")).string());
+  if (formats.csv) {
+    for (const ControllerRun& run : runs) write_csv(run, (fs::path(out_dir) / (run.name + ".csv")).string());
+  }
+  const LogContext context{scenario.name, scenario.vehicle.layout.wheel_radius()};
+  if (formats.wpilog) write_wpilog(context, runs, (fs::path(out_dir) / "run.wpilog").string());
+  if (formats.mcap) write_mcap(context, runs, (fs::path(out_dir) / "run.mcap").string());
   const fs::path temporary = fs::path(out_dir) / ".summary.json.tmp";
   {
     std::ofstream out(temporary);

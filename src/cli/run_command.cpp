@@ -33,6 +33,7 @@ struct RunArguments {
   std::string backend;
   WorkClockRates work_clock;  // per_read_s 0: the steady clock
   bool quiet = false;
+  std::string logs = "csv";   // --log: checked by parse_log_formats
 };
 
 // The seed a --seed value names: a decimal integer in [0, 2^64 - 1], the simulator's seed type;
@@ -119,6 +120,14 @@ void prepare_out_dir(const std::string& out_dir) {
 }
 
 int run(const RunArguments& a) {
+  // Checked before the runs, so a typo costs no run.
+  const LogFormats formats = [&] {
+    try {
+      return parse_log_formats(a.logs);
+    } catch (const ConfigError& error) {
+      throw UsageError(error.what());
+    }
+  }();
   const ScenarioConfig scenario = with_overrides(load_scenario_config_file(a.scenario_file), overrides_of(a));
   const std::string out_dir = out_dir_of(a, scenario);
   prepare_out_dir(out_dir);
@@ -129,10 +138,14 @@ int run(const RunArguments& a) {
     std::optional<WorkClock> work_clock = work_clock_for(a.work_clock);
     runs.push_back(run_controller(scenario, scenario.controllers[i], progress, i, work_clock ? &*work_clock : nullptr));
   }
-  write_run_outputs(scenario, runs, out_dir);
+  write_run_outputs(scenario, runs, out_dir, formats);
   std::cout << comparison_table(scenario, runs);
   if (a.work_clock.per_read_s > 0.0) std::cout << work_clock_notice(a.work_clock) << "\n";
-  std::cout << "written: " << out_dir << "/summary.json and " << runs.size() << " per-step CSV logs\n";
+  std::cout << "written: " << out_dir << "/summary.json";
+  if (formats.csv) std::cout << ", " << runs.size() << " per-step CSV logs";
+  if (formats.wpilog) std::cout << ", run.wpilog";
+  if (formats.mcap) std::cout << ", run.mcap";
+  std::cout << "\n";
   for (const ControllerRun& r : runs) {
     if (!r.completed) {
       std::cerr << "swerve-mpc run: " << r.name << ": " << r.failure << "\n";
@@ -236,6 +249,9 @@ Command make_run_command() {
             app.add_option("--controllers", a->controllers, "Run only these controllers (comma-separated)")
                 ->delimiter(',');
             add_work_clock_option(app, &a->work_clock);
+            app.add_option("--log", a->logs,
+                           "Per-step logs, comma-separated: csv (one file per controller), wpilog (WPILib "
+                           "DataLog for AdvantageScope), mcap (for Foxglove) [csv]");
             return [a]() { return run(*a); };
           }};
 }

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "swerve/app/run_logs.hpp"
 #include "swerve/app/scenario_runner.hpp"
 
 namespace swerve {
@@ -23,10 +24,11 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
 // naming the path that failed.
 void prepare_output_directory(const std::string& out_dir);
 
-// Writes <out_dir>/<controller>.csv for each run, then <out_dir>/summary.json (through a temporary
+// Writes the logs `formats` asks for (<out_dir>/<controller>.csv for each run; run.wpilog and
+// run.mcap with every run, app/run_logs.hpp), then <out_dir>/summary.json (through a temporary
 // file and a rename). Creates out_dir. Throws std::runtime_error naming the path that failed.
 void write_run_outputs(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs,
-                       const std::string& out_dir);
+                       const std::string& out_dir, const LogFormats& formats = LogFormats{});
 
 // The terminal table: one row per controller (tracking RMSE/max, heading RMSE, wear total, wear
 // reduction against the baseline, solve p99, misses, fallbacks), then the paper's figure if any.
