@@ -34,10 +34,6 @@ class UsageError : public std::runtime_error {
 // reference machine's, kReferenceSecondsPerModuleEvaluation; 0: reads only), so the same work is
 // done on every machine. Rejects anything but a number in (0, 1] (the evaluation's: [0, 1]) as a
 // command-line error.
-struct WorkClockRates {
-  double per_read_s = 0.0;  // 0: not given, the steady clock
-  double per_module_evaluation_s = kReferenceSecondsPerModuleEvaluation;
-};
 void add_work_clock_option(CLI::App& app, WorkClockRates* rates);
 // The clock those options ask for: a WorkClock from zero, or none without --work-clock (the steady
 // clock). Each controller run gets its own, so every run starts from the same time.

@@ -1,6 +1,9 @@
-// `swerve-mpc merge DIR... -o OUT`: the shards of one sharded run (`--shard I/N`, app/shard.hpp)
-// combined into what the unsharded run writes, and its report printed as that run prints it.
+// `swerve-mpc merge DIR... -o OUT`: the shards of one sharded envelope or sweep (`--shard I/N`,
+// app/shard.hpp) combined into what the unsharded run writes, and its report printed as that run
+// prints it.
 #include <CLI/CLI.hpp>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -9,6 +12,7 @@
 #include "command_registry.hpp"
 #include "swerve/app/envelope.hpp"
 #include "swerve/app/shard.hpp"
+#include "swerve/app/sweep.hpp"
 #include "swerve/core/config_error.hpp"
 
 namespace swerve::cli {
@@ -19,7 +23,34 @@ struct MergeArguments {
   std::string out_dir;
 };
 
+// A sweep's shard keeps its record in <out>/sweep/, an envelope's in <out>/.
+bool is_sweep_shard(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  return !fs::exists(fs::path(dir) / kShardFileName, error) && fs::exists(fs::path(dir) / "sweep" / kShardFileName, error);
+}
+
+int merge_sweep(const MergeArguments& a) {
+  std::vector<std::string> sweep_dirs;
+  for (const std::string& dir : a.shard_dirs) sweep_dirs.push_back(dir + "/sweep");
+  const std::string out_dir = a.out_dir + "/sweep";
+  MergedSweep merged;
+  try {
+    merged = merge_sweep_shards(sweep_dirs, out_dir);
+  } catch (const ConfigError& error) {
+    throw UsageError(error.what());
+  }
+  std::cout << sweep_table_header() << sweep_table_row(nullptr, merged.baseline, merged.baseline.metrics);
+  for (const SweepRun& point : merged.points) std::cout << sweep_table_row(&point.point, point.run, merged.baseline.metrics);
+  if (merged.practical) std::cout << sweep_practical_row(*merged.practical, merged.baseline.metrics);
+  std::ofstream(out_dir + "/sweep.json") << sweep_json(merged.scenario_name, merged.baseline, merged.points,
+                                                       merged.practical);
+  std::cout << "written: " << out_dir << "/sweep.json\n";
+  return kExitOk;
+}
+
 int merge(const MergeArguments& a) {
+  if (!a.shard_dirs.empty() && is_sweep_shard(a.shard_dirs.front())) return merge_sweep(a);
   EnvelopeResult result;
   try {
     result = merge_envelope_shards(a.shard_dirs, a.out_dir);
@@ -38,7 +69,8 @@ int merge(const MergeArguments& a) {
 
 Command make_merge_command() {
   return {"merge",
-          "Combine the output folders of the shards of one `envelope --shard I/N` run into the unsharded output",
+          "Combine the output folders of the shards of one `envelope` or `sweep --shard I/N` run into the "
+          "unsharded output",
           [](CLI::App& app) -> std::function<int()> {
             auto a = std::make_shared<MergeArguments>();
             app.add_option("shards", a->shard_dirs, "The shards' output folders (each with shard.json)")

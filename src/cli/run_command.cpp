@@ -155,85 +155,38 @@ int run(const RunArguments& a) {
   return kExitOk;
 }
 
-std::string sweep_label(const SweepPoint& point) {
-  char label[64];
-  if (point.tolerance) {
-    std::snprintf(label, sizeof label, "tol %g m, %g rad", point.tolerance->position, point.tolerance->heading);
-  } else {
-    std::snprintf(label, sizeof label, "lambda %g", *point.wear_weight);
-  }
-  return label;
-}
-
-int sweep(const RunArguments& a, const std::vector<SweepPoint>& sweep_points) {
+int sweep(const RunArguments& a, const std::vector<SweepPoint>& sweep_points, const Shard& shard) {
   const ScenarioConfig loaded = load_scenario_config_file(a.scenario_file);
   const std::string out_dir = out_dir_of(a, loaded) + "/sweep";
   prepare_out_dir(out_dir);
-  std::printf("%-22s %12s %14s %14s %10s %12s\n", "point", "rmse [m]", "wear total", "vs base [%]", "p99 [ms]",
-              "lambda used");
+  std::cout << sweep_table_header();
   RunMetrics baseline_metrics;
-  // Each row as soon as its run ends; lambda used: the weight the cost had after the controller's
-  // reference-mass scaling (weights.wear_reference_mass), which the requested one is scaled by.
+  // Each row as soon as its run ends.
   const SweepCallback print_row = [&baseline_metrics](const SweepPoint* point, const ControllerRun& r) {
-    if (point == nullptr) {
-      baseline_metrics = r.metrics;
-      std::printf("%-22s %12.4f %14.2f %14s %10s %12s\n", "baseline", r.metrics.tracking_rmse_m, r.metrics.wear_total,
-                  "-", "-", "-");
-    } else {
-      std::printf("%-22s %12.4f %14.2f %14.2f %10.2f %12.4g%s\n", sweep_label(*point).c_str(),
-                  r.metrics.tracking_rmse_m, r.metrics.wear_total, -wear_reduction_pct(r.metrics, baseline_metrics),
-                  r.metrics.solve_time_p99_ms, r.effective_wear_weight, r.completed ? "" : "  (plant diverged)");
-    }
-    std::fflush(stdout);
+    if (point == nullptr) baseline_metrics = r.metrics;
+    std::cout << sweep_table_row(point, r, baseline_metrics) << std::flush;
   };
   SweepResult result = [&] {
     try {
-      return run_sweep(loaded, overrides_of(a), sweep_points, print_row);
+      return run_sweep(loaded, overrides_of(a), sweep_points, print_row, shard, a.work_clock);
     } catch (const OverrideError& error) {
       throw UsageError(error.what());
     }
   }();
-  nlohmann::json points = nlohmann::json::array();
-  for (const SweepRun& point : result.points) {
-    const ControllerRun& r = point.run;
-    nlohmann::json p = {{"wear_weight", r.wear_weight},
-                        {"effective_wear_weight", r.effective_wear_weight},
-                        {"tracking_rmse_m", r.metrics.tracking_rmse_m},
-                        {"wear_total", r.metrics.wear_total},
-                        {"wear_reduction_pct", wear_reduction_pct(r.metrics, result.baseline.metrics)},
-                        {"wear_reduction_vs_practical_pct",
-                         result.practical ? nlohmann::json(wear_reduction_pct(r.metrics, result.practical->metrics))
-                                          : nlohmann::json()},
-                        {"solve_time_p99_ms", r.metrics.solve_time_p99_ms},
-                        {"completed", r.completed}};
-    if (point.point.tolerance) {
-      p["tolerance_position_m"] = point.point.tolerance->position;
-      p["tolerance_heading_rad"] = point.point.tolerance->heading;
-    }
-    points.push_back(p);
-  }
-  if (result.practical) {
-    std::printf("%-22s %12.4f %14.2f %14.2f %10s %12s   (late by %.2f s)\n", "practical_baseline",
-                result.practical->metrics.tracking_rmse_m, result.practical->metrics.wear_total,
-                -wear_reduction_pct(result.practical->metrics, baseline_metrics), "-", "-",
-                result.practical->metrics.reference_delay_s);
-  }
-  nlohmann::json sweep_json = {
-      {"scenario", loaded.name},
-      {"swept", sweep_points.front().tolerance ? "tracking_tolerance" : "wear_weight"},
-      {"points", points},
-      {"baseline", {{"tracking_rmse_m", result.baseline.metrics.tracking_rmse_m},
-                    {"wear_total", result.baseline.metrics.wear_total}}}};
-  if (result.practical) {
-    sweep_json["practical_baseline"] = {{"tracking_rmse_m", result.practical->metrics.tracking_rmse_m},
-                                        {"wear_total", result.practical->metrics.wear_total},
-                                        {"reference_delay_s", result.practical->metrics.reference_delay_s}};
-  }
-  // The plot script reads a summary beside the sweep for the scenario's name and units.
-  std::ofstream(out_dir + "/sweep.json") << sweep_json.dump(2, ' ', false, nlohmann::json::error_handler_t::replace)
-                                          << "\n";
+  if (result.practical) std::cout << sweep_practical_row(*result.practical, baseline_metrics);
   std::vector<ControllerRun> baselines{result.baseline};
   if (result.practical) baselines.push_back(*result.practical);
+  if (!shard.whole()) {
+    // Shard 0 keeps the baselines' logs, which merge copies; every shard keeps its record.
+    if (shard.index == 0) write_run_outputs(result.baseline_scenario, baselines, out_dir);
+    const std::string shard_path = out_dir + "/" + kShardFileName;
+    write_sweep_shard(loaded.name, result, shard, static_cast<int>(sweep_points.size()), shard_path);
+    std::cout << "sweep shard " << shard.text() << ": " << result.points.size() << " of " << sweep_points.size()
+              << " points\nwritten: " << shard_path << " (swerve-mpc merge <the shards' folders> -o <out>)\n";
+    return kExitOk;
+  }
+  // The plot script reads a summary beside the sweep for the scenario's name and units.
+  std::ofstream(out_dir + "/sweep.json") << sweep_json(loaded.name, result.baseline, result.points, result.practical);
   write_run_outputs(result.baseline_scenario, baselines, out_dir);
   std::cout << "written: " << out_dir << "/sweep.json\n";
   return kExitOk;
@@ -276,7 +229,18 @@ Command make_sweep_command() {
             app.add_option("--heading-tolerance", *heading, "Heading tolerance in rad with --tolerance [0.5 deg]")
                 ->check(CLI::PositiveNumber);
             lambda_option->excludes(tolerance_option);
-            return [a, lambdas, tolerances, heading]() {
+            add_work_clock_option(app, &a->work_clock);
+            auto shard_text = std::make_shared<std::string>();
+            app.add_option("--shard", *shard_text,
+                           "I/N: run the points whose index is I modulo N (and the baseline) and write "
+                           "<out>/sweep/shard.json for swerve-mpc merge");
+            return [a, lambdas, tolerances, heading, shard_text]() {
+              Shard shard;
+              try {
+                if (!shard_text->empty()) shard = parse_shard(*shard_text);
+              } catch (const ConfigError& error) {
+                throw UsageError(std::string("sweep: ") + error.what());
+              }
               if (lambdas->empty() == tolerances->empty()) {
                 throw UsageError("sweep: give exactly one of --lambda and --tolerance");
               }
@@ -288,7 +252,7 @@ Command make_sweep_command() {
                 t.heading = *heading;
                 points.push_back({std::nullopt, t});
               }
-              return sweep(*a, points);
+              return sweep(*a, points, shard);
             };
           }};
 }

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "swerve/app/scenario_runner.hpp"
+#include "swerve/app/shard.hpp"
+#include "swerve/ocp/work_clock_rates.hpp"
 
 namespace swerve {
 
@@ -21,13 +23,15 @@ struct SweepPoint {
 struct SweepRun {
   SweepPoint point;
   ControllerRun run;  // run.wear_weight as configured, run.effective_wear_weight as the cost used it
+  int index = 0;      // the point's place in the list given
 };
 
 struct SweepResult {
   ScenarioConfig baseline_scenario;  // the scenario as the baselines ran it (for reports)
   ControllerRun baseline;
-  std::vector<SweepRun> points;  // in the order given
-  // The scenario's practical_baseline, run once after the points, when the scenario lists one.
+  std::vector<SweepRun> points;  // in the order given (a shard's: its own points)
+  // The scenario's practical_baseline, run once after the points, when the scenario lists one (by
+  // shard 0 alone when sharded).
   std::optional<ControllerRun> practical;
 };
 
@@ -36,8 +40,39 @@ using SweepCallback = std::function<void(const SweepPoint* point, const Controll
 
 // Needs the scenario's controllers `kinematic_baseline` and `wear_mpc` (OverrideError otherwise),
 // at least one point, and each point with exactly one of wear_weight >= 0 and a valid tolerance
-// (ConfigError naming the point and value). `overrides` apply to every run (seed, backend).
+// (ConfigError naming the point and value). `overrides` apply to every run (seed, backend). With a
+// shard, only the points whose index it owns (the baseline runs in every shard: each prints its
+// rows against it). With work_clock.per_read_s > 0 every run is on a work clock of its own from zero
+// (deadlines and timings repeatable), else on the wall clock.
 SweepResult run_sweep(const ScenarioConfig& scenario, const RunOverrides& overrides,
-                      const std::vector<SweepPoint>& points, const SweepCallback& after_each = {});
+                      const std::vector<SweepPoint>& points, const SweepCallback& after_each = {},
+                      const Shard& shard = Shard{}, const WorkClockRates& work_clock = WorkClockRates{});
+
+// The printed table: its header, one row per run (point == nullptr: the baseline's), and the
+// practical baseline's row.
+std::string sweep_table_header();
+std::string sweep_table_row(const SweepPoint* point, const ControllerRun& run, const RunMetrics& baseline);
+std::string sweep_practical_row(const ControllerRun& practical, const RunMetrics& baseline);
+
+// sweep.json's text: the scenario's name, what was swept, each point, the baseline and the
+// practical baseline.
+std::string sweep_json(const std::string& scenario_name, const ControllerRun& baseline,
+                       const std::vector<SweepRun>& points, const std::optional<ControllerRun>& practical);
+
+// A shard's record (<out>/sweep/shard.json) for merge_sweep_shards: the scenario's name, the number
+// of points, and every run's metrics losslessly.
+void write_sweep_shard(const std::string& scenario_name, const SweepResult& result, const Shard& shard,
+                       int point_count, const std::string& path);
+
+// The sweep of shards 0..N-1 (their sweep folders, any order), as the unsharded run gives it: the
+// baseline (and practical baseline) files copied from shard 0's folder into `out_sweep_dir`, and
+// every point in order. Throws ConfigError naming the folder for a missing or foreign shard.
+struct MergedSweep {
+  std::string scenario_name;
+  ControllerRun baseline;
+  std::vector<SweepRun> points;
+  std::optional<ControllerRun> practical;
+};
+MergedSweep merge_sweep_shards(const std::vector<std::string>& shard_sweep_dirs, const std::string& out_sweep_dir);
 
 }  // namespace swerve

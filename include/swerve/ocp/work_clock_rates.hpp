@@ -11,4 +11,10 @@ inline constexpr double kReferenceSecondsPerModuleEvaluation = 3.5e-7;
 // A solver's clock read: the rest of a proposal (cost terms, projection, the move) beyond the model.
 inline constexpr double kReferenceSecondsPerRead = 8e-6;
 
+// The rates a run's work clock charges (the CLI's --work-clock and --work-clock-evaluation).
+struct WorkClockRates {
+  double per_read_s = 0.0;  // 0: no work clock, the steady (wall) clock
+  double per_module_evaluation_s = kReferenceSecondsPerModuleEvaluation;
+};
+
 }  // namespace swerve
