@@ -16,6 +16,8 @@
 #include <vector>
 
 #include "swerve/app/controller_config.hpp"
+#include "swerve/app/run_logs.hpp"
+#include "swerve/app/run_report.hpp"
 #include "swerve/app/scenario_config.hpp"
 #include "swerve/app/scenario_runner.hpp"
 #include "swerve/app/sweep.hpp"
@@ -250,13 +252,18 @@ RunOverrides overrides_of(std::optional<std::vector<std::string>> controllers, s
 
 py::dict run_scenario_file(const std::string& path, std::optional<std::vector<std::string>> controllers,
                            std::optional<std::uint64_t> seed, std::optional<std::string> backend,
-                           std::optional<double> wear_weight) {
+                           std::optional<double> wear_weight, std::optional<std::string> out_dir,
+                           const std::string& log) {
   RunOverrides o = overrides_of(std::move(controllers), seed, std::move(backend));
   o.wear_weight = wear_weight;
+  const LogFormats formats = parse_log_formats(log);  // checked before the runs
   std::vector<ControllerRun> runs;
   {
     py::gil_scoped_release release;  // minutes of simulation: let other Python threads run
-    runs = run_scenario(apply_overrides(load_scenario_config_file(path), o));
+    const ScenarioConfig scenario = apply_overrides(load_scenario_config_file(path), o);
+    runs = run_scenario(scenario);
+    // What `swerve-mpc run --out DIR --log ...` writes.
+    if (out_dir) write_run_outputs(scenario, runs, *out_dir, formats);
   }
   py::dict result;
   for (const ControllerRun& run : runs) result[py::str(run.name)] = run_dict(run, true);
@@ -683,7 +690,9 @@ void bind_simulator(py::module_& m) {
 void bind_runs(py::module_& m) {
   m.def("run_scenario", &run_scenario_file, py::arg("path"), py::arg("controllers") = py::none(),
         py::arg("seed") = py::none(), py::arg("backend") = py::none(), py::arg("wear_weight") = py::none(),
-        "Runs a scenario file's controllers on the plant: {name: {metrics, log, ...}} (swerve-mpc run)");
+        py::arg("out_dir") = py::none(), py::arg("log") = "csv",
+        "Runs a scenario file's controllers on the plant: {name: {metrics, log, ...}} (swerve-mpc run); with "
+        "out_dir, also writes summary.json and the logs `log` names there (csv, wpilog, mcap)");
   m.def("sweep", &sweep_file, py::arg("path"), py::arg("wear_weights") = py::none(),
         py::arg("tolerances") = py::none(), py::arg("heading_tolerance") = 0.5 * kPi / 180.0,
         py::arg("seed") = py::none(), py::arg("backend") = py::none(), py::arg("logs") = false,

@@ -265,6 +265,18 @@ class ClosedLoop(unittest.TestCase):
 
 
 class Runs(unittest.TestCase):
+    def test_run_scenario_writes_the_logs_asked_for(self):
+        import tempfile
+        out = tempfile.mkdtemp()
+        runs = sm.run_scenario(os.path.join(TEST_DATA, "short_curve_baseline.yaml"), out_dir=out, log="wpilog,mcap")
+        self.assertIn("kinematic_baseline", runs)
+        written = sorted(os.listdir(out))
+        self.assertEqual(written, ["run.mcap", "run.wpilog", "summary.json"])
+        with open(os.path.join(out, "run.wpilog"), "rb") as f:
+            self.assertEqual(f.read(6), b"WPILOG")
+        with self.assertRaisesRegex(ValueError, "unknown format 'bag'"):
+            sm.run_scenario(os.path.join(TEST_DATA, "short_curve_baseline.yaml"), out_dir=out, log="csv,bag")
+
     def test_scenario_log_agrees_with_its_metrics(self):
         runs = sm.run_scenario(os.path.join(TEST_DATA, "short_curve_baseline.yaml"))
         self.assertIn("kinematic_baseline", runs)
