@@ -1,24 +1,19 @@
 // The envelope's shards: each shard's record, and the merge of the records of shards 0..N-1 back
 // into the result one unsharded run gives (app/shard.hpp says why).
 #include <filesystem>
-#include <fstream>
-#include <map>
 #include <sstream>
 #include <stdexcept>
 
-#include "lossless_json.hpp"
+#include "shard_records.hpp"
 #include "swerve/app/envelope.hpp"
 #include "swerve/app/run_report.hpp"
 #include "swerve/core/config_error.hpp"
-#include "swerve/core/text_file.hpp"
 
 namespace swerve {
 namespace {
 
 using Json = nlohmann::json;
 namespace fs = std::filesystem;
-
-constexpr int kShardFormat = 1;
 
 Json run_record(const EnvelopeRun& run) {
   return {{"ran", run.ran},
@@ -59,39 +54,6 @@ std::string moved(std::string text, const std::string& from, const std::string& 
 
 std::string draws_prefix(const std::string& out_dir) { return (fs::path(out_dir) / "draws").string() + "/"; }
 
-struct ShardRecord {
-  std::string dir;
-  Json json;
-  Shard shard;
-};
-
-ShardRecord read_shard(const std::string& dir) {
-  ShardRecord record;
-  record.dir = dir;
-  const std::string path = (fs::path(dir) / kShardFileName).string();
-  try {
-    record.json = Json::parse(config::read_text_file(path, {std::size_t{256} << 20, "shard records", "JSON"}));
-  } catch (const Json::exception& error) {
-    throw ConfigError(path + ": not valid JSON: " + error.what());
-  }
-  const Json& j = record.json;
-  if (!j.is_object() || j.value("command", "") != "envelope") {
-    throw ConfigError(path + ": not the record of an envelope shard (\"command\": \"envelope\")");
-  }
-  if (j.value("format", 0) != kShardFormat) {
-    throw ConfigError(path + ": record format " + j.value("format", Json()).dump() + ", this merge reads " +
-                      std::to_string(kShardFormat));
-  }
-  record.shard.index = lossless::member(j, "shard_index", path).get<int>();
-  record.shard.count = lossless::member(j, "shard_count", path).get<int>();
-  try {
-    record.shard.validate();
-  } catch (const ConfigError& error) {
-    throw ConfigError(path + ": " + error.what());
-  }
-  return record;
-}
-
 EnvelopeOptions read_options(const Json& j, const std::string& where) {
   EnvelopeOptions o;
   const Json& identity = lossless::member(j, "run", where);
@@ -129,53 +91,22 @@ void write_envelope_shard(const EnvelopeResult& result, const std::string& path)
                      {"wear_mpc", run_record(r.wear_mpc)},
                      {"kinematic_baseline", run_record(r.baseline)}});
   }
-  const Json j = {{"command", "envelope"},     {"format", kShardFormat},
-                  {"shard_index", o.shard.index}, {"shard_count", o.shard.count},
-                  {"run", run_identity(o)},     {"jobs", o.jobs},
-                  {"out_dir", o.out_dir},       {"draws", draws}};
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream out(temporary);
-    if (!out || !(out << j.dump(1) << "\n") || !out.flush()) throw std::runtime_error(temporary + ": cannot write");
-  }
-  std::error_code error;
-  fs::rename(temporary, path, error);
-  if (error) throw std::runtime_error(path + ": cannot write (" + error.message() + ")");
+  Json j = lossless::shard_record("envelope", o.shard, run_identity(o));
+  j["jobs"] = o.jobs;
+  j["out_dir"] = o.out_dir;
+  j["draws"] = draws;
+  lossless::write_json_file(j, path);
 }
 
 EnvelopeResult merge_envelope_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir) {
-  if (shard_dirs.empty()) throw ConfigError("merge: give the output folders of the shards");
-  std::vector<ShardRecord> records;
   for (const std::string& dir : shard_dirs) {
     std::error_code error;
     if (fs::exists(out_dir, error) && fs::equivalent(dir, out_dir, error)) {
       throw ConfigError("merge: " + dir + " is the output folder itself; merge into another folder");
     }
-    records.push_back(read_shard(dir));
   }
-  const ShardRecord& first = records.front();
-  const int count = first.shard.count;
-  std::map<int, const ShardRecord*> by_index;
-  for (const ShardRecord& record : records) {
-    if (record.shard.count != count) {
-      throw ConfigError("merge: " + record.dir + " is shard " + record.shard.text() + ", but " + first.dir +
-                        " is of " + std::to_string(count) + " shards");
-    }
-    if (record.json.at("run") != first.json.at("run")) {
-      throw ConfigError("merge: " + record.dir + " is a shard of another envelope run than " + first.dir + " (" +
-                        record.json.at("run").dump() + " against " + first.json.at("run").dump() + ")");
-    }
-    const auto [at, inserted] = by_index.emplace(record.shard.index, &record);
-    if (!inserted) {
-      throw ConfigError("merge: shard " + record.shard.text() + " given twice (" + at->second->dir + " and " +
-                        record.dir + ")");
-    }
-  }
-  for (int i = 0; i < count; ++i) {
-    if (!by_index.count(i)) {
-      throw ConfigError("merge: shard " + std::to_string(i) + "/" + std::to_string(count) + " is missing");
-    }
-  }
+  const std::vector<lossless::ShardFile> shards = lossless::read_shard_set(shard_dirs, "envelope");
+  const lossless::ShardFile& first = shards.front();
 
   EnvelopeResult result;
   result.options = read_options(first.json, first.dir);
@@ -186,8 +117,9 @@ EnvelopeResult merge_envelope_shards(const std::vector<std::string>& shard_dirs,
   result.draws.resize(static_cast<std::size_t>(result.options.draws));
   std::vector<bool> seen(result.draws.size(), false);
   prepare_output_directory(out_dir);
-  for (const auto& [shard_index, record] : by_index) {
-    const std::string where = (fs::path(record->dir) / kShardFileName).string();
+  for (const lossless::ShardFile& shard_file : shards) {
+    const lossless::ShardFile* record = &shard_file;
+    const std::string& where = record->path;
     const std::string from = draws_prefix(lossless::member(record->json, "out_dir", where).get<std::string>());
     const std::string to = draws_prefix(out_dir);
     for (const Json& d : lossless::member(record->json, "draws", where)) {
@@ -221,9 +153,9 @@ EnvelopeResult merge_envelope_shards(const std::vector<std::string>& shard_dirs,
   }
   for (std::size_t i = 0; i < seen.size(); ++i) {
     if (!seen[i]) {
-      const int owner = static_cast<int>(i) % count;
-      throw ConfigError("merge: " + by_index.at(owner)->dir + " (shard " + by_index.at(owner)->shard.text() +
-                        ") has no draw " + std::to_string(i) + ": did it finish?");
+      const lossless::ShardFile& owner = shards[i % shards.size()];
+      throw ConfigError("merge: " + owner.dir + " (shard " + owner.shard.text() + ") has no draw " + std::to_string(i) +
+                        ": did it finish?");
     }
   }
   count_goals(&result);

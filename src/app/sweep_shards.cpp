@@ -1,22 +1,17 @@
 // The sweep's shards: each shard's record, and the merge of shards 0..N-1 back into the sweep one
 // unsharded run gives (app/shard.hpp says why).
 #include <filesystem>
-#include <fstream>
-#include <map>
 #include <stdexcept>
 
-#include "lossless_json.hpp"
+#include "shard_records.hpp"
 #include "swerve/app/sweep.hpp"
 #include "swerve/core/config_error.hpp"
-#include "swerve/core/text_file.hpp"
 
 namespace swerve {
 namespace {
 
 using Json = nlohmann::json;
 namespace fs = std::filesystem;
-
-constexpr int kShardFormat = 1;
 
 Json point_record(const SweepPoint& point) {
   if (point.tolerance) {
@@ -72,66 +67,30 @@ void write_sweep_shard(const std::string& scenario_name, const SweepResult& resu
   for (const SweepRun& p : result.points) {
     points.push_back({{"index", p.index}, {"point", point_record(p.point)}, {"run", run_record(p.run)}});
   }
-  Json j = {{"command", "sweep"},
-            {"format", kShardFormat},
-            {"shard_index", shard.index},
-            {"shard_count", shard.count},
-            {"run", {{"scenario", scenario_name}, {"points", point_count}}},
-            {"baseline", run_record(result.baseline)},
-            {"points", points}};
+  Json j = lossless::shard_record("sweep", shard, {{"scenario", scenario_name}, {"points", point_count}});
+  j["baseline"] = run_record(result.baseline);
+  j["points"] = points;
   if (result.practical) j["practical_baseline"] = run_record(*result.practical);
-  std::ofstream out(path);
-  if (!out || !(out << j.dump(1) << "\n") || !out.flush()) throw std::runtime_error(path + ": cannot write");
+  lossless::write_json_file(j, path);
 }
 
 MergedSweep merge_sweep_shards(const std::vector<std::string>& shard_sweep_dirs, const std::string& out_sweep_dir) {
-  if (shard_sweep_dirs.empty()) throw ConfigError("merge: give the output folders of the shards");
-  std::map<int, std::pair<std::string, Json>> by_index;
-  int count = 0;
-  Json identity;
-  for (const std::string& dir : shard_sweep_dirs) {
-    const std::string path = (fs::path(dir) / kShardFileName).string();
-    Json j;
-    try {
-      j = Json::parse(config::read_text_file(path, {std::size_t{256} << 20, "shard records", "JSON"}));
-    } catch (const Json::exception& error) {
-      throw ConfigError(path + ": not valid JSON: " + error.what());
-    }
-    if (!j.is_object() || j.value("command", "") != "sweep" || j.value("format", 0) != kShardFormat) {
-      throw ConfigError(path + ": not the record of a sweep shard (\"command\": \"sweep\", format " +
-                        std::to_string(kShardFormat) + ")");
-    }
-    Shard shard{lossless::member(j, "shard_index", path).get<int>(), lossless::member(j, "shard_count", path).get<int>()};
-    shard.validate();
-    if (by_index.empty()) {
-      count = shard.count;
-      identity = j.at("run");
-    } else if (shard.count != count || j.at("run") != identity) {
-      throw ConfigError("merge: " + dir + " is shard " + shard.text() + " of " + j.at("run").dump() + ", not of the " +
-                        std::to_string(count) + " shards of " + identity.dump());
-    }
-    if (!by_index.emplace(shard.index, std::make_pair(dir, std::move(j))).second) {
-      throw ConfigError("merge: shard " + shard.text() + " given twice (" + by_index.at(shard.index).first + " and " +
-                        dir + ")");
-    }
-  }
-  for (int i = 0; i < count; ++i) {
-    if (!by_index.count(i)) throw ConfigError("merge: shard " + std::to_string(i) + "/" + std::to_string(count) + " is missing");
-  }
+  const std::vector<lossless::ShardFile> shards = lossless::read_shard_set(shard_sweep_dirs, "sweep");
+  const lossless::ShardFile& first = shards.front();
+  const int count = first.shard.count;
   MergedSweep merged;
-  merged.scenario_name = identity.at("scenario").get<std::string>();
-  const int point_count = identity.at("points").get<int>();
-  const auto& [first_dir, first] = by_index.at(0);
-  const std::string first_path = (fs::path(first_dir) / kShardFileName).string();
-  merged.baseline = read_run(lossless::member(first, "baseline", first_path), first_path + ": baseline");
-  if (first.contains("practical_baseline")) {
-    merged.practical = read_run(first.at("practical_baseline"), first_path + ": practical_baseline");
+  merged.scenario_name = lossless::member(first.json.at("run"), "scenario", first.path).get<std::string>();
+  const int point_count = lossless::member(first.json.at("run"), "points", first.path).get<int>();
+  merged.baseline = read_run(lossless::member(first.json, "baseline", first.path), first.path + ": baseline");
+  if (first.json.contains("practical_baseline")) {
+    merged.practical = read_run(first.json.at("practical_baseline"), first.path + ": practical_baseline");
   }
   merged.points.resize(static_cast<std::size_t>(point_count));
   std::vector<bool> seen(merged.points.size(), false);
-  for (const auto& [index, record] : by_index) {
-    const std::string path = (fs::path(record.first) / kShardFileName).string();
-    for (const Json& p : lossless::member(record.second, "points", path)) {
+  for (const lossless::ShardFile& shard : shards) {
+    const int index = shard.shard.index;
+    const std::string& path = shard.path;
+    for (const Json& p : lossless::member(shard.json, "points", path)) {
       const int i = lossless::member(p, "index", path).get<int>();
       if (i < 0 || i >= point_count || i % count != index || seen[static_cast<std::size_t>(i)]) {
         throw ConfigError(path + ": point " + std::to_string(i) + " does not belong to shard " + std::to_string(index) +
@@ -151,7 +110,7 @@ MergedSweep merge_sweep_shards(const std::vector<std::string>& shard_sweep_dirs,
   // The baselines' logs and summary, as shard 0 wrote them (every shard ran the same baseline).
   std::error_code error;
   fs::create_directories(out_sweep_dir, error);
-  for (const fs::directory_entry& file : fs::directory_iterator(first_dir)) {
+  for (const fs::directory_entry& file : fs::directory_iterator(first.dir)) {
     const std::string name = file.path().filename().string();
     if (!file.is_regular_file() || name == kShardFileName || name == "sweep.json") continue;
     fs::copy_file(file.path(), fs::path(out_sweep_dir) / name, fs::copy_options::overwrite_existing, error);

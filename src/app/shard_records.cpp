@@ -1,9 +1,14 @@
-#include "lossless_json.hpp"
+#include "shard_records.hpp"
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
+#include <map>
+#include <stdexcept>
 
 #include "swerve/core/config_error.hpp"
+#include "swerve/core/text_file.hpp"
 
 namespace swerve::lossless {
 
@@ -94,6 +99,82 @@ RunMetrics read_metrics(const nlohmann::json& j, const std::string& where) {
     m.wear_per_module.push_back(read_number(wear[i], where + ".wear_per_module[" + std::to_string(i) + "]"));
   }
   return m;
+}
+
+void write_json_file(const nlohmann::json& j, const std::string& path) {
+  const std::string temporary = path + ".tmp";
+  {
+    std::ofstream out(temporary);
+    if (!out || !(out << j.dump(1) << "\n") || !out.flush()) throw std::runtime_error(temporary + ": cannot write");
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, path, error);
+  if (error) throw std::runtime_error(path + ": cannot write (" + error.message() + ")");
+}
+
+namespace {
+constexpr int kShardFormat = 1;
+}  // namespace
+
+nlohmann::json shard_record(const char* command, const Shard& shard, const nlohmann::json& run_identity) {
+  return {{"command", command},
+          {"format", kShardFormat},
+          {"shard_index", shard.index},
+          {"shard_count", shard.count},
+          {"run", run_identity}};
+}
+
+std::vector<ShardFile> read_shard_set(const std::vector<std::string>& dirs, const char* command) {
+  if (dirs.empty()) throw ConfigError("merge: give the output folders of the shards");
+  std::map<int, ShardFile> by_index;
+  const ShardFile* first = nullptr;
+  for (const std::string& dir : dirs) {
+    ShardFile file;
+    file.dir = dir;
+    file.path = (std::filesystem::path(dir) / kShardFileName).string();
+    try {
+      file.json = nlohmann::json::parse(config::read_text_file(file.path, {std::size_t{256} << 20, "shard records", "JSON"}));
+    } catch (const nlohmann::json::exception& error) {
+      throw ConfigError(file.path + ": not valid JSON: " + error.what());
+    }
+    const nlohmann::json& j = file.json;
+    if (!j.is_object() || j.value("command", "") != command || j.value("format", 0) != kShardFormat) {
+      throw ConfigError(file.path + ": not the record of " + (std::string(command) == "envelope" ? "an " : "a ") +
+                        command + " shard (\"command\": \"" + command + "\", format " + std::to_string(kShardFormat) + ")");
+    }
+    file.shard.index = member(j, "shard_index", file.path).get<int>();
+    file.shard.count = member(j, "shard_count", file.path).get<int>();
+    try {
+      file.shard.validate();
+    } catch (const ConfigError& error) {
+      throw ConfigError(file.path + ": " + error.what());
+    }
+    if (first != nullptr && file.shard.count != first->shard.count) {
+      throw ConfigError("merge: " + dir + " is shard " + file.shard.text() + ", but " + first->dir + " is of " +
+                        std::to_string(first->shard.count) + " shards");
+    }
+    const nlohmann::json& run = member(j, "run", file.path);
+    if (first != nullptr && run != first->json.at("run")) {
+      throw ConfigError("merge: " + dir + " is a shard of another " + command + " run than " + first->dir + " (" +
+                        j.at("run").dump() + " against " + first->json.at("run").dump() + ")");
+    }
+    const int index = file.shard.index;
+    const auto [at, inserted] = by_index.emplace(index, std::move(file));
+    if (!inserted) {
+      throw ConfigError("merge: shard " + at->second.shard.text() + " given twice (" + at->second.dir + " and " + dir + ")");
+    }
+    if (first == nullptr) first = &at->second;
+  }
+  const int count = first->shard.count;
+  std::vector<ShardFile> files;
+  for (int i = 0; i < count; ++i) {
+    const auto found = by_index.find(i);
+    if (found == by_index.end()) {
+      throw ConfigError("merge: shard " + std::to_string(i) + "/" + std::to_string(count) + " is missing");
+    }
+    files.push_back(std::move(found->second));
+  }
+  return files;
 }
 
 }  // namespace swerve::lossless
