@@ -26,9 +26,8 @@ constexpr AlgorithmName kAlgorithms[] = {{"LD_SLSQP", nlopt::LD_SLSQP, true, tru
                                          {"LN_COBYLA", nlopt::LN_COBYLA, false, false},
                                          {"LN_SBPLX", nlopt::LN_SBPLX, false, false},
                                          {"LN_NELDERMEAD", nlopt::LN_NELDERMEAD, false, false}};
-constexpr const char* kAlgorithmList =
-    "must be one of LD_SLSQP, LD_MMA, LD_CCSAQ, LD_LBFGS (gradient), LN_BOBYQA, LN_COBYLA, LN_SBPLX, LN_NELDERMEAD";
 
+// NloptOptions::fields() lists the same names: validate() has refused any other before a solver is built.
 const AlgorithmName* find_algorithm(const std::string& name) {
   for (const AlgorithmName& a : kAlgorithms) {
     if (name == a.name) return &a;
@@ -40,24 +39,6 @@ const AlgorithmName* find_algorithm(const std::string& name) {
 constexpr double kLargeBound = 1e6;
 
 }  // namespace
-
-const OptionFields<NloptOptions>& NloptOptions::fields() {
-  static const OptionFields<NloptOptions> table{
-      {"algorithm", &NloptOptions::algorithm},  // its names are checked by validate()
-      {"xtol_rel", &NloptOptions::xtol_rel, Bound::non_negative()},
-      {"ftol_rel", &NloptOptions::ftol_rel, Bound::non_negative()},
-      {"max_evaluations", &NloptOptions::max_evaluations, Bound::at_least(1)},
-      {"initial_step_fraction", &NloptOptions::initial_step_fraction, Bound::half_open(0.0, 1.0)},
-  };
-  return table;
-}
-
-void NloptOptions::validate() const {
-  if (find_algorithm(algorithm) == nullptr) {
-    throw_invalid_field("NloptOptions", "algorithm", algorithm, kAlgorithmList);
-  }
-  check_fields("NloptOptions", *this, fields());
-}
 
 // What the objective needs: the problem, the deadline, buffers, and the best point seen.
 struct NloptSolver::Evaluation {

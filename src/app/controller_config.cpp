@@ -136,7 +136,8 @@ ControllerConfig load_controller_config_file(const std::string& file_path) {
 }
 
 std::unique_ptr<TrackingController> make_controller(const ControllerConfig& config, const VehicleParams& vehicle,
-                                                    std::shared_ptr<const Reference> reference) {
+                                                    std::shared_ptr<const Reference> reference,
+                                                    const BackendFactory& solvers) {
   config.validate();
   if (config.kind == ControllerKind::kKinematicBaseline) {
     return std::make_unique<KinematicBaseline>(vehicle.layout, std::move(reference), config.baseline,
@@ -145,14 +146,15 @@ std::unique_ptr<TrackingController> make_controller(const ControllerConfig& conf
   const SolverConfig solver = config.solver;
   return std::make_unique<Controller>(
       vehicle, std::move(reference), config.mpc,
-      [solver](const OcpProblem& problem) { return make_solver(solver, problem); }, config.baseline,
+      [solver, solvers](const OcpProblem& problem) { return solvers(solver, problem); }, config.baseline,
       config.name.empty() ? "wear_mpc" : config.name);
 }
 
 std::unique_ptr<TrackingController> make_controller(const std::string& vehicle_yaml, const std::string& controller_yaml,
-                                                    std::shared_ptr<const Reference> reference) {
+                                                    std::shared_ptr<const Reference> reference,
+                                                    const BackendFactory& solvers) {
   const VehicleParams vehicle = load_vehicle_config_file(vehicle_yaml);
-  return make_controller(load_controller_config_file(controller_yaml), vehicle, std::move(reference));
+  return make_controller(load_controller_config_file(controller_yaml), vehicle, std::move(reference), solvers);
 }
 
 }  // namespace swerve

@@ -11,6 +11,8 @@
 #include "support/bound_edges.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/app/config_node.hpp"
+#include "swerve/app/vehicle_config.hpp"
+#include "swerve/control/reference.hpp"
 
 namespace swerve {
 namespace {
@@ -363,6 +365,31 @@ TEST(ControllerConfig, SetSamplingMovesTheBaselinePlannerWithTheController) {
   EXPECT_EQ(config.baseline.horizon, 40);
   EXPECT_DOUBLE_EQ(config.mpc.dt, 0.02);
   EXPECT_DOUBLE_EQ(config.baseline.dt, 0.02);
+}
+
+// The factory of the package component `controllers` builds the two dependency-free backends and
+// refuses the others, saying what to link; the full factory builds those too.
+TEST(ControllerFactory, CoreFactoryBuildsSaAndRtiAndRefusesTheOthersNamingWhatToLink) {
+  const std::string configs = std::string(SWERVE_SOURCE_DIR) + "/configs/";
+  const VehicleParams vehicle = load_vehicle_config_file(configs + "vehicles/agv_4wheel.yaml");
+  auto reference = std::make_shared<TrajectoryReference>(16);
+  ControllerConfig config = load_controller_config_file(configs + "controllers/default.yaml");
+  for (const char* backend : {"sa", "rti"}) {
+    config.solver.backend = backend;
+    EXPECT_NE(make_controller(config, vehicle, reference, make_core_solver), nullptr) << backend;
+  }
+  config.solver.backend = "nlopt";
+  try {
+    make_controller(config, vehicle, reference, make_core_solver);
+    FAIL() << "the core factory built nlopt";
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(std::string(error.what()),
+              "controller.solver.backend: 'nlopt' is built but not in this factory, which has sa and rti: link "
+              "SwerveMPC::solvers and build controllers with swerve::make_solver");
+  }
+  EXPECT_NE(make_controller(config, vehicle, reference), nullptr);  // every built backend
+  config.solver.nlopt.algorithm = "GN_DIRECT";  // checked without NLopt: the rules are in the header
+  EXPECT_THROW(config.solver.validate(), ConfigError);
 }
 
 }  // namespace

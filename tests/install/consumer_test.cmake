@@ -5,6 +5,9 @@
 #                      Eigen made unfindable, so a component that pulled in more fails here
 #   sa_only            COMPONENTS sa configures with NLopt, Ipopt, Ceres and nlohmann-json unfindable,
 #                      and loads the SA backend and what it builds on, not the other backends
+#   controllers_only   examples/controllers_only: COMPONENTS controllers with Ceres, NLopt, Ipopt and
+#                      nlohmann-json unfindable: make_controller with sa closes the loop, and a file
+#                      naming nlopt is refused saying what to link
 #   unknown_component  COMPONENTS nonsense must fail to configure and name the component
 #   python_clean       the installed Python module imports in a clean interpreter (no environment,
 #                      no PYTHONPATH) through the .pth the install wrote (into WORK_DIR/site here,
@@ -64,6 +67,16 @@ elseif(MODE STREQUAL "kinematics_only")
     message(FATAL_ERROR "kinematics_only printed:\n${last_output}")
   endif()
   message(STATUS "kinematics_only output:\n${last_output}")
+
+elseif(MODE STREQUAL "controllers_only")
+  unfindable(Ceres NLopt PkgConfig nlohmann_json)
+  build_example(controllers_only ${unfindable})
+  run_step(${WORK_DIR}/controllers_only/swerve_controllers_only ${prefix}/share/swerve_mpc/configs)
+  if(NOT last_output MATCHES "controllers only: [0-9]+ steps, [1-9][0-9]* from the optimiser" OR
+     NOT last_output MATCHES "nlopt: .*link SwerveMPC::solvers")
+    message(FATAL_ERROR "controllers_only printed:\n${last_output}")
+  endif()
+  message(STATUS "controllers_only output:\n${last_output}")
 
 elseif(MODE STREQUAL "sa_only")
   set(source ${WORK_DIR}/sa_only)

@@ -9,7 +9,7 @@
 #include "swerve/app/config_node.hpp"
 #include "swerve/control/controller.hpp"
 #include "swerve/control/kinematic_baseline.hpp"
-#include "swerve/solvers/solver_factory.hpp"
+#include "swerve/solvers/solver_config.hpp"
 
 namespace swerve {
 
@@ -59,13 +59,24 @@ ControllerConfig load_controller_config(const config::ConfigNode& controller_nod
 MeasurementFilterOptions load_measurement_filter(const config::ConfigNode& node, MeasurementFilterOptions defaults);
 ControllerConfig load_controller_config_file(const std::string& file_path);
 
-// Builds the controller a config describes, tracking `reference` on `vehicle`. Throws ConfigError.
+// Builds the controller a config describes, tracking `reference` on `vehicle`, its optimiser built
+// by `solvers`: make_core_solver (sa, rti; SwerveMPC::controllers alone), make_solver (every built
+// backend; SwerveMPC::solvers) or a program's own. Throws ConfigError.
 std::unique_ptr<TrackingController> make_controller(const ControllerConfig& config, const VehicleParams& vehicle,
-                                                    std::shared_ptr<const Reference> reference);
+                                                    std::shared_ptr<const Reference> reference,
+                                                    const BackendFactory& solvers);
 
 // One call for a vehicle program: the vehicle file's `vehicle:` section and the controller file's
 // `controller:` section (the backend the file names), tracking `reference` (e.g. a
 // TrajectoryReference its planner feeds). Throws ConfigError naming the file, key and value.
+std::unique_ptr<TrackingController> make_controller(const std::string& vehicle_yaml, const std::string& controller_yaml,
+                                                    std::shared_ptr<const Reference> reference,
+                                                    const BackendFactory& solvers);
+
+// The same with every built backend (make_solver): defined in SwerveMPC::scenarios, which links
+// them all.
+std::unique_ptr<TrackingController> make_controller(const ControllerConfig& config, const VehicleParams& vehicle,
+                                                    std::shared_ptr<const Reference> reference);
 std::unique_ptr<TrackingController> make_controller(const std::string& vehicle_yaml, const std::string& controller_yaml,
                                                     std::shared_ptr<const Reference> reference);
 

@@ -26,9 +26,26 @@ struct NloptOptions {
   double ftol_rel = 1e-12;
   int max_evaluations = 200000;         // the deadline usually stops it first
   double initial_step_fraction = 0.1;   // first trust-region / simplex step / each input's half-range
-  static const OptionFields<NloptOptions>& fields();  // the rules, read by the YAML loader too
+  // The rules, read by the YAML loader too. Inline (no NLopt needed), so a program without this
+  // backend still reads and checks a controller file's nlopt section.
+  static const OptionFields<NloptOptions>& fields();
   void validate() const;                // ConfigError naming the field and value
 };
+
+inline const OptionFields<NloptOptions>& NloptOptions::fields() {
+  static const OptionFields<NloptOptions> table{
+      {"algorithm", &NloptOptions::algorithm, Bound::any(),
+       {"LD_SLSQP", "LD_MMA", "LD_CCSAQ", "LD_LBFGS", "LN_BOBYQA", "LN_COBYLA", "LN_SBPLX", "LN_NELDERMEAD"},
+       nullptr, "(LD_*: with the exact gradient)"},
+      {"xtol_rel", &NloptOptions::xtol_rel, Bound::non_negative()},
+      {"ftol_rel", &NloptOptions::ftol_rel, Bound::non_negative()},
+      {"max_evaluations", &NloptOptions::max_evaluations, Bound::at_least(1)},
+      {"initial_step_fraction", &NloptOptions::initial_step_fraction, Bound::half_open(0.0, 1.0)},
+  };
+  return table;
+}
+
+inline void NloptOptions::validate() const { check_fields("NloptOptions", *this, fields()); }
 
 class NloptSolver final : public Solver {
  public:
