@@ -1,6 +1,6 @@
-# A sweep run whole, then as two shards merged (`sweep --shard I/N`, `merge`): every file the merge
-# writes must equal the whole run's byte for byte, and its printed table the whole run's. On a work
-# clock, so both do the same work.
+# A sweep run whole, then as four shards merged (`sweep --shard I/N`, `merge`; three points, so the
+# last shard has none): every file the merge writes must equal the whole run's byte for byte, and
+# its printed table the whole run's. On a work clock, so both do the same work.
 #   -DCLI="exe[|emulator...]" -DSCENARIO=... -DOUT_DIR=...
 string(REPLACE "|" ";" CLI "${CLI}")
 file(REMOVE_RECURSE ${OUT_DIR})
@@ -13,9 +13,10 @@ function(run_cli out_var)
   set(${out_var} "${out}" PARENT_SCOPE)
 endfunction()
 run_cli(whole ${sweep_args} --out ${OUT_DIR}/whole)
-run_cli(shard0 ${sweep_args} --out ${OUT_DIR}/shard0 --shard 0/2)
-run_cli(shard1 ${sweep_args} --out ${OUT_DIR}/shard1 --shard 1/2)
-run_cli(merged merge ${OUT_DIR}/shard1 ${OUT_DIR}/shard0 --out ${OUT_DIR}/merged)
+foreach(i 0 1 2 3)
+  run_cli(shard${i} ${sweep_args} --out ${OUT_DIR}/shard${i} --shard ${i}/4)
+endforeach()
+run_cli(merged merge ${OUT_DIR}/shard2 ${OUT_DIR}/shard0 ${OUT_DIR}/shard3 ${OUT_DIR}/shard1 --out ${OUT_DIR}/merged)
 file(GLOB whole_files RELATIVE ${OUT_DIR}/whole/sweep ${OUT_DIR}/whole/sweep/*)
 file(GLOB merged_files RELATIVE ${OUT_DIR}/merged/sweep ${OUT_DIR}/merged/sweep/*)
 if(NOT whole_files STREQUAL merged_files)
