@@ -109,15 +109,18 @@ EnvelopeResult merge_envelope_shards(const std::vector<std::string>& shard_dirs,
   const lossless::ShardFile& first = shards.front();
 
   EnvelopeResult result;
-  result.options = read_options(first.json, first.dir);
+  result.options = lossless::with_json_errors(first.path, [&] { return read_options(first.json, first.path); });
   result.options.out_dir = out_dir;
   result.options.shard = Shard{};
   result.options.validate();
+  if (result.options.draws > 1000000) {  // the CLI's limit: a record claiming more is not one of its runs
+    throw ConfigError(first.path + ": run.draws = " + std::to_string(result.options.draws) + ": must be <= 1000000");
+  }
   const std::vector<ReferenceFamily> families = result.options.family_list();
   result.draws.resize(static_cast<std::size_t>(result.options.draws));
   std::vector<bool> seen(result.draws.size(), false);
   prepare_output_directory(out_dir);
-  for (const lossless::ShardFile& shard_file : shards) {
+  for (const lossless::ShardFile& shard_file : shards) lossless::with_json_errors(shard_file.path, [&] {
     const lossless::ShardFile* record = &shard_file;
     const std::string& where = record->path;
     const std::string from = draws_prefix(lossless::member(record->json, "out_dir", where).get<std::string>());
@@ -150,7 +153,7 @@ EnvelopeResult merge_envelope_shards(const std::vector<std::string>& shard_dirs,
       std::error_code exists_error;
       if (fs::exists(shard_draw, exists_error)) copy_draw_folder(shard_draw.string(), dir);
     }
-  }
+  });
   for (std::size_t i = 0; i < seen.size(); ++i) {
     if (!seen[i]) {
       const lossless::ShardFile& owner = shards[i % shards.size()];

@@ -142,8 +142,10 @@ std::vector<ShardFile> read_shard_set(const std::vector<std::string>& dirs, cons
       throw ConfigError(file.path + ": not the record of " + (std::string(command) == "envelope" ? "an " : "a ") +
                         command + " shard (\"command\": \"" + command + "\", format " + std::to_string(kShardFormat) + ")");
     }
-    file.shard.index = member(j, "shard_index", file.path).get<int>();
-    file.shard.count = member(j, "shard_count", file.path).get<int>();
+    with_json_errors(file.path, [&] {
+      file.shard.index = member(j, "shard_index", file.path).get<int>();
+      file.shard.count = member(j, "shard_count", file.path).get<int>();
+    });
     try {
       file.shard.validate();
     } catch (const ConfigError& error) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "swerve/app/shard.hpp"
+#include "swerve/core/config_error.hpp"
 #include "swerve/sim/metrics.hpp"
 
 namespace swerve::lossless {
@@ -23,6 +24,17 @@ RunMetrics read_metrics(const nlohmann::json& j, const std::string& where);
 
 // j[key] or a ConfigError "<where>: missing 'key'".
 const nlohmann::json& member(const nlohmann::json& j, const char* key, const std::string& where);
+
+// Runs `read` and turns a JSON error it meets (a member of the wrong type, a number out of range)
+// into a ConfigError naming `path`.
+template <typename Read>
+auto with_json_errors(const std::string& path, Read&& read) -> decltype(read()) {
+  try {
+    return read();
+  } catch (const nlohmann::json::exception& error) {
+    throw ConfigError(path + ": " + error.what());
+  }
+}
 
 // <path> written through a temporary file and a rename; std::runtime_error naming it on failure.
 void write_json_file(const nlohmann::json& j, const std::string& path);

@@ -79,15 +79,20 @@ MergedSweep merge_sweep_shards(const std::vector<std::string>& shard_sweep_dirs,
   const lossless::ShardFile& first = shards.front();
   const int count = first.shard.count;
   MergedSweep merged;
-  merged.scenario_name = lossless::member(first.json.at("run"), "scenario", first.path).get<std::string>();
-  const int point_count = lossless::member(first.json.at("run"), "points", first.path).get<int>();
-  merged.baseline = read_run(lossless::member(first.json, "baseline", first.path), first.path + ": baseline");
-  if (first.json.contains("practical_baseline")) {
-    merged.practical = read_run(first.json.at("practical_baseline"), first.path + ": practical_baseline");
+  const int point_count = lossless::with_json_errors(first.path, [&] {
+    merged.scenario_name = lossless::member(first.json.at("run"), "scenario", first.path).get<std::string>();
+    merged.baseline = read_run(lossless::member(first.json, "baseline", first.path), first.path + ": baseline");
+    if (first.json.contains("practical_baseline")) {
+      merged.practical = read_run(first.json.at("practical_baseline"), first.path + ": practical_baseline");
+    }
+    return lossless::member(first.json.at("run"), "points", first.path).get<int>();
+  });
+  if (point_count < 1 || point_count > 100000) {
+    throw ConfigError(first.path + ": run.points = " + std::to_string(point_count) + ": must be in [1, 100000]");
   }
   merged.points.resize(static_cast<std::size_t>(point_count));
   std::vector<bool> seen(merged.points.size(), false);
-  for (const lossless::ShardFile& shard : shards) {
+  for (const lossless::ShardFile& shard : shards) lossless::with_json_errors(shard.path, [&] {
     const int index = shard.shard.index;
     const std::string& path = shard.path;
     for (const Json& p : lossless::member(shard.json, "points", path)) {
@@ -103,7 +108,7 @@ MergedSweep merge_sweep_shards(const std::vector<std::string>& shard_sweep_dirs,
       run.point = read_point(lossless::member(p, "point", where), where);
       run.run = read_run(lossless::member(p, "run", where), where);
     }
-  }
+  });
   for (std::size_t i = 0; i < seen.size(); ++i) {
     if (!seen[i]) throw ConfigError("merge: no shard has point " + std::to_string(i) + ": did every shard finish?");
   }
