@@ -40,7 +40,9 @@ install_node_readers() {
   dir="$(cd "$(dirname "$0")/.." && pwd)/tests/node"
   if command -v npm >/dev/null && [ ! -d "$dir/node_modules/@mcap/core" ]; then
     echo "install-deps: npm install in tests/node"
-    npm ci --prefix "$dir" --no-audit --no-fund --silent
+    # Without the registry the rest still installs; ctest then skips the MCAP reader's check.
+    npm ci --prefix "$dir" --no-audit --no-fund --silent ||
+      echo "install-deps: npm ci in tests/node failed: the MCAP log check will not run" >&2
   fi
 }
 install_node_readers

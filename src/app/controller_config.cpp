@@ -138,6 +138,10 @@ ControllerConfig load_controller_config_file(const std::string& file_path) {
 std::unique_ptr<TrackingController> make_controller(const ControllerConfig& config, const VehicleParams& vehicle,
                                                     std::shared_ptr<const Reference> reference,
                                                     const BackendFactory& solvers) {
+  if (!solvers) {
+    throw ConfigError("make_controller: solvers is empty: pass swerve::make_core_solver, swerve::make_solver or a "
+                      "factory of your own");
+  }
   config.validate();
   if (config.kind == ControllerKind::kKinematicBaseline) {
     return std::make_unique<KinematicBaseline>(vehicle.layout, std::move(reference), config.baseline,

@@ -44,10 +44,17 @@ Json run_identity(const EnvelopeOptions& o) {
           {"work_clock_evaluation", lossless::number(o.work_clock_evaluation)}};
 }
 
-// `text` with every `from` (a shard's draw folder prefix) replaced by `to`.
+// `text` with `from` (a shard's draw folder prefix) replaced by `to` where a path starts: at the
+// start of the text or after a space, quote or parenthesis (not inside a longer path).
 std::string moved(std::string text, const std::string& from, const std::string& to) {
-  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
+  for (std::size_t at = text.find(from); at != std::string::npos;) {
+    const bool starts = at == 0 || std::string(" '\"(").find(text[at - 1]) != std::string::npos;
+    if (!starts) {
+      at = text.find(from, at + 1);
+      continue;
+    }
     text.replace(at, from.size(), to);
+    at = text.find(from, at + to.size());
   }
   return text;
 }
@@ -151,7 +158,12 @@ EnvelopeResult merge_envelope_shards(const std::vector<std::string>& shard_dirs,
       }
       const fs::path shard_draw = fs::path(record->dir) / "draws" / std::to_string(index);
       std::error_code exists_error;
-      if (fs::exists(shard_draw, exists_error)) copy_draw_folder(shard_draw.string(), dir);
+      if (fs::exists(shard_draw, exists_error)) {
+        copy_draw_folder(shard_draw.string(), dir);
+      } else if (r.error.empty()) {  // a draw that ran wrote its folder: the shard's folder is incomplete
+        throw ConfigError(where + ": draw " + std::to_string(index) + " ran, but " + shard_draw.string() +
+                          " is missing");
+      }
     }
   });
   for (std::size_t i = 0; i < seen.size(); ++i) {

@@ -92,7 +92,8 @@ double wear_reduction_pct(const RunMetrics& controller, const RunMetrics& refere
   return 100.0 * (reference.wear_total - controller.wear_total) / reference.wear_total;
 }
 
-std::string summary_json(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs) {
+std::string summary_json(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs,
+                         const LogFormats& formats) {
   using nlohmann::json;
   json controllers = json::object();
   for (const ControllerRun& run : runs) {
@@ -130,7 +131,7 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
         {"fallbacks", m.fallbacks},
         {"tracking_first_steps", m.tracking_first_steps},
         {"reference_delay_s", m.reference_delay_s},
-        {"log_csv", run.name + ".csv"},
+        {"log_csv", formats.csv ? nlohmann::json(run.name + ".csv") : nlohmann::json()},
     };
   }
   json comparison = json::object();
@@ -205,7 +206,7 @@ void write_run_outputs(const ScenarioConfig& scenario, const std::vector<Control
   {
     std::ofstream out(temporary);
     if (!out) throw std::runtime_error(temporary.string() + ": cannot open for writing");
-    out << summary_json(scenario, runs) << "\n";
+    out << summary_json(scenario, runs, formats) << "\n";
     if (!out) throw std::runtime_error(temporary.string() + ": write failed");
   }
   fs::rename(temporary, summary_path, error);

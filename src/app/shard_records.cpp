@@ -105,7 +105,11 @@ void write_json_file(const nlohmann::json& j, const std::string& path) {
   const std::string temporary = path + ".tmp";
   {
     std::ofstream out(temporary);
-    if (!out || !(out << j.dump(1) << "\n") || !out.flush()) throw std::runtime_error(temporary + ": cannot write");
+    // Replacing invalid UTF-8 as envelope.json and sweep.json do, so a path that is not UTF-8 does
+    // not lose a whole shard's work at its end.
+    if (!out || !(out << j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) << "\n") || !out.flush()) {
+      throw std::runtime_error(temporary + ": cannot write");
+    }
   }
   std::error_code error;
   std::filesystem::rename(temporary, path, error);
@@ -138,7 +142,10 @@ std::vector<ShardFile> read_shard_set(const std::vector<std::string>& dirs, cons
       throw ConfigError(file.path + ": not valid JSON: " + error.what());
     }
     const nlohmann::json& j = file.json;
-    if (!j.is_object() || j.value("command", "") != command || j.value("format", 0) != kShardFormat) {
+    const auto is = [&j](const char* key, const nlohmann::json& value) {
+      return j.is_object() && j.contains(key) && j.at(key) == value;
+    };
+    if (!is("command", command) || !is("format", kShardFormat)) {
       throw ConfigError(file.path + ": not the record of " + (std::string(command) == "envelope" ? "an " : "a ") +
                         command + " shard (\"command\": \"" + command + "\", format " + std::to_string(kShardFormat) + ")");
     }

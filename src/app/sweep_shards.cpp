@@ -61,13 +61,21 @@ ControllerRun read_run(const Json& j, const std::string& where) {
 
 }  // namespace
 
-void write_sweep_shard(const std::string& scenario_name, const SweepResult& result, const Shard& shard,
-                       int point_count, const std::string& path) {
+void write_sweep_shard(const SweepIdentity& identity, const SweepResult& result, const Shard& shard,
+                       const std::string& path) {
   Json points = Json::array();
   for (const SweepRun& p : result.points) {
     points.push_back({{"index", p.index}, {"point", point_record(p.point)}, {"run", run_record(p.run)}});
   }
-  Json j = lossless::shard_record("sweep", shard, {{"scenario", scenario_name}, {"points", point_count}});
+  Json all_points = Json::array();
+  for (const SweepPoint& point : identity.points) all_points.push_back(point_record(point));
+  const Json run = {{"scenario", identity.scenario},
+                    {"points", static_cast<int>(identity.points.size())},
+                    {"point_list", all_points},
+                    {"overrides", identity.overrides},
+                    {"work_clock", lossless::number(identity.clock.per_read_s)},
+                    {"work_clock_evaluation", lossless::number(identity.clock.per_module_evaluation_s)}};
+  Json j = lossless::shard_record("sweep", shard, run);
   j["baseline"] = run_record(result.baseline);
   j["points"] = points;
   if (result.practical) j["practical_baseline"] = run_record(*result.practical);
@@ -87,6 +95,15 @@ MergedSweep merge_sweep_shards(const std::vector<std::string>& shard_sweep_dirs,
     }
     return lossless::member(first.json.at("run"), "points", first.path).get<int>();
   });
+  // On a work clock every shard's baseline run is the same, bit for bit: one that is not ran
+  // something else (another scenario file under the same name, another build).
+  const bool work_clock = lossless::read_number(first.json.at("run").at("work_clock"), first.path) > 0.0;
+  for (const lossless::ShardFile& shard : shards) {
+    if (work_clock && shard.json.at("baseline") != first.json.at("baseline")) {
+      throw ConfigError("merge: " + shard.dir + "'s baseline run differs from " + first.dir +
+                        "'s: the shards did not run the same sweep");
+    }
+  }
   if (point_count < 1 || point_count > 100000) {
     throw ConfigError(first.path + ": run.points = " + std::to_string(point_count) + ": must be in [1, 100000]");
   }

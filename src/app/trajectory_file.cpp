@@ -155,9 +155,14 @@ std::string choreo_file_path(const std::string& path, const ChoreoOptions& optio
   return (std::filesystem::path(path) / (options.trajectory + ".traj")).string();
 }
 
+void check_max_speed(const char* owner, double max_speed) {
+  if (!(max_speed > 0.0)) throw_invalid_field(owner, "max_speed", max_speed, "must be > 0 m/s (infinity: unchecked)");
+}
+
 }  // namespace
 
 Eigen::MatrixXd load_choreo_trajectory(const std::string& path, const ChoreoOptions& options) {
+  check_max_speed("ChoreoOptions", options.max_speed);
   if (options.split < -1) throw_invalid_field("ChoreoOptions", "split", options.split, "must be -1 (all) or >= 0");
   if (options.modules < 0) throw_invalid_field("ChoreoOptions", "modules", options.modules, "must be >= 0");
   const bool from_folder = choreo_file_path(path, options) != path;
@@ -220,6 +225,7 @@ Eigen::MatrixXd load_choreo_trajectory(const std::string& path, const ChoreoOpti
 }
 
 Eigen::MatrixXd load_pose_list(const std::string& path, double max_speed) {
+  check_max_speed("load_pose_list", max_speed);
   const JsonFile file(path, "trajectory files");
   const Json* list = &file.root();
   if (list->is_object()) {
@@ -248,6 +254,10 @@ Eigen::MatrixXd load_pose_list(const std::string& path, double max_speed) {
     }
     const Json& stamp = file.object(file.object(entry, "header", k, "header"), "stamp", k, "header.stamp");
     const std::int64_t sec = file.integer(stamp, "sec", k, "header.stamp.sec");
+    // builtin_interfaces/Time holds an int32: a larger value is not a stamp (and would overflow below).
+    if (sec < -(std::int64_t{1} << 31) || sec >= (std::int64_t{1} << 31)) {
+      file.fail_at(k, "'header.stamp.sec' = " + std::to_string(sec) + ": must fit an int32, as ROS stamps do");
+    }
     const std::int64_t nanosec = file.integer(stamp, "nanosec", k, "header.stamp.nanosec");
     if (nanosec < 0 || nanosec >= 1000000000) {
       file.fail_at(k, "'header.stamp.nanosec' = " + std::to_string(nanosec) + ": must be in [0, 1e9)");

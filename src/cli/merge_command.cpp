@@ -34,6 +34,12 @@ int merge_sweep(const MergeArguments& a) {
   std::vector<std::string> sweep_dirs;
   for (const std::string& dir : a.shard_dirs) sweep_dirs.push_back(dir + "/sweep");
   const std::string out_dir = a.out_dir + "/sweep";
+  for (const std::string& dir : a.shard_dirs) {
+    std::error_code error;
+    if (std::filesystem::exists(a.out_dir, error) && std::filesystem::equivalent(dir, a.out_dir, error)) {
+      throw UsageError("merge: " + dir + " is the output folder itself; merge into another folder");
+    }
+  }
   MergedSweep merged;
   try {
     merged = merge_sweep_shards(sweep_dirs, out_dir);
@@ -43,8 +49,11 @@ int merge_sweep(const MergeArguments& a) {
   std::cout << sweep_table_header() << sweep_table_row(nullptr, merged.baseline, merged.baseline.metrics);
   for (const SweepRun& point : merged.points) std::cout << sweep_table_row(&point.point, point.run, merged.baseline.metrics);
   if (merged.practical) std::cout << sweep_practical_row(*merged.practical, merged.baseline.metrics);
-  std::ofstream(out_dir + "/sweep.json") << sweep_json(merged.scenario_name, merged.baseline, merged.points,
-                                                       merged.practical);
+  std::ofstream out(out_dir + "/sweep.json");
+  if (!out || !(out << sweep_json(merged.scenario_name, merged.baseline, merged.points, merged.practical)) ||
+      !out.flush()) {
+    throw std::runtime_error(out_dir + "/sweep.json: cannot write");
+  }
   std::cout << "written: " << out_dir << "/sweep.json\n";
   return kExitOk;
 }

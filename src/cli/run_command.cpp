@@ -180,7 +180,9 @@ int sweep(const RunArguments& a, const std::vector<SweepPoint>& sweep_points, co
     // Shard 0 keeps the baselines' logs, which merge copies; every shard keeps its record.
     if (shard.index == 0) write_run_outputs(result.baseline_scenario, baselines, out_dir);
     const std::string shard_path = out_dir + "/" + kShardFileName;
-    write_sweep_shard(loaded.name, result, shard, static_cast<int>(sweep_points.size()), shard_path);
+    const std::string overrides = "seed " + (a.seed.empty() ? std::string("(scenario's)") : a.seed) + ", backend " +
+                                  (a.backend.empty() ? std::string("(controller's)") : a.backend);
+    write_sweep_shard({loaded.name, sweep_points, overrides, a.work_clock}, result, shard, shard_path);
     std::cout << "sweep shard " << shard.text() << ": " << result.points.size() << " of " << sweep_points.size()
               << " points\nwritten: " << shard_path << " (swerve-mpc merge <the shards' folders> -o <out>)\n";
     return kExitOk;

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <system_error>
 
 #include "swerve/core/config_error.hpp"
@@ -64,14 +65,16 @@ std::string read_text_file(const std::string& file_path, const TextFileRules& ru
   // of memset per read of a small file under a large limit), growing if the file grew since, and
   // read at most one byte past the limit, so a growing file stays bounded.
   const std::size_t measured = error ? 0 : static_cast<std::size_t>(size);
-  std::size_t capacity = std::min(rules.max_bytes, measured) + 1;
+  // One below the largest size, so that the limit plus the byte past it never wraps to 0.
+  const std::size_t max_bytes = std::min(rules.max_bytes, std::numeric_limits<std::size_t>::max() - 1);
+  std::size_t capacity = std::min(max_bytes, measured) + 1;
   std::string text(capacity, '\0');
   std::size_t filled = 0;
   for (;;) {
     in.read(&text[filled], static_cast<std::streamsize>(capacity - filled));
     filled += static_cast<std::size_t>(in.gcount());
-    if (filled < capacity || capacity > rules.max_bytes) break;  // the end, or past the limit
-    capacity = std::min(rules.max_bytes + 1, 2 * capacity);
+    if (filled < capacity || capacity > max_bytes) break;  // the end, or past the limit
+    capacity = std::min(max_bytes + 1, capacity > max_bytes / 2 ? max_bytes + 1 : 2 * capacity);
     text.resize(capacity);
   }
   text.resize(filled);

@@ -388,6 +388,7 @@ TEST(ControllerFactory, CoreFactoryBuildsSaAndRtiAndRefusesTheOthersNamingWhatTo
               "SwerveMPC::solvers and build controllers with swerve::make_solver");
   }
   EXPECT_NE(make_controller(config, vehicle, reference), nullptr);  // every built backend
+  EXPECT_THROW(make_controller(config, vehicle, reference, BackendFactory{}), ConfigError);  // not bad_function_call
   config.solver.nlopt.algorithm = "GN_DIRECT";  // checked without NLopt: the rules are in the header
   EXPECT_THROW(config.solver.validate(), ConfigError);
 }

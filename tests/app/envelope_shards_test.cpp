@@ -185,6 +185,16 @@ TEST(EnvelopeShards, MergeRefusesMissingDuplicateAndForeignShardsNamingTheFolder
   EXPECT_EQ(error_of([&] { merge_envelope_shards({a, b}, a); }),
             "merge: " + a + " is the output folder itself; merge into another folder");
   EXPECT_EQ(error_of([&] { merge_envelope_shards({a, b}, out); }), "no error");
+  // A draw that ran but whose folder the shard lacks: the merge would name files it never copied.
+  fs::remove_all(fs::path(b) / "draws" / "1");
+  EXPECT_EQ(error_of([&] { merge_envelope_shards({a, b}, out); }),
+            b + "/shard.json: draw 1 ran, but " + b + "/draws/1 is missing");
+  // A member of the wrong type is named with its file, not thrown as a bare JSON error.
+  std::ofstream(fs::path(b) / "shard.json") << "{\"command\": 5, \"format\": 1}";
+  EXPECT_EQ(error_of([&] { merge_envelope_shards({a, b}, out); }),
+            b + "/shard.json: not the record of an envelope shard (\"command\": \"envelope\", format 1)");
+  std::ofstream(fs::path(b) / "shard.json") << "{\"command\": \"envelope\", \"format\": 1, \"shard_index\": \"1\"}";
+  EXPECT_EQ(error_of([&] { merge_envelope_shards({a, b}, out); }).rfind(b + "/shard.json: [json.exception.type_error", 0), 0u);
   fs::remove_all(dir);
 }
 

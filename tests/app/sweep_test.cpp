@@ -2,10 +2,14 @@
 // reported in order with the weight the cost actually used; bad points refused before any run.
 #include "swerve/app/sweep.hpp"
 #include "support/test_data.hpp"
+#include "swerve/core/config_error.hpp"
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -132,6 +136,33 @@ TEST(Sweep, AScenarioWithoutTheWearAwareControllerIsAnOverrideError) {
   }
   scenario.controllers = baseline_only;
   EXPECT_THROW(run_sweep(scenario, {}, {lambda(1.0)}), OverrideError);
+}
+
+// Shards of two different sweeps (another wear weight at point 1) share a scenario name and a
+// point count; merge refuses them, naming the folder, rather than joining runs of neither.
+TEST(SweepShards, MergeRefusesShardsOfAnotherSweepNamingTheFolder) {
+  const ScenarioConfig scenario = load_scenario_config_file(testing::app_data_file("short_offset60.yaml"));
+  const std::string dir = ::testing::TempDir() + "sweep_shards_" + std::to_string(::getpid());
+  const auto write = [&](const std::string& name, int index, double second_weight) {
+    SweepResult result{scenario, {}, {}, std::nullopt};
+    result.baseline.name = "kinematic_baseline";
+    std::filesystem::create_directories(dir + "/" + name);
+    const std::vector<SweepPoint> points = {{0.1, std::nullopt}, {second_weight, std::nullopt}};
+    result.points.push_back({points[static_cast<std::size_t>(index)], ControllerRun{}, index});
+    write_sweep_shard({scenario.name, points, "seed 7", WorkClockRates{}}, result, Shard{index, 2},
+                      dir + "/" + name + "/" + kShardFileName);
+    return dir + "/" + name;
+  };
+  const std::string a = write("a", 0, 1.0), b = write("b", 1, 1.0), c = write("c", 1, 2.0);
+  EXPECT_EQ(merge_sweep_shards({a, b}, dir + "/out").points.size(), 2u);
+  try {
+    merge_sweep_shards({a, c}, dir + "/out");
+    FAIL() << "merged shards of two sweeps";
+  } catch (const ConfigError& error) {
+    EXPECT_EQ(std::string(error.what()).rfind("merge: " + c + " is a shard of another sweep run than " + a, 0), 0u)
+        << error.what();
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

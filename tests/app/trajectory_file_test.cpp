@@ -236,6 +236,11 @@ TEST(PoseListFile, RefusesMalformedListsNamingTheSampleAndField) {
             ": sample 1: 'pose.orientation' has length 0: not a rotation");
   EXPECT_EQ(error_with("[" + stamped + ", {\"header\": {\"stamp\": {\"sec\": 2.5, \"nanosec\": 0}}, \"pose\": {}}]"),
             ": sample 1: 'header.stamp.sec' must be an integer, got number 2.5");
+  EXPECT_EQ(error_with("[" + stamped + ", {\"header\": {\"stamp\": {\"sec\": 9223372036854775807, \"nanosec\": 0}}, "
+                       "\"pose\": {}}]"),
+            ": sample 1: 'header.stamp.sec' = 9223372036854775807: must fit an int32, as ROS stamps do");
+  EXPECT_EQ(error_of([] { load_pose_list("unused.json", std::nan("")); }),
+            "load_pose_list.max_speed = nan: must be > 0 m/s (infinity: unchecked)");
   EXPECT_EQ(error_with("{\"path\": []}"), ": expected an array of poses, or an object with a 'poses' array");
   EXPECT_EQ(error_with("[" + first + "]"), ": 1 sample(s); a reference needs at least 2");
 }

@@ -17,7 +17,8 @@ namespace swerve {
 double wear_reduction_pct(const RunMetrics& controller, const RunMetrics& reference);
 
 // summary.json as text (2-space indented).
-std::string summary_json(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs);
+std::string summary_json(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs,
+                         const LogFormats& formats = LogFormats{});
 
 // Creates out_dir and proves it writable by creating and removing a probe file, so that a bad
 // output directory is reported before a run rather than after it. Throws std::runtime_error

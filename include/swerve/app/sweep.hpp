@@ -59,14 +59,23 @@ std::string sweep_practical_row(const ControllerRun& practical, const RunMetrics
 std::string sweep_json(const std::string& scenario_name, const ControllerRun& baseline,
                        const std::vector<SweepRun>& points, const std::optional<ControllerRun>& practical);
 
-// A shard's record (<out>/sweep/shard.json) for merge_sweep_shards: the scenario's name, the number
-// of points, and every run's metrics losslessly.
-void write_sweep_shard(const std::string& scenario_name, const SweepResult& result, const Shard& shard,
-                       int point_count, const std::string& path);
+// What every shard of one sweep shares, and merge checks: the scenario's name, every point in
+// order, the command line's overrides (seed, backend; as text) and the clock.
+struct SweepIdentity {
+  std::string scenario;
+  std::vector<SweepPoint> points;
+  std::string overrides;
+  WorkClockRates clock;
+};
+// A shard's record (<out>/sweep/shard.json) for merge_sweep_shards: its identity and every run's
+// metrics losslessly.
+void write_sweep_shard(const SweepIdentity& identity, const SweepResult& result, const Shard& shard,
+                       const std::string& path);
 
 // The sweep of shards 0..N-1 (their sweep folders, any order), as the unsharded run gives it: the
 // baseline (and practical baseline) files copied from shard 0's folder into `out_sweep_dir`, and
-// every point in order. Throws ConfigError naming the folder for a missing or foreign shard.
+// every point in order. Throws ConfigError naming the folder for a missing or foreign shard (another
+// identity, or, on a work clock, another baseline run).
 struct MergedSweep {
   std::string scenario_name;
   ControllerRun baseline;
