@@ -198,5 +198,28 @@ TEST(EnvelopeShards, MergeRefusesMissingDuplicateAndForeignShardsNamingTheFolder
   fs::remove_all(dir);
 }
 
+// The merge moves a shard's folder to the output folder where a path starts, not inside another
+// path that happens to contain it (once "/backup<shard>/draws/" became "/backup<out>/draws/").
+TEST(EnvelopeShards, MergeMovesOnlyPathsThatStartWithTheShardsFolder) {
+  const std::string dir = scratch_dir();
+  std::vector<std::string> shard_dirs;
+  for (const int index : {0, 1}) {
+    EnvelopeOptions options = options_in(dir + "/shard" + std::to_string(index));
+    options.draws = 2;
+    options.shard = Shard{index, 2};
+    EnvelopeResult run = fake_run(options);
+    if (index == 1) {
+      DrawResult& r = run.draws.front();
+      r.error = r.scenario_file + ": cannot load (a copy is in /backup" + options.out_dir + "/draws/1)";
+    }
+    write_envelope_shard(run, options.out_dir + "/" + kShardFileName);
+    shard_dirs.push_back(options.out_dir);
+  }
+  const EnvelopeResult merged = merge_envelope_shards(shard_dirs, dir + "/out");
+  EXPECT_EQ(merged.draws[1].error, dir + "/out/draws/1/scenario.yaml: cannot load (a copy is in /backup" + dir +
+                                       "/shard1/draws/1)");
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace swerve
