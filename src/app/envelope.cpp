@@ -1258,15 +1258,7 @@ std::string envelope_json(const EnvelopeResult& result) {
 }
 
 void write_envelope_json(const EnvelopeResult& result, const std::string& path) {
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream out(temporary);
-    if (!out || !(out << envelope_json(result)) || !out.flush())
-      throw std::runtime_error(temporary + ": cannot write");
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) throw std::runtime_error(path + ": cannot write (" + error.message() + ")");
+  config::write_text_file_atomically(path, envelope_json(result));
 }
 
 }  // namespace swerve

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <stdexcept>
@@ -102,18 +101,9 @@ RunMetrics read_metrics(const nlohmann::json& j, const std::string& where) {
 }
 
 void write_json_file(const nlohmann::json& j, const std::string& path) {
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream out(temporary);
-    // Replacing invalid UTF-8 as envelope.json and sweep.json do, so a path that is not UTF-8 does
-    // not lose a whole shard's work at its end.
-    if (!out || !(out << j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) << "\n") || !out.flush()) {
-      throw std::runtime_error(temporary + ": cannot write");
-    }
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) throw std::runtime_error(path + ": cannot write (" + error.message() + ")");
+  // Replacing invalid UTF-8 as envelope.json and sweep.json do, so a path that is not UTF-8 does
+  // not lose a whole shard's work at its end.
+  config::write_text_file_atomically(path, j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 namespace {

@@ -9,6 +9,7 @@
 
 #include "swerve/app/run_report.hpp"
 #include "swerve/core/config_error.hpp"
+#include "swerve/core/text_file.hpp"
 
 namespace swerve {
 namespace {
@@ -150,6 +151,11 @@ std::string sweep_json(const std::string& scenario_name, const ControllerRun& ba
                                {"reference_delay_s", practical->metrics.reference_delay_s}};
   }
   return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+}
+
+void write_sweep_json(const std::string& sweep_dir, const std::string& scenario_name, const ControllerRun& baseline,
+                      const std::vector<SweepRun>& points, const std::optional<ControllerRun>& practical) {
+  config::write_text_file_atomically(sweep_dir + "/sweep.json", sweep_json(scenario_name, baseline, points, practical));
 }
 
 }  // namespace swerve

@@ -79,15 +79,11 @@ void check_rows(const JsonFile& file, const Eigen::MatrixXd& rows, double max_sp
   if (rows.rows() < 2) {
     file.fail(std::to_string(rows.rows()) + " sample(s); a reference needs at least 2");
   }
-  std::vector<double> previous(static_cast<std::size_t>(rows.cols())), row(previous.size());
-  for (Eigen::Index k = 0; k < rows.rows(); ++k) {
-    for (Eigen::Index c = 0; c < rows.cols(); ++c) row[static_cast<std::size_t>(c)] = rows(k, c);
-    if (k > 0) {
-      const std::string problem = reference_step_problem(
-          previous.data(), row.data(), max_speed, "sample " + std::to_string(first_index + k - 1));
-      if (!problem.empty()) file.fail_at(static_cast<int>(first_index + k), problem);
-    }
-    previous.swap(row);
+  for (Eigen::Index k = 1; k < rows.rows(); ++k) {
+    const std::string problem = reference_step_problem(rows.row(k - 1).head<3>().transpose(),
+                                                       rows.row(k).head<3>().transpose(), max_speed,
+                                                       "sample " + std::to_string(first_index + k - 1));
+    if (!problem.empty()) file.fail_at(static_cast<int>(first_index + k), problem);
   }
 }
 
@@ -165,8 +161,9 @@ Eigen::MatrixXd load_choreo_trajectory(const std::string& path, const ChoreoOpti
   check_max_speed("ChoreoOptions", options.max_speed);
   if (options.split < -1) throw_invalid_field("ChoreoOptions", "split", options.split, "must be -1 (all) or >= 0");
   if (options.modules < 0) throw_invalid_field("ChoreoOptions", "modules", options.modules, "must be >= 0");
-  const bool from_folder = choreo_file_path(path, options) != path;
-  const JsonFile file(choreo_file_path(path, options), "trajectory files");
+  const std::string file_path = choreo_file_path(path, options);
+  const bool from_folder = file_path != path;
+  const JsonFile file(file_path, "trajectory files");
   const Json& root = file.root();
   if (!root.is_object()) file.fail("expected a Choreo trajectory object, got " + JsonFile::type_of(root));
   if (!from_folder && !options.trajectory.empty()) {

@@ -3,7 +3,6 @@
 // prints it.
 #include <CLI/CLI.hpp>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -49,11 +48,7 @@ int merge_sweep(const MergeArguments& a) {
   std::cout << sweep_table_header() << sweep_table_row(nullptr, merged.baseline, merged.baseline.metrics);
   for (const SweepRun& point : merged.points) std::cout << sweep_table_row(&point.point, point.run, merged.baseline.metrics);
   if (merged.practical) std::cout << sweep_practical_row(*merged.practical, merged.baseline.metrics);
-  std::ofstream out(out_dir + "/sweep.json");
-  if (!out || !(out << sweep_json(merged.scenario_name, merged.baseline, merged.points, merged.practical)) ||
-      !out.flush()) {
-    throw std::runtime_error(out_dir + "/sweep.json: cannot write");
-  }
+  write_sweep_json(out_dir, merged.scenario_name, merged.baseline, merged.points, merged.practical);
   std::cout << "written: " << out_dir << "/sweep.json\n";
   return kExitOk;
 }

@@ -2,14 +2,12 @@
 // comparison table and writes per-step CSV logs and summary.json. `swerve-mpc sweep` runs the
 // wear-aware controller over wear weights or tolerances (app/sweep.hpp) and writes the table.
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
-#include <fstream>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -188,7 +186,7 @@ int sweep(const RunArguments& a, const std::vector<SweepPoint>& sweep_points, co
     return kExitOk;
   }
   // The plot script reads a summary beside the sweep for the scenario's name and units.
-  std::ofstream(out_dir + "/sweep.json") << sweep_json(loaded.name, result.baseline, result.points, result.practical);
+  write_sweep_json(out_dir, loaded.name, result.baseline, result.points, result.practical);
   write_run_outputs(result.baseline_scenario, baselines, out_dir);
   std::cout << "written: " << out_dir << "/sweep.json\n";
   return kExitOk;

@@ -407,13 +407,13 @@ ReferenceSample SampledReference::sample(double t_relative) const noexcept {
   return spline_.sample(spline_.first_time() + t_relative);
 }
 
-std::string reference_step_problem(const double* previous, const double* row, double max_speed,
+std::string reference_step_problem(const Eigen::Vector3d& previous_txy, const Eigen::Vector3d& txy, double max_speed,
                                    const std::string& previous_name) {
-  const double dt = row[0] - previous[0];
+  const double dt = txy[0] - previous_txy[0];
   if (!(dt > 0.0)) {
-    return "t = " + Bound::number(row[0]) + " is not after " + previous_name + "'s t = " + Bound::number(previous[0]);
+    return "t = " + Bound::number(txy[0]) + " is not after " + previous_name + "'s t = " + Bound::number(previous_txy[0]);
   }
-  const double step = std::hypot(row[1] - previous[1], row[2] - previous[2]);
+  const double step = std::hypot(txy[1] - previous_txy[1], txy[2] - previous_txy[2]);
   if (std::isfinite(max_speed) && step > 1.01 * max_speed * dt) {
     return "the position moves " + Bound::number(step) + " m in " + Bound::number(dt) + " s from " + previous_name +
            " (" + Bound::number(step / dt) + " m/s), faster than the vehicle's drive speed of " +
@@ -464,8 +464,10 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
              " values, got " + std::to_string(row.size()));
     }
     if (!rows.empty() && std::isfinite(row[0]) && std::isfinite(rows.back()[0])) {
+      const std::vector<double>& previous = rows.back();
       const std::string problem =
-          reference_step_problem(rows.back().data(), row.data(), max_speed, "line " + std::to_string(previous_line));
+          reference_step_problem({previous[0], previous[1], previous[2]}, {row[0], row[1], row[2]}, max_speed,
+                                 "line " + std::to_string(previous_line));
       if (!problem.empty()) reject(shown + ":" + std::to_string(line_number) + ": " + problem);
     }
     rows.push_back(std::move(row));

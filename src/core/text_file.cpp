@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <stdexcept>
 #include <system_error>
 
 #include "swerve/core/config_error.hpp"
@@ -74,7 +75,7 @@ std::string read_text_file(const std::string& file_path, const TextFileRules& ru
     in.read(&text[filled], static_cast<std::streamsize>(capacity - filled));
     filled += static_cast<std::size_t>(in.gcount());
     if (filled < capacity || capacity > max_bytes) break;  // the end, or past the limit
-    capacity = std::min(max_bytes + 1, capacity > max_bytes / 2 ? max_bytes + 1 : 2 * capacity);
+    capacity = capacity > max_bytes / 2 ? max_bytes + 1 : 2 * capacity;
     text.resize(capacity);
   }
   text.resize(filled);
@@ -83,6 +84,17 @@ std::string read_text_file(const std::string& file_path, const TextFileRules& ru
     throw ConfigError(file_too_large(file_path, "more than " + std::to_string(rules.max_bytes), rules));
   }
   return text;
+}
+
+void write_text_file_atomically(const std::string& file_path, const std::string& text) {
+  const std::string temporary = file_path + ".tmp";
+  {
+    std::ofstream out(temporary);
+    if (!out || !(out << text) || !out.flush()) throw std::runtime_error(temporary + ": cannot write");
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, file_path, error);
+  if (error) throw std::runtime_error(file_path + ": cannot write (" + error.message() + ")");
 }
 
 }  // namespace swerve::config

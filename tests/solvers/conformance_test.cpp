@@ -125,8 +125,7 @@ TEST_P(BackendConformance, ImprovesOnItsStartOnTheSwerveProblemAndNeverReturnsWo
   const testing::ClockedModel model(s.model, &clock, 10e-6, 50e-6);
   const std::unique_ptr<OcpProblem> problem = testing::problem_on(model, s.problem);
   std::unique_ptr<Solver> solver = make_solver(config_for(GetParam()), *problem);
-  Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
-  cruise.row(0).setConstant(0.5);  // keep going straight: feasible, not optimal (the reference is aside)
+  const Eigen::MatrixXd cruise = s.straight_on();
   InitialGuesses guesses;
   guesses.add(&cruise);
   Solution solution;
@@ -187,8 +186,7 @@ TEST_P(BackendConformance, ReachesTheIpoptReferenceOnTheSwerveProblemWithExactDy
     SolverConfig config = swerve_config_for(GetParam());
     config.sa.seed = seed;
     std::unique_ptr<Solver> solver = make_solver(config, s.problem);
-    Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
-    cruise.row(0).setConstant(0.5);
+    const Eigen::MatrixXd cruise = s.straight_on();
     InitialGuesses guesses;
     guesses.add(&cruise);
     Solution solution;
@@ -226,8 +224,7 @@ TEST_P(BackendConformance, WarmStartFromTheShiftedPlanNeedsFewerIterationsThanAC
     Solution solution;
     solution.resize(10, 3, 20);
     SolveSummary summary;
-    Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
-    cruise.row(0).setConstant(0.5);
+    const Eigen::MatrixXd cruise = s.straight_on();
     InitialGuesses first_guess;
     first_guess.add(&cruise);
     ASSERT_TRUE(has_solution(solver->solve(s.problem, first_guess, generous, &solution, &summary)));

@@ -132,8 +132,7 @@ TEST(RtiSolver, TriesAnIterationWhoseTimeIsUnknownAndStillEndsByTheDeadline) {
   const testing::ClockedModel model(s.model, &clock, 10e-6, 50e-6);
   const std::unique_ptr<OcpProblem> problem = testing::problem_on(model, s.problem);
   RtiSolver solver(*problem, RtiOptions{});
-  Eigen::MatrixXd cruise = Eigen::MatrixXd::Zero(3, 20);
-  cruise.row(0).setConstant(0.5);
+  const Eigen::MatrixXd cruise = s.straight_on();
   InitialGuesses guesses;
   guesses.add(&cruise);
   Solution solution;

@@ -58,6 +58,9 @@ std::string sweep_practical_row(const ControllerRun& practical, const RunMetrics
 // practical baseline.
 std::string sweep_json(const std::string& scenario_name, const ControllerRun& baseline,
                        const std::vector<SweepRun>& points, const std::optional<ControllerRun>& practical);
+// <sweep_dir>/sweep.json with that text, written atomically (std::runtime_error naming it).
+void write_sweep_json(const std::string& sweep_dir, const std::string& scenario_name, const ControllerRun& baseline,
+                      const std::vector<SweepRun>& points, const std::optional<ControllerRun>& practical);
 
 // What every shard of one sweep shares, and merge checks: the scenario's name, every point in
 // order, the command line's overrides (seed, backend; as text) and the clock.

@@ -204,12 +204,13 @@ class TrajectoryReference final : public Reference {
   std::atomic_flag publishing_ = ATOMIC_FLAG_INIT;
 };
 
-// Why `row` (t, x, y, ...) cannot follow `previous` in a recorded reference: its t is not after
-// the previous one's, or, with a finite `max_speed` (m/s: the vehicle's drive speed), its position
-// moves further than that speed covers in their time step (1 % of slack for rounding), a jump no
-// vehicle of that kind can follow. Empty when it can. `previous_name` says where the previous row
-// is ("line 4", "sample 3"). Every reference file loader checks its rows with it.
-std::string reference_step_problem(const double* previous, const double* row, double max_speed,
+// Why a sample at (t, x, y) = `txy` cannot follow one at `previous_txy` in a recorded reference:
+// its t is not after the previous one's, or, with a finite `max_speed` (m/s: the vehicle's drive
+// speed), its position moves further than that speed covers in their time step (1 % of slack for
+// rounding), a jump no vehicle of that kind can follow. Empty when it can. `previous_name` says
+// where the previous sample is ("line 4", "sample 3"). Every reference file loader checks its rows
+// with it.
+std::string reference_step_problem(const Eigen::Vector3d& previous_txy, const Eigen::Vector3d& txy, double max_speed,
                                    const std::string& previous_name);
 
 // Largest reference CSV accepted: about 250 000 rows of 7 full-precision columns (over 40 min at

@@ -24,4 +24,9 @@ struct TextFileRules {
 // rules.max_bytes (the read stops one byte past it, so a file that grows meanwhile stays bounded).
 std::string read_text_file(const std::string& file_path, const TextFileRules& rules = TextFileRules{});
 
+// Writes `text` to `<file_path>.tmp` and renames it into place, so an interrupted write leaves the
+// previous file or none, never half of one. Throws std::runtime_error "<path>.tmp: cannot write" or
+// "<path>: cannot write (<reason>)".
+void write_text_file_atomically(const std::string& file_path, const std::string& text);
+
 }  // namespace swerve::config
