@@ -10,6 +10,8 @@
 //   BM_Solver_CostAtBudget: the cost each backend reaches warm within 2, 5, 10 and 20 ms, against
 // a tight Ipopt reference (4 and 10 modules, N = 20).
 //   BM_Solver_RtiCycle: the real-time iteration per cycle, its time and gap to each cycle's optimum.
+//   BM_Solver_RtiPreparedCycle: the same split into preparation and feedback, each timed, with a
+// measured start that differs from the predicted one.
 //   BM_Solver_GapToIpoptReference: a scenario's closed loop (0 curve, 1 offset60, 2 curve_smooth)
 // with the default SA controller at a solve budget of budget_ms and an SA polish share of
 // polish_pct % (knot_polish: whether the knot-space polish stands in where the exact gradient does
@@ -242,37 +244,56 @@ BENCHMARK(BM_Solver_CostAtBudget)
 // sidestep sequence of BM_Solver_Warm, 4 and 10 modules, N = 20: the time of each cycle (p50, p99),
 // and each cycle's cost against a Gauss-Newton SQP run to convergence on the same problem from the
 // same shifted plan (untimed): the gap's median and maximum in %. Goal: 10 modules, <= 2 ms a cycle.
-void BM_Solver_RtiCycle(benchmark::State& state) {
-  const int modules = static_cast<int>(state.range(0));
-  const int horizon = 20;
-  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep, horizon, -1.0, modules);
-  SolverConfig config;
-  config.backend = "rti";
-  std::unique_ptr<Solver> solver = make_solver(config, s.problem);
-  SolverConfig reference_config = converging("rti");
-  reference_config.rti.tolerance = 1e-12;
-  reference_config.rti.stage_quasi_newton = false;
-  std::unique_ptr<Solver> reference = make_solver(reference_config, s.problem);
+// The receding-horizon sidestep cycles both real-time-iteration benchmarks run: the rti backend
+// with its library defaults, a Gauss-Newton SQP to convergence as each cycle's reference, the plan
+// the reference solved at cycle 0, and the guess (the shifted plan from cycle 1 on).
+struct RtiCycles {
+  static constexpr int kHorizon = 20;
+  testing::SwerveTestProblem s;
+  std::unique_ptr<Solver> solver, reference;
   Solution plan, converged;
-  plan.resize(s.problem.state_size(), s.problem.input_size(), horizon);
-  converged.resize(s.problem.state_size(), s.problem.input_size(), horizon);
-  Eigen::MatrixXd guess = s.problem.previous_input().replicate(1, horizon);
+  Eigen::MatrixXd guess;
   InitialGuesses guesses;
-  guesses.add(&guess);
   SolveSummary summary;
-  reference->solve(s.problem, guesses, SolverClock::now() + 600s, &plan, &summary);  // cycle 0, untimed
+
+  explicit RtiCycles(int modules) : s(testing::SwerveScene::kSidestep, kHorizon, -1.0, modules) {
+    SolverConfig config;
+    config.backend = "rti";
+    solver = make_solver(config, s.problem);
+    SolverConfig reference_config = converging("rti");
+    reference_config.rti.tolerance = 1e-12;
+    reference_config.rti.stage_quasi_newton = false;
+    reference = make_solver(reference_config, s.problem);
+    plan.resize(s.problem.state_size(), s.problem.input_size(), kHorizon);
+    converged.resize(s.problem.state_size(), s.problem.input_size(), kHorizon);
+    guess = s.problem.previous_input().replicate(1, kHorizon);
+    guesses.add(&guess);
+    reference->solve(s.problem, guesses, SolverClock::now() + 600s, &plan, &summary);  // cycle 0, untimed
+  }
+  // The next cycle on the plan: its predicted state, its shifted inputs the guess.
+  void next(int cycle) {
+    s.next_cycle(cycle, &plan);
+    guess = plan.inputs;
+  }
+  // The gap (%) of the plan to the converged solve of the current problem.
+  double gap() {
+    reference->solve(s.problem, guesses, SolverClock::now() + 600s, &converged, &summary);
+    return 100.0 * (plan.cost / converged.cost - 1.0);
+  }
+};
+
+void BM_Solver_RtiCycle(benchmark::State& state) {
+  RtiCycles c(static_cast<int>(state.range(0)));
   std::vector<double> seconds, gaps;
   int cycle = 0;
   for (auto _ : state) {
-    s.next_cycle(++cycle, &plan);
-    guess = plan.inputs;
+    c.next(++cycle);
     const auto start = SolverClock::now();
-    solver->solve(s.problem, guesses, start + 600s, &plan, &summary);
+    c.solver->solve(c.s.problem, c.guesses, start + 600s, &c.plan, &c.summary);
     const double elapsed = std::chrono::duration<double>(SolverClock::now() - start).count();
     state.SetIterationTime(elapsed);
     seconds.push_back(elapsed);
-    reference->solve(s.problem, guesses, SolverClock::now() + 600s, &converged, &summary);
-    gaps.push_back(100.0 * (plan.cost / converged.cost - 1.0));
+    gaps.push_back(c.gap());
   }
   state.counters["p50_ms"] = 1e3 * percentile(seconds, 50.0);
   state.counters["p99_ms"] = 1e3 * percentile(seconds, 99.0);
@@ -284,6 +305,50 @@ BENCHMARK(BM_Solver_RtiCycle)
     ->Arg(4)
     ->Arg(10)
     ->Iterations(40)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+
+// The same cycles split as the real-time iteration runs them: the preparation on the predicted
+// start (the plan's next state) before the measurement, and the feedback on the measured start,
+// which differs from the prediction (pushed 1 cm sideways, alternating). Times both phases; the
+// gap is the feedback's plan to a converged solve of the measured problem.
+void BM_Solver_RtiPreparedCycle(benchmark::State& state) {
+  RtiCycles c(static_cast<int>(state.range(0)));
+  std::vector<double> preparations, feedbacks, cycles, gaps;
+  int cycle = 0, prepared = 0;
+  for (auto _ : state) {
+    c.next(++cycle);
+    const auto start = SolverClock::now();
+    prepared += c.solver->prepare(c.s.problem, c.guesses, start + 600s) ? 1 : 0;
+    const auto measured_at = SolverClock::now();
+    Eigen::VectorXd measured = c.s.problem.initial_state();  // untimed: the measurement arriving
+    measured[1] += cycle % 2 == 0 ? 0.01 : -0.01;
+    c.s.problem.set_initial_state(measured);
+    const auto feedback_start = SolverClock::now();
+    c.solver->solve(c.s.problem, c.guesses, feedback_start + 600s, &c.plan, &c.summary);
+    const auto end = SolverClock::now();
+    const double preparation = std::chrono::duration<double>(measured_at - start).count();
+    const double feedback = std::chrono::duration<double>(end - feedback_start).count();
+    state.SetIterationTime(preparation + feedback);
+    preparations.push_back(preparation);
+    feedbacks.push_back(feedback);
+    cycles.push_back(preparation + feedback);
+    gaps.push_back(c.gap());
+  }
+  state.counters["prepared_pct"] = 100.0 * prepared / static_cast<double>(std::max(cycle, 1));
+  state.counters["preparation_p50_ms"] = 1e3 * percentile(preparations, 50.0);
+  state.counters["preparation_p99_ms"] = 1e3 * percentile(preparations, 99.0);
+  state.counters["feedback_p50_ms"] = 1e3 * percentile(feedbacks, 50.0);
+  state.counters["feedback_p99_ms"] = 1e3 * percentile(feedbacks, 99.0);
+  state.counters["cycle_p99_ms"] = 1e3 * percentile(cycles, 99.0);
+  state.counters["gap_p50_pct"] = percentile(gaps, 50.0);
+  state.counters["gap_max_pct"] = gaps.empty() ? 0.0 : *std::max_element(gaps.begin(), gaps.end());
+}
+BENCHMARK(BM_Solver_RtiPreparedCycle)
+    ->ArgNames({"modules"})
+    ->Arg(4)
+    ->Arg(10)
+    ->Iterations(200)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);
 

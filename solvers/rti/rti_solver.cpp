@@ -57,16 +57,18 @@ struct RtiSolver::Impl {
     states = trial_states = Eigen::MatrixXd::Zero(shape.state_size(), horizon + 1);
     stage_costs = stage_wear = trial_stage_wear = Eigen::VectorXd::Zero(horizon);
     hessian = damped = Eigen::MatrixXd::Zero(n, n);
-    linear = answer = hessian_step = Eigen::VectorXd::Zero(n);
+    linear = answer = hessian_step = correction = Eigen::VectorXd::Zero(n);
+    prepared_start = start_change = Eigen::VectorXd::Zero(shape.state_size());
+    prepared_previous_input = previous_input_change = Eigen::VectorXd::Zero(nu);
+    prepared_poses = prepared_twists = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, horizon);
+    prepared_tube = Eigen::Matrix<double, 2, Eigen::Dynamic>::Zero(2, horizon);
   }
 
-  // The Gauss-Newton step of the plan (inputs, states): its linearisation, condensed Hessian and
-  // QP, leaving the step in `step`, its first-order change g^T d in *slope and the model's
-  // decrease -(g^T d + 1/2 d^T H d) in *predicted. false with *reason (and *status) when it fails.
-  bool gauss_newton_step(const OcpProblem& problem, const RtiOptions& options, const Deadline& deadline,
-                         Details* details, double* slope, double* predicted, const char** reason,
-                         SolveStatus* status) noexcept {
-    const int n = problem.input_size() * problem.horizon();
+  // The plan's (inputs, states) linearisation: its gradient (the cost's, with the costates),
+  // the learnt curvature's update and the condensed Hessian, in `gradient` and `hessian`. false
+  // with *reason (and *status) when it fails; a NaN *linearised_cost when the deadline stopped it.
+  bool linearise(const OcpProblem& problem, const RtiOptions& options, const Deadline& deadline, const char** reason,
+                 SolveStatus* status) noexcept {
     const double linearised_cost = derivatives.cost_and_gradient(problem, inputs, states, gradient, &deadline);
     if (!std::isfinite(linearised_cost)) {
       // NaN: it gave up between stages at the deadline; +inf: the model failed.
@@ -85,6 +87,15 @@ struct RtiSolver::Impl {
       *status = SolveStatus::kNumericalError;
       return false;
     }
+    return true;
+  }
+
+  // The QP of the linearised plan (`gradient`, `hessian` at `inputs`), leaving the step in `step`,
+  // its first-order change g^T d in *slope and the model's decrease -(g^T d + 1/2 d^T H d) in
+  // *predicted. false with *reason and *status when it fails.
+  bool qp_step(const OcpProblem& problem, const RtiOptions& options, Details* details, double* slope,
+               double* predicted, const char** reason, SolveStatus* status) noexcept {
+    const int n = problem.input_size() * problem.horizon();
     // The QP in the new inputs z: 1/2 (z - u)^T (H + nu I) (z - u) + g^T (z - u), i.e. linear term
     // g - (H + nu I) u; its answer satisfies every bound.
     damped = hessian;
@@ -129,6 +140,54 @@ struct RtiSolver::Impl {
     return true;
   }
 
+  // What a preparation assumed of the next problem besides its start: the same reference, tube
+  // and wear weight (the other weights and the bounds are fixed at construction).
+  void remember_preparation(const OcpProblem& problem) noexcept {
+    prepared_start = problem.initial_state();
+    prepared_previous_input = problem.previous_input();
+    prepared_poses = problem.reference_poses();
+    prepared_twists = problem.reference_twists();
+    prepared_tube = problem.tube();
+    prepared_wear_weight = problem.weights().wear;
+    prepared = true;
+  }
+  // A whole solve's start: the cheapest guess (StartPlan), a new solve for the learnt curvature.
+  // Returns its cost (+inf when the model failed on every guess).
+  double start_from_guesses(const OcpProblem& problem, const InitialGuesses& guesses, const Deadline& deadline,
+                            long* rollouts, Duration* rollout_time) noexcept {
+    quasi_newton.begin_solve();
+    const double cost = start.choose(problem, guesses, deadline);
+    *rollouts += start.rollouts();
+    *rollout_time = start.longest_rollout();
+    inputs = start.inputs();
+    states = start.states();
+    stage_wear = start.stage_wear();
+    return cost;
+  }
+
+  // The feedback's start: the prepared linearisation's gradient moved to the measured start by the
+  // Gauss-Newton model's cross term (computed at the prepared rollout, before it is replaced),
+  // then the prepared plan rolled out from the measured start, the reference of the line search
+  // and the answer should the step fail. false when either failed (a whole solve then follows).
+  bool start_from_preparation(const OcpProblem& problem, const RtiOptions& options, PredictionData& data,
+                              const Deadline& deadline, double* cost, Duration* rollout_time) noexcept {
+    start_change = problem.initial_state() - prepared_start;
+    previous_input_change = problem.previous_input() - prepared_previous_input;
+    const bool moved = condensed.start_product(problem, derivatives, states, options.wear_curvature, start_change,
+                                               previous_input_change, correction,
+                                               options.stage_quasi_newton ? &quasi_newton : nullptr);
+    const TimePoint rollout_start = deadline.now();
+    *cost = problem.rollout(data, inputs, 0, states, stage_costs, stage_wear.data());
+    *rollout_time = deadline.now() - rollout_start;
+    if (!moved || !std::isfinite(*cost)) return false;
+    Eigen::Map<Eigen::VectorXd>(gradient.data(), correction.size()) += correction;
+    return true;
+  }
+  bool prepared_for(const OcpProblem& problem) const noexcept {
+    return prepared && problem.reference_poses() == prepared_poses && problem.reference_twists() == prepared_twists &&
+           problem.tube() == prepared_tube && problem.weights().wear == prepared_wear_weight;
+  }
+
   // Backtracking along the step (Armijo): u + a d stays inside the convex bounds for a in [0, 1].
   // The accepted trial stays in trial_*; returns its fraction a, or 0 when none was accepted.
   double line_search(const OcpProblem& problem, PredictionData& data, const Deadline& deadline, Duration rollout_time,
@@ -161,6 +220,15 @@ struct RtiSolver::Impl {
   StageQuasiNewton quasi_newton;
   BoundedInputQp qp;
   StartPlan start;
+  // The last preparation, valid while `prepared`: what it assumed, and the change of the measured
+  // start and previous input from it with the gradient's correction for them.
+  bool prepared = false;
+  Eigen::VectorXd prepared_start, start_change;                        // nx
+  Eigen::VectorXd prepared_previous_input, previous_input_change;      // nu
+  Eigen::Matrix<double, 3, Eigen::Dynamic> prepared_poses, prepared_twists;  // 3 x N
+  Eigen::Matrix<double, 2, Eigen::Dynamic> prepared_tube;                    // 2 x N
+  double prepared_wear_weight = 0.0;
+  Eigen::VectorXd correction;                                          // nu N
   Eigen::MatrixXd inputs, trial_inputs, step, gradient;  // nu x N
   Eigen::MatrixXd states, trial_states;                  // nx x N+1
   Eigen::VectorXd stage_costs, stage_wear, trial_stage_wear;  // N
@@ -179,35 +247,55 @@ RtiSolver::RtiSolver(const OcpProblem& problem_shape, RtiOptions options)
 
 RtiSolver::~RtiSolver() = default;
 
+bool RtiSolver::do_prepare(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline) noexcept {
+  Impl& s = *impl_;
+  s.prepared = false;
+  long rollouts = 0;
+  Duration rollout_time{};
+  if (!std::isfinite(s.start_from_guesses(problem, guesses, deadline, &rollouts, &rollout_time))) return false;
+  const char* reason = nullptr;
+  SolveStatus status = SolveStatus::kBudgetExhausted;
+  if (!s.linearise(problem, options_, deadline, &reason, &status)) return false;
+  s.remember_preparation(problem);
+  return true;
+}
+
+void RtiSolver::forget_preparation() noexcept { impl_->prepared = false; }
+
 SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
                                 Solution* out, SolveSummary* summary) noexcept {
   Impl& s = *impl_;
   details_ = Details{};
-  s.quasi_newton.begin_solve();
-  const double start_cost = s.start.choose(problem, guesses, deadline);
-  summary->initial_cost = start_cost;
-  long rollouts = s.start.rollouts();
-  if (!std::isfinite(start_cost)) {
-    summary->reason = "the model failed on every initial guess";
-    return SolveStatus::kNumericalError;
+  long rollouts = 0;
+  double cost = std::numeric_limits<double>::infinity();
+  Duration rollout_time{};
+  if (s.prepared_for(problem)) {
+    details_.feedback = s.start_from_preparation(problem, options_, model_data(), deadline, &cost, &rollout_time);
+    rollouts = 1;
+    if (details_.feedback) summary->initial_cost = cost;
   }
-  s.inputs = s.start.inputs();
-  s.states = s.start.states();
-  s.stage_wear = s.start.stage_wear();
-  double cost = start_cost;
+  s.prepared = false;
+  if (!details_.feedback) {
+    cost = summary->initial_cost = s.start_from_guesses(problem, guesses, deadline, &rollouts, &rollout_time);
+    if (!std::isfinite(cost)) {
+      summary->reason = "the model failed on every initial guess";
+      return SolveStatus::kNumericalError;
+    }
+  }
   // The linearisation gives up between stages where one more would leave less than the QP and the
   // line search's first rollout (two rollouts' time) before the deadline, so an iteration whose
   // time is not yet known can always be tried: it ends on time either way, and is then measured.
-  const Duration rollout_time = s.start.longest_rollout();
   const Deadline linearisation_stop = deadline.earlier_by(2 * rollout_time);
   const char* reason = "stopped at max_iterations";
   SolveStatus status = SolveStatus::kBudgetExhausted;
   int iterations = 0;
   for (; iterations < options_.max_iterations; ++iterations) {
     const TimePoint iteration_start = deadline.now();
-    const bool known_too_slow =
-        s.iteration_estimate > Duration::zero() && iteration_start + s.iteration_estimate >= deadline.at();
-    if (known_too_slow || iteration_start >= linearisation_stop.at()) {
+    // The feedback's iteration was linearised by the preparation: its QP and rollouts always run.
+    const bool prepared_iteration = details_.feedback && iterations == 0;
+    const bool known_too_slow = !prepared_iteration && s.iteration_estimate > Duration::zero() &&
+                                iteration_start + s.iteration_estimate >= deadline.at();
+    if (known_too_slow || (!prepared_iteration && iteration_start >= linearisation_stop.at())) {
       // Measured too slow for what is left: a quarter less is believed after a skipped solve, so a
       // budget that fits is found again after a slow cycle.
       if (known_too_slow && iterations == 0) s.iteration_estimate = s.iteration_estimate * 3 / 4;
@@ -216,10 +304,14 @@ SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses&
       break;
     }
     double slope = 0.0, predicted = 0.0;
-    if (!s.gauss_newton_step(problem, options_, linearisation_stop, &details_, &slope, &predicted, &reason, &status)) {
+    const bool stepped = prepared_iteration
+                             ? s.qp_step(problem, options_, &details_, &slope, &predicted, &reason, &status)
+                             : s.linearise(problem, options_, linearisation_stop, &reason, &status) &&
+                                   s.qp_step(problem, options_, &details_, &slope, &predicted, &reason, &status);
+    if (!stepped) {
       // Given up inside the linearisation: the whole iteration, extrapolated from its stages.
       const int done = s.derivatives.completed_stages();
-      if (done > 0 && done < problem.horizon()) {
+      if (!prepared_iteration && done > 0 && done < problem.horizon()) {
         const Duration whole = (deadline.now() - iteration_start) * problem.horizon() / done + 2 * rollout_time;
         s.iteration_estimate = updated_estimate(s.iteration_estimate, whole);
       }
@@ -237,7 +329,10 @@ SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses&
                                           options_.line_search_steps, &trial_cost, &rollouts, &details_);
     s.adapt_damping(options_.damping, fraction, cost - trial_cost, predicted);
     details_.step_fraction = fraction;
-    s.iteration_estimate = updated_estimate(s.iteration_estimate, deadline.now() - iteration_start);
+    // A whole iteration's time (the feedback's lacks its linearisation).
+    if (!prepared_iteration) {
+      s.iteration_estimate = updated_estimate(s.iteration_estimate, deadline.now() - iteration_start);
+    }
     if (fraction == 0.0) continue;  // refused: the next iteration tries again, more damped
     const double decrease = cost - trial_cost;
     s.inputs.swap(s.trial_inputs);

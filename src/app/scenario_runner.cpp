@@ -96,6 +96,9 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     record.solve_late_s = output.solve.status == SolveStatus::kNotRun ? 0.0 : output.solve.late_s;
     record.work_budget_cut = output.work_budget_cut;
     run.log.push_back(std::move(record));
+    // While the commands act, the next step's preparation (rti; a no-op for the other backends),
+    // outside that step's time, as a vehicle's loop would run it after sending its commands.
+    tracker->prepare(t + period);
     if (!plant.advance(output.modules)) {
       run.failure = "the plant diverged at t = " + std::to_string(plant.time()) + " s";
       break;

@@ -195,6 +195,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   if (!solver_) throw ConfigError("Controller.solver: the solver factory returned nothing");
   solution_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
   plan_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
+  prepared_plan_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
   baseline_inputs_ = Eigen::MatrixXd::Zero(2 * modules_, options_.horizon);
   baseline_guess_ = Eigen::MatrixXd::Zero(problem_->input_size(), options_.horizon);
   baseline_policy_guess_ = baseline_guess_;
@@ -215,6 +216,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
 }
 
 void Controller::reset() noexcept {
+  solver_->forget_preparation();
+  prepared_t_ = std::numeric_limits<double>::quiet_NaN();
   plan_.valid = false;
   plan_age_ = 0;
   applied_input_.setZero();
@@ -533,11 +536,50 @@ bool Controller::plan_baseline(bool* policy_guess_usable) noexcept {
   return true;
 }
 
-const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
+namespace {
+// s: two step times closer than this are the same step's, computed two ways.
+constexpr double kSameStepTime = 1e-9;
+}  // namespace
+
+bool Controller::prepare(double t_next) noexcept {
+  prepared_t_ = std::numeric_limits<double>::quiet_NaN();
+  if (!solver_->has_preparation() || !solved_ || !plan_.valid || plan_age_ != 0 ||
+      output_.source != CommandSource::kOptimizer || options_.tracking_tolerance.enabled() ||
+      !std::isfinite(t_next) || !(t_next > step_t_)) {
+    return false;
+  }
+  const TimePoint start = clock().now();
+  const Deadline deadline(start + to_duration(options_.solve_budget) - solve_margin(), clock());
+  model_->charge_work_to(&deadline.clock());
+  // The next step's first guess is this plan moved on by a period: its state then is the start
+  // predicted.
+  prepared_plan_.inputs = plan_.inputs;
+  prepared_plan_.states = plan_.states;
+  prepared_plan_.shift(options_.period() / options_.dt);
+  problem_->set_initial_state(prepared_plan_.states.col(0));
+  problem_->set_previous_input(applied_decision_);
+  const double reference_t = reference_hold_.reference_time_ahead(t_next);
+  for (int k = 1; k <= options_.horizon; ++k) {
+    const ReferenceSample sample = reference_->sample(reference_t + k * options_.dt);
+    problem_->set_reference(k, sample.pose_world, sample.twist_body);
+  }
+  InitialGuesses guesses;
+  guesses.add(&prepared_plan_.inputs);
+  if (!solver_->prepare(*problem_, guesses, deadline)) return false;
+  prepared_t_ = t_next;
+  return true;
+}
+
+const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t_measured,
                                       double measured_at) noexcept {
+  // The time prepared for, when t is it but for rounding (k period against (k - 1) period + period),
+  // so the reference window sampled now is the prepared one bit for bit.
+  const double t = std::abs(t_measured - prepared_t_) <= kSameStepTime ? prepared_t_ : t_measured;
   // The budget covers the whole step (baseline plan, problem update, solve), not the solve alone.
   const TimePoint step_start = clock().now();
   step_t_ = t;
+  if (!(t == prepared_t_)) solver_->forget_preparation();
+  prepared_t_ = std::numeric_limits<double>::quiet_NaN();
   const TimePoint step_deadline = step_start + to_duration(options_.solve_budget);
   const Deadline deadline = solve_deadline(step_start);
   // The model charges its work to the deadline's clock as set now (set_clock may have changed it

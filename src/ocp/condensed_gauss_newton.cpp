@@ -13,6 +13,9 @@ CondensedGaussNewton::CondensedGaussNewton(const OcpProblem& shape)
   residual_jacobian_ = Eigen::MatrixXd::Zero(rows, n_);
   wear_row_ = Eigen::VectorXd::Zero(n_);
   stage_map_ = curved_map_ = Eigen::MatrixXd::Zero(nx_ + nu_, n_);
+  start_direction_ = Eigen::MatrixXd::Zero(nx_, horizon_ + 1);
+  stage_terms_ = Eigen::MatrixXd::Zero(nx_ + nu_, horizon_);
+  costate_direction_ = costate_scratch_ = Eigen::VectorXd::Zero(nx_);
 }
 
 bool CondensedGaussNewton::hessian(const OcpProblem& problem, const OcpDerivatives& linearised,
@@ -75,6 +78,59 @@ bool CondensedGaussNewton::hessian(const OcpProblem& problem, const OcpDerivativ
     for (int i = 0; i < j; ++i) hessian(i, j) = hessian(j, i);
   }
   return hessian.allFinite();
+}
+
+bool CondensedGaussNewton::start_product(const OcpProblem& problem, const OcpDerivatives& linearised,
+                                         const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
+                                         const Eigen::Ref<const Eigen::VectorXd>& dx0,
+                                         const Eigen::Ref<const Eigen::VectorXd>& du_previous,
+                                         Eigen::Ref<Eigen::VectorXd> product,
+                                         const StageQuasiNewton* stage_curvature) noexcept {
+  if (problem.horizon() != horizon_ || problem.state_size() != nx_ || problem.input_size() != nu_ ||
+      linearised.horizon() != horizon_ || states.rows() != nx_ || states.cols() != horizon_ + 1 ||
+      dx0.size() != nx_ || du_previous.size() != nu_ || product.size() != n_ ||
+      (stage_curvature != nullptr && stage_curvature->stage_size() != nx_ + nu_)) {
+    return false;
+  }
+  // Forward: the states' change dx_k = A_{k-1} ... A_0 dx0 (the inputs held).
+  start_direction_.col(0) = dx0;
+  for (int k = 0; k < horizon_; ++k) start_direction_.col(k + 1).noalias() = linearised.a(k) * start_direction_.col(k);
+  // Each stage's curvature over (x_k, u_k) times (dx_k, 0): the wear's Gauss-Newton term and the
+  // learnt block, as hessian() adds them.
+  const double lambda = problem.weights().wear;
+  for (int k = 0; k < horizon_; ++k) {
+    auto term = stage_terms_.col(k);
+    term.setZero();
+    if (wear_curvature && lambda > 0.0) {
+      const Eigen::VectorXd& gradient = linearised.wear_gradient(k);
+      const double along = gradient.head(nx_).dot(start_direction_.col(k));
+      term.noalias() += wear_curvature_weight(lambda, linearised.wear(k)) * along * gradient;
+    }
+    if (stage_curvature != nullptr) term.noalias() += stage_curvature->block(k).leftCols(nx_) * start_direction_.col(k);
+  }
+  // Adjoint: costate_direction_ gathers d(dJ/dx_{k+1}) of the whole model, then moves to x_k.
+  OcpProblem::TrackingResiduals residuals, residual_change;
+  OcpProblem::TrackingJacobian tracking_jacobian;
+  const Eigen::Index effort_rows = problem.state_effort_index().size();
+  costate_direction_.setZero();
+  for (int k = horizon_ - 1; k >= 0; --k) {
+    problem.tracking_residuals(k, states.col(k + 1), &residuals, &tracking_jacobian);
+    residual_change.noalias() = tracking_jacobian * start_direction_.col(k + 1).head<OcpProblem::kTrackedStates>();
+    costate_direction_.head<OcpProblem::kTrackedStates>().noalias() += tracking_jacobian.transpose() * residual_change;
+    for (Eigen::Index j = 0; j < effort_rows; ++j) {
+      const Eigen::Index i = problem.state_effort_index()[j];
+      const double root = problem.state_effort_root()[j];
+      costate_direction_[i] += root * root * start_direction_(i, k + 1);
+    }
+    auto stage_product = product.segment(static_cast<Eigen::Index>(k) * nu_, nu_);
+    stage_product = stage_terms_.col(k).tail(nu_);
+    stage_product.noalias() += linearised.b(k).transpose() * costate_direction_;  // one statement allocates
+    costate_scratch_.noalias() = linearised.a(k).transpose() * costate_direction_;
+    costate_direction_ = costate_scratch_ + stage_terms_.col(k).head(nx_);
+  }
+  // The rate on u_0 - u_{-1}: its gradient over u_0 moves by -S du_{-1}.
+  for (int i = 0; i < nu_; ++i) product[i] -= problem.rate_root()[i] * problem.rate_root()[i] * du_previous[i];
+  return product.allFinite();
 }
 
 void CondensedGaussNewton::add_stage_curvature(int k, const Eigen::MatrixXd& curvature,

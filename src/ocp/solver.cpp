@@ -129,6 +129,23 @@ double StartPlan::choose(const OcpProblem& problem, const InitialGuesses& guesse
   return cost_;
 }
 
+const char* Solver::refusal(const OcpProblem& problem, const Deadline& deadline, TimePoint start) const noexcept {
+  if (problem.state_size() != state_size_ || problem.input_size() != input_size_ || problem.horizon() != horizon_) {
+    return "the problem's shape differs from the one the solver was built for";
+  }
+  if (!problem.initial_state().allFinite() || !problem.reference_poses().allFinite() ||
+      !problem.reference_twists().allFinite() || !problem.previous_input().allFinite()) {
+    return "the problem's state, reference or previous input is not finite";
+  }
+  if (deadline.at() <= start) return "the deadline has already passed";
+  return nullptr;
+}
+
+bool Solver::prepare(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline) noexcept {
+  if (refusal(problem, deadline, deadline.now()) != nullptr || !workspace_.bind(problem.model())) return false;
+  return do_prepare(problem, guesses, deadline);
+}
+
 SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                           SolveSummary* summary) noexcept {
   const TimePoint start = deadline.now();
@@ -149,14 +166,7 @@ SolveStatus Solver::solve(const OcpProblem& problem, const InitialGuesses& guess
     return finish(SolveStatus::kInvalidInput, "the output Solution is not sized for the problem");
   }
   out->valid = false;
-  if (problem.state_size() != state_size_ || problem.input_size() != input_size_ || problem.horizon() != horizon_) {
-    return finish(SolveStatus::kInvalidInput, "the problem's shape differs from the one the solver was built for");
-  }
-  if (!problem.initial_state().allFinite() || !problem.reference_poses().allFinite() ||
-      !problem.reference_twists().allFinite() || !problem.previous_input().allFinite()) {
-    return finish(SolveStatus::kInvalidInput, "the problem's state, reference or previous input is not finite");
-  }
-  if (deadline.at() <= start) return finish(SolveStatus::kInvalidInput, "the deadline has already passed");
+  if (const char* refused = refusal(problem, deadline, start)) return finish(SolveStatus::kInvalidInput, refused);
   if (!workspace_.bind(problem.model())) {
     return finish(SolveStatus::kNumericalError, "out of memory for the prediction model's scratch");
   }

@@ -130,6 +130,10 @@ class PyController {
     controller_->set_reference(tracked);
     reference_ = std::move(tracked);
   }
+  bool prepare(double t_next) {
+    if (!std::isfinite(t_next)) throw py::value_error("t_next = " + std::to_string(t_next) + ": must be finite");
+    return controller_->prepare(t_next);
+  }
   void reset() { controller_->reset(); }
   std::string name() const { return controller_->name(); }
   int modules() const { return modules_; }
@@ -602,6 +606,9 @@ void bind_controller(py::module_& m) {
   py::class_<PyController>(m, "Controller", "A tracking controller (make_controller)")
       .def("step", &PyController::step, py::arg("measured_state"), py::arg("t"), py::arg("measured_at") = py::none(),
            "One control period: the measured state (x, y, psi, vx, vy, r, steering angles) at time t")
+      .def("prepare", &PyController::prepare, py::arg("t_next"),
+           "After sending step's commands: the next step's work that needs no measurement (rti's "
+           "preparation), so the step at t_next only runs the feedback. True when something was prepared")
       .def("set_reference", &PyController::set_reference, py::arg("reference"))
       .def("reset", &PyController::reset)
       .def_property_readonly("name", &PyController::name)

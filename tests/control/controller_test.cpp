@@ -20,6 +20,7 @@
 #include "support/allocation_counter.hpp"  // the one .cpp of control_tests that includes it
 #include "support/fake_clocks.hpp"
 #include "swerve/core/config_error.hpp"
+#include "swerve/solvers/rti_solver.hpp"
 #include "swerve/solvers/sa_solver.hpp"
 #include "support/one_off_steps.hpp"
 
@@ -914,6 +915,86 @@ TEST(Controller, AModuleStartingReversedByPiRecoversTheTracking) {
     ASSERT_TRUE(result.model_ok);
     EXPECT_LT(result.worst_late_position_error, kConvergedPosition);
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The real-time iteration's preparation between steps (rti).
+
+std::shared_ptr<PathReference> straight_line_at(double speed) {
+  SpeedProfile profile;
+  profile.speed = speed;
+  return std::make_shared<PathReference>(make_line_curve({0.0, 0.0}, 0.0, 50.0), profile, 0.0);
+}
+
+Controller::SolverFactory rti_factory() {
+  return [](const OcpProblem& problem) { return std::make_unique<RtiSolver>(problem, RtiOptions{}); };
+}
+
+// A lane-keeping run from 5 cm off a straight line with the rti backend at one iteration per
+// step, preparing after each step (or not); the feedback steps counted.
+struct PreparedRun {
+  testing::ClosedLoopResult result;
+  int prepared = 0, feedbacks = 0;
+};
+PreparedRun run_rti(bool prepare) {
+  const VehicleParams params = small_robot();
+  const auto reference = straight_line_at(0.5);
+  Controller controller(params, reference, closed_loop_options(1.0, InputParameterization::kBodyTwist), rti_factory());
+  const testing::WorkClock clock(kClockTick);
+  controller.set_clock(clock);
+  const auto& rti = dynamic_cast<const RtiSolver&>(controller.solver());
+  testing::ModelPlant plant(params, 0.05);
+  PreparedRun run;
+  Eigen::VectorXd state = offset_start(0.05);
+  bool prepared = false;
+  for (int k = 0; k < 80; ++k) {
+    const double t = k * 0.05;
+    const ControlOutput& out = controller.step(state, t);
+    if (prepared && out.solve.status != SolveStatus::kNotRun && rti.last_details().feedback) ++run.feedbacks;
+    prepared = prepare && controller.prepare(t + 0.05);  // (k + 1) 0.05 but for rounding, as a loop has it
+    run.prepared += prepared ? 1 : 0;
+    if (!plant.step(out.modules, &state, &run.result.total_wear)) {
+      run.result.model_ok = false;
+      break;
+    }
+    const double error = (state.head<2>() - reference->sample(t + 0.05).pose_world.head<2>()).norm();
+    if (k >= 60) run.result.worst_late_position_error = std::max(run.result.worst_late_position_error, error);
+  }
+  return run;
+}
+
+TEST(Controller, WithTheRtiBackendAStepAfterAPreparationRunsOnlyTheFeedbackAndTracksAsWell) {
+  const PreparedRun whole = run_rti(false);
+  const PreparedRun split = run_rti(true);
+  ASSERT_TRUE(whole.result.model_ok);
+  ASSERT_TRUE(split.result.model_ok);
+  EXPECT_EQ(whole.feedbacks, 0);
+  EXPECT_GE(split.prepared, 75);  // after every step but the first few, whose commands a start rules
+  EXPECT_GE(split.feedbacks, split.prepared - 1);  // each used by the next step (the last has none)
+  std::printf("[          ] worst error over the last second: whole %.2f mm, prepared %.2f mm; wear %.4f J, %.4f J\n",
+              1e3 * whole.result.worst_late_position_error, 1e3 * split.result.worst_late_position_error,
+              whole.result.total_wear, split.result.total_wear);
+  EXPECT_LT(split.result.worst_late_position_error, 0.005);
+  EXPECT_LT(split.result.total_wear, 1.1 * whole.result.total_wear);
+}
+
+TEST(Controller, AStepAtAnotherTimeThanTheOnePreparedForSolvesWhole) {
+  const VehicleParams params = small_robot();
+  const auto reference = straight_line_at(0.5);
+  Controller controller(params, reference, closed_loop_options(1.0, InputParameterization::kBodyTwist), rti_factory());
+  const testing::WorkClock clock(kClockTick);
+  controller.set_clock(clock);
+  const auto& rti = dynamic_cast<const RtiSolver&>(controller.solver());
+  const Eigen::VectorXd state = offset_start(0.0);
+  controller.step(state, 0.0);
+  ASSERT_TRUE(controller.prepare(0.05));
+  controller.step(state, 0.1);  // a cycle was missed
+  EXPECT_FALSE(rti.last_details().feedback);
+  // Nor is anything prepared with a backend that has no preparation.
+  Controller sa(params, reference, closed_loop_options(1.0, InputParameterization::kBodyTwist), sa_factory(7));
+  sa.set_clock(clock);
+  sa.step(state, 0.0);
+  EXPECT_FALSE(sa.prepare(0.05));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -2,7 +2,9 @@
 // quadratic problem (and its one-step optimum), J^T J of the cost's stacked residuals by central
 // differences through rollouts on the swerve problem, the wear's curvature from central differences
 // of the stage wear, and the stage-wise (multiple-shooting) KKT system of the same Gauss-Newton QP,
-// which a Riccati recursion would solve, giving the same step.
+// which a Riccati recursion would solve, giving the same step; its cross term with the start (the
+// real-time iteration's feedback) against that KKT system with the start moved, and against the
+// gradient's derivative where the Gauss-Newton model is exact.
 #include "swerve/ocp/condensed_gauss_newton.hpp"
 
 #include <gtest/gtest.h>
@@ -172,33 +174,32 @@ TEST(CondensedGaussNewton, AddsEachStagesWearCurvatureGradWGradWOverTwoW) {
   EXPECT_LE((with - without - expected).cwiseAbs().maxCoeff(), 1e-4 * expected.cwiseAbs().maxCoeff());
 }
 
-TEST(CondensedGaussNewton, ItsStepIsTheSolutionOfTheStageWiseKktSystemOfTheSameQp) {
-  // The Gauss-Newton QP written stage-wise, as multiple shooting (and a Riccati recursion) sees it:
-  // variables du_0..du_{N-1}, dx_1..dx_N, the linearised dynamics dx_{k+1} = A_k dx_k + B_k du_k
-  // (dx_0 = 0) as equality rows, each stage's residuals linearised in its own variables and the
-  // wear as W + g^T dz + lambda (g^T dz)^2 / (4 W). Solved densely; its du must be the condensed step.
-  const EveryTermProblem p;
-  const OcpProblem& problem = p.problem;
-  const Eigen::MatrixXd inputs = p.inputs(8);
-  OcpDerivatives derivatives(problem);
-  Eigen::MatrixXd states, gradient;
-  const Eigen::MatrixXd hessian = condensed_hessian(problem, inputs, true, &derivatives, &states, &gradient);
-  const Eigen::VectorXd g = Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size());
-  const Eigen::VectorXd condensed_step = -hessian.llt().solve(g);
-
+// The Gauss-Newton QP of the plan `inputs` (rolled out to `states`, linearised in `derivatives`)
+// written stage-wise, as multiple shooting (and a Riccati recursion) sees it, and solved densely:
+// variables du_0..du_{N-1} and dx_0..dx_N, the start fixed at dx_0 = dx0, the linearised dynamics
+// dx_{k+1} = A_k dx_k + B_k du_k as equality rows, each stage's residuals linearised in its own
+// variables, the wear as W + g^T dz + lambda (g^T dz)^2 / (4 W), the learnt block B_k (if any) on
+// dz_k = (dx_k, du_k), and the last input moved by du_previous. Returns du (nu N).
+Eigen::VectorXd stage_wise_step(const OcpProblem& problem, const OcpDerivatives& derivatives,
+                                const Eigen::MatrixXd& states, const Eigen::MatrixXd& inputs, const Eigen::VectorXd& dx0,
+                                const Eigen::VectorXd& du_previous, const StageQuasiNewton* learnt = nullptr) {
   const int horizon = problem.horizon(), nx = problem.state_size(), nu = problem.input_size();
-  const int n_u = nu * horizon, n_x = nx * horizon, n = n_u + n_x;
+  const int n_u = nu * horizon, n_x = nx * (horizon + 1), n = n_u + n_x;
   const auto u_index = [&](int k) { return k * nu; };           // du_k
-  const auto x_index = [&](int k) { return n_u + (k - 1) * nx; };  // dx_k, k >= 1
+  const auto x_index = [&](int k) { return n_u + k * nx; };     // dx_k, k >= 0
   Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, n);
   Eigen::VectorXd q = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXd dynamics = Eigen::MatrixXd::Zero(n_x, n);
+  Eigen::MatrixXd equalities = Eigen::MatrixXd::Zero(n_x, n);
+  Eigen::VectorXd equality_rhs = Eigen::VectorXd::Zero(n_x);
+  equalities.block(0, x_index(0), nx, nx).setIdentity();  // dx_0 = dx0
+  equality_rhs.head(nx) = dx0;
   const double lambda = problem.weights().wear;
   for (int k = 0; k < horizon; ++k) {
     // Dynamics: dx_{k+1} - A_k dx_k - B_k du_k = 0.
-    dynamics.block(k * nx, x_index(k + 1), nx, nx) = Eigen::MatrixXd::Identity(nx, nx);
-    if (k > 0) dynamics.block(k * nx, x_index(k), nx, nx) = -derivatives.a(k);
-    dynamics.block(k * nx, u_index(k), nx, nu) = -derivatives.b(k);
+    const int row = (k + 1) * nx;
+    equalities.block(row, x_index(k + 1), nx, nx).setIdentity();
+    equalities.block(row, x_index(k), nx, nx) = -derivatives.a(k);
+    equalities.block(row, u_index(k), nx, nu) = -derivatives.b(k);
     // Tracking at x_{k+1}.
     OcpProblem::TrackingResiduals r;
     OcpProblem::TrackingJacobian j;
@@ -212,7 +213,8 @@ TEST(CondensedGaussNewton, ItsStepIsTheSolutionOfTheStageWiseKktSystemOfTheSameQ
       q[state] += root * root * states(problem.state_effort_index()[e], k + 1);
     }
     // Effort and rate on the inputs.
-    const Eigen::VectorXd before = k == 0 ? problem.previous_input() : Eigen::VectorXd(inputs.col(k - 1));
+    const Eigen::VectorXd before =
+        k == 0 ? Eigen::VectorXd(problem.previous_input() + du_previous) : Eigen::VectorXd(inputs.col(k - 1));
     for (int i = 0; i < nu; ++i) {
       const double effort = problem.effort_root()[i] * problem.effort_root()[i];
       const double rate = problem.rate_root()[i] * problem.rate_root()[i];
@@ -227,23 +229,115 @@ TEST(CondensedGaussNewton, ItsStepIsTheSolutionOfTheStageWiseKktSystemOfTheSameQ
         q[b] -= rate * (inputs(i, k) - before[i]);
       }
     }
-    // Wear over z_k = (dx_k, du_k), dx_0 absent.
+    // Wear and the learnt block over z_k = (dx_k, du_k).
     const Eigen::VectorXd& wear_gradient = derivatives.wear_gradient(k);
-    Eigen::VectorXd row = Eigen::VectorXd::Zero(n);
-    if (k > 0) row.segment(x_index(k), nx) = wear_gradient.head(nx);
-    row.segment(u_index(k), nu) = wear_gradient.tail(nu);
-    q += lambda * row;
-    h += lambda / (2.0 * std::max(derivatives.wear(k), CondensedGaussNewton::kWearFloor)) * row * row.transpose();
+    Eigen::VectorXd wear_row = Eigen::VectorXd::Zero(n);
+    wear_row.segment(x_index(k), nx) = wear_gradient.head(nx);
+    wear_row.segment(u_index(k), nu) = wear_gradient.tail(nu);
+    q += lambda * wear_row;
+    h += lambda / (2.0 * std::max(derivatives.wear(k), CondensedGaussNewton::kWearFloor)) * wear_row *
+         wear_row.transpose();
+    if (learnt != nullptr) {
+      const Eigen::MatrixXd& block = learnt->block(k);
+      h.block(x_index(k), x_index(k), nx, nx) += block.topLeftCorner(nx, nx);
+      h.block(x_index(k), u_index(k), nx, nu) += block.topRightCorner(nx, nu);
+      h.block(u_index(k), x_index(k), nu, nx) += block.bottomLeftCorner(nu, nx);
+      h.block(u_index(k), u_index(k), nu, nu) += block.bottomRightCorner(nu, nu);
+    }
   }
   Eigen::MatrixXd kkt = Eigen::MatrixXd::Zero(n + n_x, n + n_x);
   kkt.topLeftCorner(n, n) = h;
-  kkt.topRightCorner(n, n_x) = dynamics.transpose();
-  kkt.bottomLeftCorner(n_x, n) = dynamics;
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(n + n_x);
-  rhs.head(n) = -q;
-  const Eigen::VectorXd stage_wise = kkt.partialPivLu().solve(rhs);
-  EXPECT_LE((stage_wise.head(n_u) - condensed_step).cwiseAbs().maxCoeff(),
-            1e-8 * (1.0 + condensed_step.cwiseAbs().maxCoeff()));
+  kkt.topRightCorner(n, n_x) = equalities.transpose();
+  kkt.bottomLeftCorner(n_x, n) = equalities;
+  Eigen::VectorXd rhs(n + n_x);
+  rhs << -q, equality_rhs;
+  return kkt.partialPivLu().solve(rhs).head(n_u);
+}
+
+TEST(CondensedGaussNewton, ItsStepIsTheSolutionOfTheStageWiseKktSystemOfTheSameQp) {
+  const EveryTermProblem p;
+  const OcpProblem& problem = p.problem;
+  const Eigen::MatrixXd inputs = p.inputs(8);
+  OcpDerivatives derivatives(problem);
+  Eigen::MatrixXd states, gradient;
+  const Eigen::MatrixXd hessian = condensed_hessian(problem, inputs, true, &derivatives, &states, &gradient);
+  const Eigen::VectorXd g = Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size());
+  const Eigen::VectorXd condensed_step = -hessian.llt().solve(g);
+  const Eigen::VectorXd stage_wise = stage_wise_step(problem, derivatives, states, inputs,
+                                                     Eigen::VectorXd::Zero(problem.state_size()),
+                                                     Eigen::VectorXd::Zero(problem.input_size()));
+  EXPECT_LE((stage_wise - condensed_step).cwiseAbs().maxCoeff(), 1e-8 * (1.0 + condensed_step.cwiseAbs().maxCoeff()));
+}
+
+TEST(CondensedGaussNewton, ItsStartProductMovesTheStepToTheStageWiseQpOfAMovedStartAndLastInput) {
+  // The real-time iteration's feedback: the plan linearised from one start, the QP posed for
+  // another start and last input. With every cost term and learnt blocks taking part.
+  const EveryTermProblem p;
+  const OcpProblem& problem = p.problem;
+  const Eigen::MatrixXd inputs = p.inputs(8);
+  OcpDerivatives derivatives(problem);
+  StageQuasiNewton learnt(problem);
+  Eigen::MatrixXd states(problem.state_size(), problem.horizon() + 1), gradient(3, problem.horizon());
+  ASSERT_TRUE(std::isfinite(derivatives.cost_and_gradient(problem, p.inputs(9), states, gradient)));
+  learnt.update(problem, derivatives, states, p.inputs(9), true);
+  ASSERT_TRUE(std::isfinite(derivatives.cost_and_gradient(problem, inputs, states, gradient)));
+  learnt.update(problem, derivatives, states, inputs, true);
+  double learnt_size = 0.0;
+  for (int k = 0; k < problem.horizon(); ++k) learnt_size += learnt.block(k).norm();
+  ASSERT_GT(learnt_size, 0.0);  // the blocks take part
+
+  CondensedGaussNewton condensed(problem);
+  Eigen::MatrixXd hessian(condensed.size(), condensed.size());
+  ASSERT_TRUE(condensed.hessian(problem, derivatives, states, true, hessian, &learnt));
+  Eigen::VectorXd dx0(problem.state_size());
+  for (Eigen::Index i = 0; i < dx0.size(); ++i) dx0[i] = 0.01 * std::sin(1.0 + 2.0 * static_cast<double>(i));
+  const Eigen::Vector3d du_previous(0.03, -0.02, 0.05);
+  Eigen::VectorXd product(condensed.size());
+  ASSERT_TRUE(condensed.start_product(problem, derivatives, states, true, dx0, du_previous, product, &learnt));
+  const Eigen::VectorXd g = Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size());
+  const Eigen::VectorXd moved_step = -hessian.llt().solve(g + product);
+  const Eigen::VectorXd stage_wise = stage_wise_step(problem, derivatives, states, inputs, dx0, du_previous, &learnt);
+  EXPECT_GT((moved_step + hessian.llt().solve(g)).norm(), 1e-3 * moved_step.norm());  // the move matters
+  EXPECT_LE((stage_wise - moved_step).cwiseAbs().maxCoeff(), 1e-8 * (1.0 + moved_step.cwiseAbs().maxCoeff()));
+}
+
+TEST(CondensedGaussNewton, ItsStartProductIsTheGradientsDerivativeInTheStartWhereEveryResidualVanishes) {
+  // Where the tracking residuals are zero and there is no wear, Gauss-Newton's cross term is the
+  // exact second derivative (the left-out terms are residuals and costates times curvatures), so
+  // it must equal the gradient's central difference along a change of the start and last input.
+  testing::SwerveTestProblem s(testing::SwerveScene::kTurn);
+  CostWeights weights = testing::SwerveTestProblem::weights(testing::SwerveScene::kTurn);
+  weights.wear = 0.0;
+  OcpProblem problem(s.model, 10, 0.05, weights, s.problem.bounds());
+  problem.set_initial_state(s.problem.initial_state());
+  problem.set_previous_input(s.problem.previous_input());
+  Eigen::MatrixXd inputs = s.jittered_inputs(0.1, 3).leftCols(10);
+  problem.project(inputs);
+  Eigen::MatrixXd states(problem.state_size(), 11), gradient(3, 10);
+  testing::evaluate_once(problem, inputs, states);
+  for (int k = 1; k <= 10; ++k) problem.set_reference(k, states.col(k).head<3>(), states.col(k).segment<3>(3));
+  OcpDerivatives derivatives(problem);
+  ASSERT_TRUE(std::isfinite(derivatives.cost_and_gradient(problem, inputs, states, gradient)));
+  CondensedGaussNewton condensed(problem);
+  Eigen::VectorXd dx0 = Eigen::VectorXd::Zero(problem.state_size());
+  dx0.head<6>() << 0.02, -0.01, 0.03, 0.05, -0.04, 0.02;
+  const Eigen::Vector3d du_previous(0.03, -0.02, 0.05);
+  Eigen::VectorXd product(condensed.size());
+  ASSERT_TRUE(condensed.start_product(problem, derivatives, states, false, dx0, du_previous, product));
+
+  const double h = 1e-5;
+  const auto gradient_at = [&](double t) {
+    OcpProblem moved = problem;
+    moved.set_initial_state(problem.initial_state() + t * dx0);
+    moved.set_previous_input(problem.previous_input() + t * du_previous);
+    OcpDerivatives probe(moved);
+    Eigen::MatrixXd x(moved.state_size(), 11), g(3, 10);
+    probe.cost_and_gradient(moved, inputs, x, g);
+    return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(g.data(), g.size()));
+  };
+  const Eigen::VectorXd expected = (gradient_at(h) - gradient_at(-h)) / (2.0 * h);
+  EXPECT_GT(expected.norm(), 1e-3);
+  EXPECT_LE((product - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff());
 }
 
 }  // namespace

@@ -247,6 +247,29 @@ class ClosedLoop(unittest.TestCase):
         self.assertTrue(np.all(np.isfinite(out.wheel_speed)))
         self.assertNotEqual(out.solve_status, "not_run")
 
+    def test_rti_prepares_between_steps_and_the_next_step_runs_its_feedback(self):
+        reference = sm.TrajectoryReference(128)
+        reference.publish(straight_line(0.0, 8.0))
+        config = sm.load_controller_config(CONTROLLER)
+        config.backend = "rti"
+        controller = sm.make_controller(config, sm.load_vehicle(VEHICLE), reference)
+        period = config.control_period
+        plant = sm.Simulator(sm.load_vehicle(VEHICLE), control_period=period, seed=3)
+        plant.reset(np.zeros(10))
+        prepared = 0
+        for k in range(30):
+            out = controller.step(plant.measurement, k * period)
+            self.assertNotEqual(out.source, "safe_stop", out.reason)
+            prepared += controller.prepare((k + 1) * period)
+            self.assertTrue(plant.advance(out))
+        self.assertGreaterEqual(prepared, 15)
+        with self.assertRaisesRegex(ValueError, "t_next = nan"):
+            controller.prepare(float("nan"))
+        # The baseline has nothing to prepare.
+        baseline = sm.make_controller(VEHICLE, BASELINE, reference)
+        baseline.step(np.zeros(10), 0.0)
+        self.assertFalse(baseline.prepare(period))
+
     def test_a_wrong_state_shape_is_a_value_error_and_nan_is_a_safe_stop(self):
         reference = sm.TrajectoryReference(16)
         reference.publish(straight_line(0.0, 1.0))

@@ -59,5 +59,32 @@ TEST(RtiSolver, SolvesWithoutAllocatingAfterItsFirstSolve) {
   EXPECT_TRUE(has_solution(status)) << summary.reason;
 }
 
+TEST(RtiSolver, PreparesAndFeedsBackWithoutAllocating) {
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting is unavailable in this build";
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
+  RtiSolver solver(s.problem, RtiOptions{});
+  const WorkClock stopped;
+  Solution plan;
+  plan.resize(10, 3, 20);
+  Eigen::MatrixXd guess = s.problem.previous_input().replicate(1, 20);
+  InitialGuesses guesses;
+  guesses.add(&guess);
+  SolveSummary summary;
+  ASSERT_TRUE(has_solution(solver.solve(s.problem, guesses, Deadline(stopped.now() + 10s, stopped), &plan, &summary)));
+  s.next_cycle(1, &plan);
+  guess = plan.inputs;
+  Eigen::VectorXd measured = s.problem.initial_state();
+  measured[1] += 0.01;
+  const Deadline deadline = Deadline(stopped.now() + 10s, stopped);
+  testing::AllocationCounter counter;
+  const bool prepared = solver.prepare(s.problem, guesses, deadline);
+  s.problem.set_initial_state(measured);
+  const SolveStatus status = solver.solve(s.problem, guesses, deadline, &plan, &summary);
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_TRUE(prepared);
+  EXPECT_TRUE(solver.last_details().feedback);
+  EXPECT_TRUE(has_solution(status)) << summary.reason;
+}
+
 }  // namespace
 }  // namespace swerve

@@ -1,7 +1,9 @@
 // What only the real-time iteration backend promises beyond the conformance suite (which runs it to
 // convergence with every other backend): one iteration per cycle from the shifted plan stays near
 // the converged optimum of each cycle's problem, the line search never lets a step make the plan
-// worse, and bad options are named by their field (its allocation test: no_allocation_test.cpp).
+// worse, a feedback on a prepared linearisation (the preparation/feedback split) takes the whole
+// iteration's step on the start it prepared for and nearly its step on another, and bad options
+// are named by their field (its allocation test: no_allocation_test.cpp).
 #include "swerve/solvers/rti_solver.hpp"
 
 #include <gtest/gtest.h>
@@ -150,6 +152,114 @@ TEST(RtiSolver, TriesAnIterationWhoseTimeIsUnknownAndStillEndsByTheDeadline) {
   ASSERT_TRUE(has_solution(solver.solve(*problem, guesses, Deadline(second + 1100us, clock), &solution, &summary)));
   EXPECT_EQ(summary.iterations, 0) << summary.reason;
   EXPECT_LE(clock.now() - second, 1100us);
+}
+
+// Two solvers alike on the sidestep problem, one to prepare and one to solve whole, with the held
+// input as their guess and a plan each.
+struct SplitAndWhole {
+  testing::SwerveTestProblem s{testing::SwerveScene::kSidestep};
+  RtiSolver split, whole;
+  const WorkClock stopped;
+  Eigen::MatrixXd held = s.problem.previous_input().replicate(1, 20);
+  InitialGuesses guesses;
+  Solution prepared_plan, whole_plan;
+  SolveSummary summary;
+  explicit SplitAndWhole(const RtiOptions& options) : split(s.problem, options), whole(s.problem, options) {
+    guesses.add(&held);
+    prepared_plan.resize(10, 3, 20);
+    whole_plan.resize(10, 3, 20);
+  }
+};
+
+TEST(RtiSolver, AFeedbackOnTheStartItPreparedForTakesTheWholeIterationsStep) {
+  SplitAndWhole fixture(RtiOptions{});
+  auto& [s, split, whole, stopped, held, guesses, prepared_plan, whole_plan, summary] = fixture;
+  ASSERT_TRUE(split.prepare(s.problem, guesses, generous(stopped)));
+  ASSERT_TRUE(has_solution(split.solve(s.problem, guesses, generous(stopped), &prepared_plan, &summary)));
+  EXPECT_TRUE(split.last_details().feedback);
+  EXPECT_EQ(summary.rollouts, 2);  // the prepared plan from the measured start, and the full step
+  ASSERT_TRUE(has_solution(whole.solve(s.problem, guesses, generous(stopped), &whole_plan, &summary)));
+  EXPECT_FALSE(whole.last_details().feedback);
+  EXPECT_LT(prepared_plan.cost, summary.initial_cost);
+  EXPECT_LE((prepared_plan.inputs - whole_plan.inputs).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_NEAR(prepared_plan.cost, whole_plan.cost, 1e-12 * whole_plan.cost);
+}
+
+TEST(RtiSolver, PreparedCyclesFollowAMeasuredStartThatDiffersFromThePredictedOne) {
+  // Receding horizon on the sidestep problem where the plant does not do what was predicted: each
+  // cycle's measured start is the predicted one pushed sideways and turned. The preparation sees
+  // only the prediction; the feedback must still close much of the measured start's gap to the
+  // optimum, about as much as a whole iteration linearised at the measured start does.
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
+  RtiSolver split(s.problem, RtiOptions{});
+  RtiSolver whole(s.problem, RtiOptions{});
+  RtiSolver reference(s.problem, converging());
+  const WorkClock stopped;
+  Solution plan, whole_plan, converged;
+  plan.resize(10, 3, 20);
+  whole_plan.resize(10, 3, 20);
+  converged.resize(10, 3, 20);
+  Eigen::MatrixXd held = s.problem.previous_input().replicate(1, 20);
+  InitialGuesses cold;
+  cold.add(&held);
+  SolveSummary summary;
+  ASSERT_TRUE(has_solution(reference.solve(s.problem, cold, generous(stopped), &plan, &summary)));
+  double split_gaps = 0.0, whole_gaps = 0.0, start_gaps = 0.0;
+  for (int cycle = 1; cycle <= 20; ++cycle) {
+    s.next_cycle(cycle, &plan);  // the prediction, and the plant follows the split solver's plan
+    Eigen::MatrixXd shifted = plan.inputs;
+    InitialGuesses warm;
+    warm.add(&shifted);
+    ASSERT_TRUE(split.prepare(s.problem, warm, generous(stopped)));
+    Eigen::VectorXd measured = s.problem.initial_state();
+    const double sign = cycle % 2 == 0 ? 1.0 : -1.0;
+    measured[1] += sign * 0.005;  // 5 mm sideways
+    measured[2] += sign * 0.002;  // 0.002 rad
+    measured[4] -= sign * 0.01;   // 1 cm/s sideways
+    s.problem.set_initial_state(measured);
+    ASSERT_TRUE(has_solution(split.solve(s.problem, warm, generous(stopped), &plan, &summary))) << summary.reason;
+    ASSERT_TRUE(split.last_details().feedback);
+    const double start_cost = summary.initial_cost;
+    ASSERT_TRUE(has_solution(whole.solve(s.problem, warm, generous(stopped), &whole_plan, &summary)));
+    if (cycle > 10) {  // the learnt curvature settled
+      ASSERT_TRUE(has_solution(reference.solve(s.problem, warm, generous(stopped), &converged, &summary)));
+      split_gaps += plan.cost / converged.cost - 1.0;
+      whole_gaps += whole_plan.cost / converged.cost - 1.0;
+      start_gaps += start_cost / converged.cost - 1.0;
+    }
+  }
+  std::printf("[          ] mean gap over cycles 11-20: start %.4f %%, whole %.4f %%, prepared %.4f %%\n",
+              10.0 * start_gaps, 10.0 * whole_gaps, 10.0 * split_gaps);
+  EXPECT_LT(split_gaps, 0.5 * start_gaps);
+  EXPECT_LT(split_gaps, 1.5 * whole_gaps + 1e-4);
+}
+
+TEST(RtiSolver, AProblemWithAnotherReferenceThanThePreparedOneGetsAWholeIteration) {
+  RtiOptions options;
+  options.stage_quasi_newton = false;  // no memory, so the two solvers start alike
+  SplitAndWhole fixture(options);
+  auto& [s, split, whole, stopped, held, guesses, plan, whole_plan, summary] = fixture;
+  ASSERT_TRUE(split.prepare(s.problem, guesses, generous(stopped)));
+  s.set_cycle(3);  // the reference moved on
+  ASSERT_TRUE(has_solution(split.solve(s.problem, guesses, generous(stopped), &plan, &summary)));
+  EXPECT_FALSE(split.last_details().feedback);
+  ASSERT_TRUE(has_solution(whole.solve(s.problem, guesses, generous(stopped), &whole_plan, &summary)));
+  EXPECT_LE((plan.inputs - whole_plan.inputs).cwiseAbs().maxCoeff(), 1e-12);
+  // A preparation serves one solve: the next one, on the very problem prepared for, is whole too.
+  ASSERT_TRUE(has_solution(split.solve(s.problem, guesses, generous(stopped), &plan, &summary)));
+  EXPECT_FALSE(split.last_details().feedback);
+}
+
+TEST(RtiSolver, PreparationIsRefusedLikeASolveAndStoppedByItsDeadline) {
+  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
+  RtiSolver solver(s.problem, RtiOptions{});
+  const WorkClock stopped;
+  EXPECT_FALSE(solver.prepare(s.problem, {}, Deadline(stopped.now(), stopped)));  // already passed
+  testing::SwerveTestProblem other(testing::SwerveScene::kSidestep, 10);
+  EXPECT_FALSE(solver.prepare(other.problem, {}, generous(stopped)));  // another shape
+  // A clock that moves a millisecond per reading: the linearisation gives up at the deadline.
+  const WorkClock slow(1e-3);
+  EXPECT_FALSE(solver.prepare(s.problem, {}, Deadline(slow.now() + 5ms, slow)));
 }
 
 TEST(RtiSolver, RejectsBadOptionsNamingTheFieldAndValue) {

@@ -149,6 +149,13 @@ class Controller final : public TrackingController {
   const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
                             double measured_at) noexcept override;
   void reset() noexcept override;
+  // With a backend that has a preparation phase (rti): the next step's problem as this step's plan
+  // predicts it (its state at t_next, the reference window there, the input just sent) handed to
+  // the solver's prepare(), so that step only runs the feedback. Nothing is prepared after a step
+  // whose commands did not come from a fresh plan, or with a tracking tolerance (its tube is set
+  // from the next step's baseline plan, which needs the measurement). A step at any other t than
+  // t_next drops the preparation. Leaves problem() holding the predicted problem until then.
+  bool prepare(double t_next) noexcept override;
   void set_reference(std::shared_ptr<const Reference> reference) override;
 
   const OcpProblem& problem() const noexcept { return *problem_; }
@@ -216,6 +223,8 @@ class Controller final : public TrackingController {
   int modules_;
   Solution solution_, plan_;
   int plan_age_ = 0;
+  Solution prepared_plan_;  // plan_ moved on by one period: the prediction prepare() starts from
+  double prepared_t_ = std::numeric_limits<double>::quiet_NaN();  // the step the solver prepared for
   Eigen::MatrixXd baseline_inputs_;  // 2n x N
   Eigen::MatrixXd baseline_guess_;   // nu x N: the baseline plan in the optimiser's inputs
   Eigen::MatrixXd baseline_policy_guess_;  // nu x N (body twists): the plan's loop closed through the prediction

@@ -15,6 +15,10 @@ class ReferenceHold {
     last_t_ = t;
     return t - delay_s_;
   }
+  // The same for a step at t still to come, changing nothing (a preparation's look ahead).
+  double reference_time_ahead(double t) const noexcept {
+    return t - delay_s_ - (held_ && t > last_t_ ? t - last_t_ : 0.0);
+  }
   // Whether this step holds the reference (the time to the next step then does not count on it).
   void set_held(bool held) noexcept { held_ = held; }
   bool held() const noexcept { return held_; }

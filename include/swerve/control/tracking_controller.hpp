@@ -69,6 +69,11 @@ class TrackingController {
   // is stale).
   virtual const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t,
                                     double measured_at) noexcept = 0;
+  // Between steps, after the commands went out: the work of the step at t_next that needs no
+  // measurement (the real-time iteration's preparation; Controller with the rti backend). The
+  // step at t_next then only does the rest, its feedback. true when something was prepared; the
+  // default has no such work. noexcept, allocation-free.
+  virtual bool prepare(double /*t_next*/) noexcept { return false; }
   // A measurement taken now.
   const ControlOutput& step(const Eigen::Ref<const Eigen::VectorXd>& measured_state, double t) noexcept {
     return step(measured_state, t, t);

@@ -43,6 +43,18 @@ class CondensedGaussNewton {
                const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
                Eigen::Ref<Eigen::MatrixXd> hessian, const StageQuasiNewton* stage_curvature = nullptr) noexcept;
 
+  // The same model's cross term: how its gradient over U moves with the measured start,
+  // H_{U,x0} dx0 + H_{U,u_-1} du_previous (nu N, written to `product`), with the terms hessian()
+  // has and at the same linearisation. The real-time iteration's feedback adds it to the gradient
+  // of a plan linearised from a predicted start, so the QP of the measured start is that plan's
+  // Gauss-Newton model, to first order in the start's change, without a second linearisation. One
+  // forward pass of dx0 through the A_k and one adjoint pass: O(N nx^2), no sensitivity matrices.
+  // false on wrong sizes or a non-finite result. noexcept.
+  bool start_product(const OcpProblem& problem, const OcpDerivatives& linearised,
+                     const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
+                     const Eigen::Ref<const Eigen::VectorXd>& dx0, const Eigen::Ref<const Eigen::VectorXd>& du_previous,
+                     Eigen::Ref<Eigen::VectorXd> product, const StageQuasiNewton* stage_curvature = nullptr) noexcept;
+
  private:
   // hessian += M_k^T B_k M_k, with sensitivity_ holding dx_k/dU.
   void add_stage_curvature(int k, const Eigen::MatrixXd& curvature, Eigen::Ref<Eigen::MatrixXd> hessian) noexcept;
@@ -52,6 +64,9 @@ class CondensedGaussNewton {
   Eigen::MatrixXd residual_jacobian_;               // rows x n: one stage's residuals' dr/dU
   Eigen::VectorXd wear_row_;                        // n: dW_k/dU
   Eigen::MatrixXd stage_map_, curved_map_;          // nz x n: M_k = d(x_k, u_k)/dU and B_k M_k
+  Eigen::MatrixXd start_direction_;                 // nx x N+1: dx_k of a start change dx0
+  Eigen::MatrixXd stage_terms_;                     // nz x N: the stage curvatures times (dx_k, 0)
+  Eigen::VectorXd costate_direction_, costate_scratch_;  // nx
 };
 
 }  // namespace swerve

@@ -125,6 +125,21 @@ class Solver {
   SolveStatus solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                     SolveSummary* summary) noexcept;
 
+  // The real-time iteration's preparation phase (Diehl, Bock & Schloeder, SIAM J. Control Optim.
+  // 43(5), 2005): the work of the next solve that does not need its measurement, done before the
+  // measurement arrives. `problem` is the next cycle's problem with its initial state and previous
+  // input as predicted; the solve() that follows, on the same problem with the measured ones (the
+  // same reference, tube and weights), then only does the feedback. Any other next problem gets a
+  // whole solve. true when the backend prepared; false when it has no such phase (every backend but
+  // rti), the problem was refused (as solve() refuses it) or the deadline stopped the preparation.
+  // noexcept, allocation-free.
+  bool prepare(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline) noexcept;
+  // Drops a preparation the next solve() must not use (a cycle passed without a solve, so it was
+  // made for a problem that is gone, though its reference may look the same at a standstill).
+  virtual void forget_preparation() noexcept {}
+  // Whether prepare() can do anything: a caller need not build the next problem otherwise.
+  virtual bool has_preparation() const noexcept { return false; }
+
  protected:
   // Every backend is built for one problem shape (its buffers are sized for it), with the model's
   // scratch for `threads` threads.
@@ -137,6 +152,12 @@ class Solver {
  private:
   virtual SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline,
                                Solution* out, SolveSummary* summary) noexcept = 0;
+  virtual bool do_prepare(const OcpProblem& /*problem*/, const InitialGuesses& /*guesses*/,
+                          Deadline /*deadline*/) noexcept {
+    return false;
+  }
+  // The problem checks solve() and prepare() share: nullptr when `problem` can be solved.
+  const char* refusal(const OcpProblem& problem, const Deadline& deadline, TimePoint start) const noexcept;
 
   int state_size_, input_size_, horizon_;
   PredictionWorkspace workspace_;

@@ -13,6 +13,11 @@
 //
 // With max_iterations > 1 it is a damped Gauss-Newton SQP run to convergence (the conformance suite
 // uses it so), stopped by the deadline like every backend.
+//
+// Preparation and feedback: prepare() on the next cycle's problem with its predicted start
+// linearises and condenses before the measurement arrives; the solve() that follows on the measured
+// start moves the prepared gradient by the Gauss-Newton cross term (CondensedGaussNewton::
+// start_product), so its first iteration is the QP and the line search's rollouts alone.
 #pragma once
 
 #include <memory>
@@ -58,14 +63,18 @@ class RtiSolver final : public Solver {
     int line_search_steps = 0;    // halvings taken, summed
     double damping = 0.0;         // the Levenberg damping the next solve starts with
     double step_fraction = 0.0;   // of the last step: 1 full, < 1 shortened, 0 refused
+    bool feedback = false;        // the solve began from a preparation (its first iteration was not linearised)
   };
   const Details& last_details() const noexcept { return details_; }
+  void forget_preparation() noexcept override;
+  bool has_preparation() const noexcept override { return true; }
 
   struct Impl;  // buffers, the linearisation, the condensing and the QP (defined in the source)
 
  private:
   SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
                        SolveSummary* summary) noexcept override;
+  bool do_prepare(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline) noexcept override;
 
   RtiOptions options_;
   std::unique_ptr<Impl> impl_;
