@@ -66,10 +66,10 @@ struct RtiSolver::Impl {
 
   // The plan's (inputs, states) linearisation: its gradient (the cost's, with the costates),
   // the learnt curvature's update and the condensed Hessian, in `gradient` and `hessian`. false
-  // with *reason (and *status) when it fails; a NaN *linearised_cost when the deadline stopped it.
+  // with *reason (and *status) when it fails; linearised_cost then NaN when the deadline stopped it.
   bool linearise(const OcpProblem& problem, const RtiOptions& options, const Deadline& deadline, const char** reason,
                  SolveStatus* status) noexcept {
-    const double linearised_cost = derivatives.cost_and_gradient(problem, inputs, states, gradient, &deadline);
+    linearised_cost = derivatives.cost_and_gradient(problem, inputs, states, gradient, &deadline);
     if (!std::isfinite(linearised_cost)) {
       // NaN: it gave up between stages at the deadline; +inf: the model failed.
       if (std::isnan(linearised_cost)) {
@@ -166,22 +166,32 @@ struct RtiSolver::Impl {
   }
 
   // The feedback's start: the prepared linearisation's gradient moved to the measured start by the
-  // Gauss-Newton model's cross term (computed at the prepared rollout, before it is replaced),
-  // then the prepared plan rolled out from the measured start, the reference of the line search
-  // and the answer should the step fail. false when either failed (a whole solve then follows).
-  bool start_from_preparation(const OcpProblem& problem, const RtiOptions& options, PredictionData& data,
-                              const Deadline& deadline, double* cost, Duration* rollout_time) noexcept {
+  // Gauss-Newton model's cross term, and the prepared plan's cost from the measured start predicted
+  // by the same model to second order (its slope dJ/dx_0 = A_0^T mu_0 + lambda dW_0/dx_0 from the
+  // costates, the rate on u_0 - u_{-1} for the last input, and its curvature along the change),
+  // for feedback_line_search to judge the step by. The plan's
+  // states stay the prepared rollout until a rollout from the measured start replaces them. false
+  // when the cross term was not finite (a whole solve then follows).
+  bool start_from_preparation(const OcpProblem& problem, const RtiOptions& options, double* estimated_cost) noexcept {
     start_change = problem.initial_state() - prepared_start;
     previous_input_change = problem.previous_input() - prepared_previous_input;
-    const bool moved = condensed.start_product(problem, derivatives, states, options.wear_curvature, start_change,
-                                               previous_input_change, correction,
-                                               options.stage_quasi_newton ? &quasi_newton : nullptr);
-    const TimePoint rollout_start = deadline.now();
-    *cost = problem.rollout(data, inputs, 0, states, stage_costs, stage_wear.data());
-    *rollout_time = deadline.now() - rollout_start;
-    if (!moved || !std::isfinite(*cost)) return false;
+    double curvature = 0.0;
+    if (!condensed.start_product(problem, derivatives, states, options.wear_curvature, start_change,
+                                 previous_input_change, correction,
+                                 options.stage_quasi_newton ? &quasi_newton : nullptr, &curvature)) {
+      return false;
+    }
     Eigen::Map<Eigen::VectorXd>(gradient.data(), correction.size()) += correction;
-    return true;
+    double change = problem.weights().wear * derivatives.wear_gradient(0).head(start_change.size()).dot(start_change);
+    for (Eigen::Index j = 0; j < start_change.size(); ++j) {  // mu_0^T A_0 dx_0, column by column (no temporary)
+      change += start_change[j] * derivatives.a(0).col(j).dot(derivatives.costates().col(0));
+    }
+    for (Eigen::Index i = 0; i < previous_input_change.size(); ++i) {
+      const double rate = problem.rate_root()[i] * problem.rate_root()[i];
+      change -= rate * (inputs(i, 0) - prepared_previous_input[i]) * previous_input_change[i];
+    }
+    *estimated_cost = linearised_cost + change + 0.5 * curvature;
+    return std::isfinite(*estimated_cost);
   }
   bool prepared_for(const OcpProblem& problem) const noexcept {
     return prepared && problem.reference_poses() == prepared_poses && problem.reference_twists() == prepared_twists &&
@@ -190,11 +200,12 @@ struct RtiSolver::Impl {
 
   // Backtracking along the step (Armijo): u + a d stays inside the convex bounds for a in [0, 1].
   // The accepted trial stays in trial_*; returns its fraction a, or 0 when none was accepted.
+  // From step fraction 2^-first_halving on (a feedback has judged the full step already).
   double line_search(const OcpProblem& problem, PredictionData& data, const Deadline& deadline, Duration rollout_time,
-                     double cost, double slope, int halvings, double* trial_cost, long* rollouts,
-                     Details* details) noexcept {
-    double fraction = 1.0;
-    for (int halving = 0; halving <= halvings; ++halving, fraction *= 0.5) {
+                     double cost, double slope, int halvings, double* trial_cost, long* rollouts, Details* details,
+                     int first_halving = 0) noexcept {
+    double fraction = std::ldexp(1.0, -first_halving);
+    for (int halving = first_halving; halving <= halvings; ++halving, fraction *= 0.5) {
       if (halving > 0 && deadline.now() + rollout_time >= deadline.at()) break;
       trial_inputs = inputs + fraction * step;
       *trial_cost = problem.rollout(data, trial_inputs, 0, trial_states, stage_costs, trial_stage_wear.data());
@@ -203,6 +214,42 @@ struct RtiSolver::Impl {
       ++details->line_search_steps;
     }
     return 0.0;
+  }
+
+  // The prepared plan rolled out from the measured start (into inputs' states and stage wear):
+  // its true cost, which a feedback had only estimated.
+  double measure_start(const OcpProblem& problem, PredictionData& data, long* rollouts) noexcept {
+    ++*rollouts;
+    return problem.rollout(data, inputs, 0, states, stage_costs, stage_wear.data());
+  }
+
+  // The feedback's line search. The full step is rolled out and judged first against *cost, the
+  // start's cost as the Gauss-Newton model predicts it from the start's change; only a step that fails there has
+  // the start rolled out from the measured start (measure_start, *cost then its true cost), against
+  // which the step is judged again and the search goes on. So a feedback that the Gauss-Newton model
+  // got right costs one rollout. Returns the accepted fraction (0: none).
+  double feedback_line_search(const OcpProblem& problem, PredictionData& data, const Deadline& deadline,
+                              double* cost, double slope, int halvings, double* trial_cost, long* rollouts,
+                              Details* details, Duration* rollout_time) noexcept {
+    const TimePoint rollout_start = deadline.now();
+    trial_inputs = inputs + step;
+    *trial_cost = problem.rollout(data, trial_inputs, 0, trial_states, stage_costs, trial_stage_wear.data());
+    *rollout_time = deadline.now() - rollout_start;
+    ++*rollouts;
+    if (*trial_cost <= *cost + kArmijo * slope) return 1.0;
+    *cost = measure_start(problem, data, rollouts);
+    if (!std::isfinite(*cost)) return 0.0;
+    if (*trial_cost <= *cost + kArmijo * slope) return 1.0;
+    ++details->line_search_steps;
+    return line_search(problem, data, deadline, *rollout_time, *cost, slope, halvings, trial_cost, rollouts, details, 1);
+  }
+
+  // The plan (inputs, their rollout, its cost) into the solve's answer and its cost's parts.
+  void hand_over(const OcpProblem& problem, double cost, Solution* out, SolveSummary* summary) const noexcept {
+    out->inputs = inputs;
+    out->states = states;
+    out->cost = cost;
+    summary->cost = problem.breakdown(inputs, states, stage_wear);
   }
 
   // The Levenberg damping after a step of `fraction` (0: refused) that decreased the cost by
@@ -229,6 +276,7 @@ struct RtiSolver::Impl {
   Eigen::Matrix<double, 2, Eigen::Dynamic> prepared_tube;                    // 2 x N
   double prepared_wear_weight = 0.0;
   Eigen::VectorXd correction;                                          // nu N
+  double linearised_cost = 0.0;  // of the last linearisation (a preparation's: its plan from the predicted start)
   Eigen::MatrixXd inputs, trial_inputs, step, gradient;  // nu x N
   Eigen::MatrixXd states, trial_states;                  // nx x N+1
   Eigen::VectorXd stage_costs, stage_wear, trial_stage_wear;  // N
@@ -270,9 +318,8 @@ SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses&
   double cost = std::numeric_limits<double>::infinity();
   Duration rollout_time{};
   if (s.prepared_for(problem)) {
-    details_.feedback = s.start_from_preparation(problem, options_, model_data(), deadline, &cost, &rollout_time);
-    rollouts = 1;
-    if (details_.feedback) summary->initial_cost = cost;
+    details_.feedback = s.start_from_preparation(problem, options_, &cost);
+    if (details_.feedback) summary->initial_cost = cost;  // estimated, unless measured below
   }
   s.prepared = false;
   if (!details_.feedback) {
@@ -282,15 +329,16 @@ SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses&
       return SolveStatus::kNumericalError;
     }
   }
-  // The linearisation gives up between stages where one more would leave less than the QP and the
-  // line search's first rollout (two rollouts' time) before the deadline, so an iteration whose
-  // time is not yet known can always be tried: it ends on time either way, and is then measured.
-  const Deadline linearisation_stop = deadline.earlier_by(2 * rollout_time);
   const char* reason = "stopped at max_iterations";
   SolveStatus status = SolveStatus::kBudgetExhausted;
   int iterations = 0;
   for (; iterations < options_.max_iterations; ++iterations) {
     const TimePoint iteration_start = deadline.now();
+    // The linearisation gives up between stages where one more would leave less than the QP and
+    // the line search's first rollout (two rollouts' time) before the deadline, so an iteration
+    // whose time is not yet known can always be tried: it ends on time either way, and is then
+    // measured. (A feedback measures its first rollout in its line search.)
+    const Deadline linearisation_stop = deadline.earlier_by(2 * rollout_time);
     // The feedback's iteration was linearised by the preparation: its QP and rollouts always run.
     const bool prepared_iteration = details_.feedback && iterations == 0;
     const bool known_too_slow = !prepared_iteration && s.iteration_estimate > Duration::zero() &&
@@ -309,6 +357,8 @@ SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses&
                              : s.linearise(problem, options_, linearisation_stop, &reason, &status) &&
                                    s.qp_step(problem, options_, &details_, &slope, &predicted, &reason, &status);
     if (!stepped) {
+      // A feedback returns the prepared plan as it runs from the measured start.
+      if (prepared_iteration) cost = summary->initial_cost = s.measure_start(problem, model_data(), &rollouts);
       // Given up inside the linearisation: the whole iteration, extrapolated from its stages.
       const int done = s.derivatives.completed_stages();
       if (!prepared_iteration && done > 0 && done < problem.horizon()) {
@@ -318,15 +368,22 @@ SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses&
       break;
     }
     if (!(predicted > options_.tolerance * (1.0 + std::abs(cost))) || slope >= 0.0) {
+      // A feedback returns the prepared plan as it runs from the measured start.
+      if (prepared_iteration) cost = summary->initial_cost = s.measure_start(problem, model_data(), &rollouts);
       reason = "converged: the Gauss-Newton step predicts no decrease";
-      status = SolveStatus::kConverged;
+      status = std::isfinite(cost) ? SolveStatus::kConverged : SolveStatus::kNumericalError;
       details_.step_fraction = 0.0;
       ++iterations;
       break;
     }
     double trial_cost = cost;
-    const double fraction = s.line_search(problem, model_data(), deadline, rollout_time, cost, slope,
-                                          options_.line_search_steps, &trial_cost, &rollouts, &details_);
+    const double fraction =
+        prepared_iteration
+            ? s.feedback_line_search(problem, model_data(), deadline, &cost, slope, options_.line_search_steps,
+                                     &trial_cost, &rollouts, &details_, &rollout_time)
+            : s.line_search(problem, model_data(), deadline, rollout_time, cost, slope, options_.line_search_steps,
+                            &trial_cost, &rollouts, &details_);
+    if (prepared_iteration) summary->initial_cost = cost;
     s.adapt_damping(options_.damping, fraction, cost - trial_cost, predicted);
     details_.step_fraction = fraction;
     // A whole iteration's time (the feedback's lacks its linearisation).
@@ -347,10 +404,7 @@ SolveStatus RtiSolver::do_solve(const OcpProblem& problem, const InitialGuesses&
     }
   }
   details_.damping = s.damping;
-  out->inputs = s.inputs;
-  out->states = s.states;
-  out->cost = cost;
-  summary->cost = problem.breakdown(s.inputs, s.states, s.stage_wear);
+  s.hand_over(problem, cost, out, summary);
   summary->iterations = iterations;
   summary->rollouts = rollouts;
   summary->reason = reason;

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 
+#include <cmath>
 #include <utility>
 
 namespace swerve {
@@ -84,8 +85,8 @@ bool CondensedGaussNewton::start_product(const OcpProblem& problem, const OcpDer
                                          const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
                                          const Eigen::Ref<const Eigen::VectorXd>& dx0,
                                          const Eigen::Ref<const Eigen::VectorXd>& du_previous,
-                                         Eigen::Ref<Eigen::VectorXd> product,
-                                         const StageQuasiNewton* stage_curvature) noexcept {
+                                         Eigen::Ref<Eigen::VectorXd> product, const StageQuasiNewton* stage_curvature,
+                                         double* start_curvature) noexcept {
   if (problem.horizon() != horizon_ || problem.state_size() != nx_ || problem.input_size() != nu_ ||
       linearised.horizon() != horizon_ || states.rows() != nx_ || states.cols() != horizon_ + 1 ||
       dx0.size() != nx_ || du_previous.size() != nu_ || product.size() != n_ ||
@@ -113,14 +114,17 @@ bool CondensedGaussNewton::start_product(const OcpProblem& problem, const OcpDer
   OcpProblem::TrackingJacobian tracking_jacobian;
   const Eigen::Index effort_rows = problem.state_effort_index().size();
   costate_direction_.setZero();
+  double curvature = 0.0;  // (dx0, du)^T H (dx0, du): each term's square along the change
   for (int k = horizon_ - 1; k >= 0; --k) {
     problem.tracking_residuals(k, states.col(k + 1), &residuals, &tracking_jacobian);
     residual_change.noalias() = tracking_jacobian * start_direction_.col(k + 1).head<OcpProblem::kTrackedStates>();
     costate_direction_.head<OcpProblem::kTrackedStates>().noalias() += tracking_jacobian.transpose() * residual_change;
+    curvature += residual_change.squaredNorm() + stage_terms_.col(k).head(nx_).dot(start_direction_.col(k));
     for (Eigen::Index j = 0; j < effort_rows; ++j) {
       const Eigen::Index i = problem.state_effort_index()[j];
       const double root = problem.state_effort_root()[j];
       costate_direction_[i] += root * root * start_direction_(i, k + 1);
+      curvature += root * root * start_direction_(i, k + 1) * start_direction_(i, k + 1);
     }
     auto stage_product = product.segment(static_cast<Eigen::Index>(k) * nu_, nu_);
     stage_product = stage_terms_.col(k).tail(nu_);
@@ -129,8 +133,13 @@ bool CondensedGaussNewton::start_product(const OcpProblem& problem, const OcpDer
     costate_direction_ = costate_scratch_ + stage_terms_.col(k).head(nx_);
   }
   // The rate on u_0 - u_{-1}: its gradient over u_0 moves by -S du_{-1}.
-  for (int i = 0; i < nu_; ++i) product[i] -= problem.rate_root()[i] * problem.rate_root()[i] * du_previous[i];
-  return product.allFinite();
+  for (int i = 0; i < nu_; ++i) {
+    const double rate = problem.rate_root()[i] * problem.rate_root()[i];
+    product[i] -= rate * du_previous[i];
+    curvature += rate * du_previous[i] * du_previous[i];
+  }
+  if (start_curvature != nullptr) *start_curvature = curvature;
+  return product.allFinite() && std::isfinite(curvature);
 }
 
 void CondensedGaussNewton::add_stage_curvature(int k, const Eigen::MatrixXd& curvature,

@@ -301,7 +301,7 @@ TEST(CondensedGaussNewton, ItsStartProductMovesTheStepToTheStageWiseQpOfAMovedSt
   EXPECT_LE((stage_wise - moved_step).cwiseAbs().maxCoeff(), 1e-8 * (1.0 + moved_step.cwiseAbs().maxCoeff()));
 }
 
-TEST(CondensedGaussNewton, ItsStartProductIsTheGradientsDerivativeInTheStartWhereEveryResidualVanishes) {
+TEST(CondensedGaussNewton, ItsStartProductAndCurvatureAreTheCostsDerivativesInTheStartWhereEveryResidualVanishes) {
   // Where the tracking residuals are zero and there is no wear, Gauss-Newton's cross term is the
   // exact second derivative (the left-out terms are residuals and costates times curvatures), so
   // it must equal the gradient's central difference along a change of the start and last input.
@@ -323,7 +323,9 @@ TEST(CondensedGaussNewton, ItsStartProductIsTheGradientsDerivativeInTheStartWher
   dx0.head<6>() << 0.02, -0.01, 0.03, 0.05, -0.04, 0.02;
   const Eigen::Vector3d du_previous(0.03, -0.02, 0.05);
   Eigen::VectorXd product(condensed.size());
-  ASSERT_TRUE(condensed.start_product(problem, derivatives, states, false, dx0, du_previous, product));
+  double curvature = 0.0;
+  ASSERT_TRUE(condensed.start_product(problem, derivatives, states, false, dx0, du_previous, product, nullptr,
+                                      &curvature));
 
   const double h = 1e-5;
   const auto gradient_at = [&](double t) {
@@ -338,6 +340,19 @@ TEST(CondensedGaussNewton, ItsStartProductIsTheGradientsDerivativeInTheStartWher
   const Eigen::VectorXd expected = (gradient_at(h) - gradient_at(-h)) / (2.0 * h);
   EXPECT_GT(expected.norm(), 1e-3);
   EXPECT_LE((product - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff());
+  // And the curvature along the change is the cost's second derivative there (zero residuals: J^T J
+  // is all of it), by a second central difference of rollouts.
+  const auto cost_at = [&](double t) {
+    OcpProblem moved = problem;
+    moved.set_initial_state(problem.initial_state() + t * dx0);
+    moved.set_previous_input(problem.previous_input() + t * du_previous);
+    Eigen::MatrixXd x(moved.state_size(), 11);
+    return testing::evaluate_once(moved, inputs, x).total();
+  };
+  const double step = 1e-3;
+  const double second = (cost_at(step) - 2.0 * cost_at(0.0) + cost_at(-step)) / (step * step);
+  EXPECT_GT(second, 1e-3);
+  EXPECT_NEAR(curvature, second, 1e-4 * second);
 }
 
 }  // namespace

@@ -49,11 +49,15 @@ class CondensedGaussNewton {
   // of a plan linearised from a predicted start, so the QP of the measured start is that plan's
   // Gauss-Newton model, to first order in the start's change, without a second linearisation. One
   // forward pass of dx0 through the A_k and one adjoint pass: O(N nx^2), no sensitivity matrices.
-  // false on wrong sizes or a non-finite result. noexcept.
+  // With `start_curvature`, also the model's curvature along the start's change,
+  // (dx0, du_previous)^T H_{start,start} (dx0, du_previous), so that the cost of the same inputs
+  // from the moved start is predicted to second order. false on wrong sizes or a non-finite
+  // result. noexcept.
   bool start_product(const OcpProblem& problem, const OcpDerivatives& linearised,
                      const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
                      const Eigen::Ref<const Eigen::VectorXd>& dx0, const Eigen::Ref<const Eigen::VectorXd>& du_previous,
-                     Eigen::Ref<Eigen::VectorXd> product, const StageQuasiNewton* stage_curvature = nullptr) noexcept;
+                     Eigen::Ref<Eigen::VectorXd> product, const StageQuasiNewton* stage_curvature = nullptr,
+                     double* start_curvature = nullptr) noexcept;
 
  private:
   // hessian += M_k^T B_k M_k, with sensitivity_ holding dx_k/dU.
