@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "swerve/core/config_error.hpp"
+#include "swerve/kinematics/module_state.hpp"  // wrap_angle
 #include "swerve/ocp/condensed_gauss_newton.hpp"
 #include "swerve/ocp/ocp_derivatives.hpp"
 #include "swerve/ocp/stage_quasi_newton.hpp"
@@ -39,6 +40,7 @@ const OptionFields<RtiOptions>& RtiOptions::fields() {
       {"damping", &RtiOptions::damping, Bound::closed(0.0, kMaxDamping)},
       {"wear_curvature", &RtiOptions::wear_curvature},
       {"stage_quasi_newton", &RtiOptions::stage_quasi_newton},
+      {"prepare", &RtiOptions::prepare},
   };
   return table;
 }
@@ -174,6 +176,9 @@ struct RtiSolver::Impl {
   // when the cross term was not finite (a whole solve then follows).
   bool start_from_preparation(const OcpProblem& problem, const RtiOptions& options, double* estimated_cost) noexcept {
     start_change = problem.initial_state() - prepared_start;
+    // The heading (state 2 of the pose every OcpProblem tracks) as the cost sees it, wrapped: a
+    // prediction carries it on past pi where a measurement wraps, and the cost wraps its error.
+    start_change[2] = wrap_angle(start_change[2]);
     previous_input_change = problem.previous_input() - prepared_previous_input;
     double curvature = 0.0;
     if (!condensed.start_product(problem, derivatives, states, options.wear_curvature, start_change,
@@ -298,6 +303,7 @@ RtiSolver::~RtiSolver() = default;
 bool RtiSolver::do_prepare(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline) noexcept {
   Impl& s = *impl_;
   s.prepared = false;
+  if (!options_.prepare) return false;
   long rollouts = 0;
   Duration rollout_time{};
   if (!std::isfinite(s.start_from_guesses(problem, guesses, deadline, &rollouts, &rollout_time))) return false;

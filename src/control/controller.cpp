@@ -196,6 +196,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   solution_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
   plan_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
   prepared_plan_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
+  prepared_baseline_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
+  prepared_policy_.resize(problem_->state_size(), problem_->input_size(), options_.horizon);
   baseline_inputs_ = Eigen::MatrixXd::Zero(2 * modules_, options_.horizon);
   baseline_guess_ = Eigen::MatrixXd::Zero(problem_->input_size(), options_.horizon);
   baseline_policy_guess_ = baseline_guess_;
@@ -553,9 +555,10 @@ bool Controller::prepare(double t_next) noexcept {
   model_->charge_work_to(&deadline.clock());
   // The next step's first guess is this plan moved on by a period: its state then is the start
   // predicted.
+  const double steps = options_.period() / options_.dt;
   prepared_plan_.inputs = plan_.inputs;
   prepared_plan_.states = plan_.states;
-  prepared_plan_.shift(options_.period() / options_.dt);
+  prepared_plan_.shift(steps);
   problem_->set_initial_state(prepared_plan_.states.col(0));
   problem_->set_previous_input(applied_decision_);
   const double reference_t = reference_hold_.reference_time_ahead(t_next);
@@ -565,6 +568,16 @@ bool Controller::prepare(double t_next) noexcept {
   }
   InitialGuesses guesses;
   guesses.add(&prepared_plan_.inputs);
+  // This step's baseline guesses, moved on as the plan is: the preparation picks its start from
+  // the same kinds of guess a whole solve does (the next step's own come from its measurement).
+  const auto add_moved = [&](bool usable, const Eigen::MatrixXd& guess, Solution* moved) {
+    if (!usable) return;
+    moved->inputs = guess;
+    moved->shift(steps);
+    guesses.add(&moved->inputs);  // the solver projects each guess
+  };
+  add_moved(policy_guessed_, baseline_policy_guess_, &prepared_policy_);
+  add_moved(baseline_guessed_, baseline_guess_, &prepared_baseline_);
   if (!solver_->prepare(*problem_, guesses, deadline)) return false;
   prepared_t_ = t_next;
   return true;
@@ -633,6 +646,8 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     fall_back(now_, baseline_usable, "no time left to solve after the baseline plan and the problem update");
     return finish(step_start);
   }
+  policy_guessed_ = policy_guess_usable;
+  baseline_guessed_ = baseline_usable && options_.baseline_guess;
   InitialGuesses guesses;
   if (plan_.valid && plan_age_ == 1) guesses.add(&plan_.inputs);
   if (policy_guess_usable) guesses.add(&baseline_policy_guess_);  // the solver projects each guess

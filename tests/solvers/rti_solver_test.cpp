@@ -16,6 +16,7 @@
 #include <string>
 
 #include "support/config_errors.hpp"
+#include "swerve/kinematics/module_state.hpp"  // wrap_angle, kPi
 #include "support/fake_clocks.hpp"
 #include "support/linear_models.hpp"
 #include "support/one_off_steps.hpp"
@@ -272,6 +273,38 @@ TEST(RtiSolver, AFeedbackNeverReturnsAPlanWorseThanThePreparedPlanFromTheMeasure
   EXPECT_GT(measured_starts, 0);  // the estimate refused some step
 }
 
+TEST(RtiSolver, AFeedbackTakesAMeasuredHeadingWrappedAgainstItsPredictionAsTheSameHeading) {
+  // A prediction carries the heading on past pi where a measurement wraps it: the two are the same
+  // start (the cost wraps heading errors), so the feedback must be the same. Regression: the start's
+  // change was 2 pi in heading, and a figure-eight wore 22 times what the whole iteration did.
+  SplitAndWhole fixture(RtiOptions{});
+  auto& [s, unwrapped, wrapped, stopped, held, guesses, plan, wrapped_plan, summary] = fixture;  // both prepare
+  Eigen::VectorXd predicted = s.problem.initial_state();
+  predicted[2] = kPi - 0.01;
+  s.problem.set_initial_state(predicted);
+  for (int k = 1; k <= 20; ++k) {
+    s.problem.set_reference(k, s.problem.reference_poses().col(k - 1) + Eigen::Vector3d(0.0, 0.0, kPi - 0.01),
+                            s.problem.reference_twists().col(k - 1));
+  }
+  Eigen::VectorXd measured = predicted;
+  measured[1] += 0.01;
+  measured[2] += 0.02;  // past pi
+  for (RtiSolver* solver : {&unwrapped, &wrapped}) {
+    s.problem.set_initial_state(predicted);
+    ASSERT_TRUE(solver->prepare(s.problem, guesses, generous(stopped)));
+  }
+  s.problem.set_initial_state(measured);
+  ASSERT_TRUE(has_solution(unwrapped.solve(s.problem, guesses, generous(stopped), &plan, &summary)));
+  measured[2] = wrap_angle(measured[2]);  // as a measurement has it
+  ASSERT_GT(std::abs(measured[2] - predicted[2]), 6.0);
+  s.problem.set_initial_state(measured);
+  ASSERT_TRUE(has_solution(wrapped.solve(s.problem, guesses, generous(stopped), &wrapped_plan, &summary)));
+  EXPECT_TRUE(unwrapped.last_details().feedback);
+  EXPECT_TRUE(wrapped.last_details().feedback);
+  EXPECT_LE((plan.inputs - wrapped_plan.inputs).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_NEAR(plan.cost, wrapped_plan.cost, 1e-9 * plan.cost);
+}
+
 TEST(RtiSolver, AProblemWithAnotherReferenceThanThePreparedOneGetsAWholeIteration) {
   RtiOptions options;
   options.stage_quasi_newton = false;  // no memory, so the two solvers start alike
@@ -288,7 +321,7 @@ TEST(RtiSolver, AProblemWithAnotherReferenceThanThePreparedOneGetsAWholeIteratio
   EXPECT_FALSE(split.last_details().feedback);
 }
 
-TEST(RtiSolver, PreparationIsRefusedLikeASolveAndStoppedByItsDeadline) {
+TEST(RtiSolver, PreparationIsRefusedLikeASolveStoppedByItsDeadlineAndSwitchedOff) {
   testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
   RtiSolver solver(s.problem, RtiOptions{});
   const WorkClock stopped;
@@ -298,6 +331,13 @@ TEST(RtiSolver, PreparationIsRefusedLikeASolveAndStoppedByItsDeadline) {
   // A clock that moves a millisecond per reading: the linearisation gives up at the deadline.
   const WorkClock slow(1e-3);
   EXPECT_FALSE(solver.prepare(s.problem, {}, Deadline(slow.now() + 5ms, slow)));
+  // And none at all with prepare off.
+  RtiOptions whole_only;
+  whole_only.prepare = false;
+  RtiSolver whole(s.problem, whole_only);
+  EXPECT_FALSE(whole.has_preparation());
+  EXPECT_FALSE(whole.prepare(s.problem, {}, generous(stopped)));
+  EXPECT_TRUE(solver.prepare(s.problem, {}, generous(stopped)));
 }
 
 TEST(RtiSolver, RejectsBadOptionsNamingTheFieldAndValue) {

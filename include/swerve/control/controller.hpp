@@ -224,6 +224,10 @@ class Controller final : public TrackingController {
   Solution solution_, plan_;
   int plan_age_ = 0;
   Solution prepared_plan_;  // plan_ moved on by one period: the prediction prepare() starts from
+  // This step's baseline guesses moved on by one period (prepare()'s other guesses), and whether
+  // this step had them.
+  Solution prepared_baseline_, prepared_policy_;
+  bool baseline_guessed_ = false, policy_guessed_ = false;
   double prepared_t_ = std::numeric_limits<double>::quiet_NaN();  // the step the solver prepared for
   Eigen::MatrixXd baseline_inputs_;  // 2n x N
   Eigen::MatrixXd baseline_guess_;   // nu x N: the baseline plan in the optimiser's inputs

@@ -44,6 +44,9 @@ struct RtiOptions {
   // per stage from successive linearisations by damped BFGS and carried across solves
   // (StageQuasiNewton). Off: the Gauss-Newton Hessian alone.
   bool stage_quasi_newton = true;
+  // Whether prepare() prepares: a caller that prepares between cycles (Controller::prepare) then
+  // gets a feedback in place of a whole first iteration. Off: every solve is whole.
+  bool prepare = true;
   static const OptionFields<RtiOptions>& fields();  // the rules, read by the YAML loader too
   void validate() const;                             // ConfigError naming the field and value
 };
@@ -67,7 +70,7 @@ class RtiSolver final : public Solver {
   };
   const Details& last_details() const noexcept { return details_; }
   void forget_preparation() noexcept override;
-  bool has_preparation() const noexcept override { return true; }
+  bool has_preparation() const noexcept override { return options_.prepare; }
 
   struct Impl;  // buffers, the linearisation, the condensing and the QP (defined in the source)
 
