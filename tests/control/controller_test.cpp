@@ -978,6 +978,45 @@ TEST(Controller, WithTheRtiBackendAStepAfterAPreparationRunsOnlyTheFeedbackAndTr
   EXPECT_LT(split.result.total_wear, 1.1 * whole.result.total_wear);
 }
 
+// A solver with a preparation phase that records what prepare() is handed, and solves as the
+// fake does.
+class PreparationSpy final : public Solver {
+ public:
+  PreparationSpy(const OcpProblem& shape, FakeScript* script, int* prepared_guesses)
+      : Solver(shape), fake_(shape, script), prepared_guesses_(prepared_guesses) {}
+  const char* name() const noexcept override { return "preparation_spy"; }
+  bool has_preparation() const noexcept override { return true; }
+
+ private:
+  SolveStatus do_solve(const OcpProblem& problem, const InitialGuesses& guesses, Deadline deadline, Solution* out,
+                       SolveSummary* summary) noexcept override {
+    return fake_.solve(problem, guesses, deadline, out, summary);
+  }
+  bool do_prepare(const OcpProblem&, const InitialGuesses& guesses, Deadline) noexcept override {
+    *prepared_guesses_ = guesses.count;
+    return true;
+  }
+  FakeSolver fake_;
+  int* prepared_guesses_;
+};
+
+TEST(Controller, APreparationIsHandedThePlanAndTheBaselinesGuessesMovedOnAPeriod) {
+  // A whole solve starts from the cheapest of the shifted plan and the baseline's guesses; the
+  // preparation must choose among the same kinds. Regression: handed the plan alone, rti tracked
+  // crab90_noisy at 23 mm RMS against 10 mm whole.
+  FakeScript script;
+  int prepared_guesses = 0;
+  Controller controller(small_robot(), testing::line_reference(0.5), fast_options(),
+                        [&](const OcpProblem& p) { return std::make_unique<PreparationSpy>(p, &script, &prepared_guesses); });
+  controller.set_clock(script.clock);
+  Eigen::VectorXd moving = at_rest();
+  moving[3] = 0.5;  // cruising along the line: no pre-alignment
+  const ControlOutput& out = controller.step(moving, 0.0);
+  ASSERT_EQ(out.source, CommandSource::kOptimizer) << out.reason;
+  ASSERT_TRUE(controller.prepare(0.05));
+  EXPECT_EQ(prepared_guesses, 3);  // the plan, the baseline's policy, the baseline's plan
+}
+
 TEST(Controller, AStepAtAnotherTimeThanTheOnePreparedForSolvesWhole) {
   const VehicleParams params = small_robot();
   const auto reference = straight_line_at(0.5);
