@@ -171,9 +171,9 @@ struct RtiSolver::Impl {
   // Gauss-Newton model's cross term, and the prepared plan's cost from the measured start predicted
   // by the same model to second order (its slope dJ/dx_0 = A_0^T mu_0 + lambda dW_0/dx_0 from the
   // costates, the rate on u_0 - u_{-1} for the last input, and its curvature along the change),
-  // for feedback_line_search to judge the step by. The plan's
-  // states stay the prepared rollout until a rollout from the measured start replaces them. false
-  // when the cross term was not finite (a whole solve then follows).
+  // for feedback_line_search to judge the step by. The plan's states stay the prepared rollout
+  // until a rollout from the measured start replaces them. false when the cross term was not
+  // finite (a whole solve then follows).
   bool start_from_preparation(const OcpProblem& problem, const RtiOptions& options, double* estimated_cost) noexcept {
     start_change = problem.initial_state() - prepared_start;
     // The heading (state 2 of the pose every OcpProblem tracks) as the cost sees it, wrapped: a
@@ -229,10 +229,10 @@ struct RtiSolver::Impl {
   }
 
   // The feedback's line search. The full step is rolled out and judged first against *cost, the
-  // start's cost as the Gauss-Newton model predicts it from the start's change; only a step that fails there has
-  // the start rolled out from the measured start (measure_start, *cost then its true cost), against
-  // which the step is judged again and the search goes on. So a feedback that the Gauss-Newton model
-  // got right costs one rollout. Returns the accepted fraction (0: none).
+  // start's cost as the Gauss-Newton model predicts it from the start's change; only a step that
+  // fails there has the start rolled out from the measured start (measure_start, *cost then its
+  // true cost), against which the step is judged again and the search goes on. So a feedback that
+  // the Gauss-Newton model got right costs one rollout. Returns the accepted fraction (0: none).
   double feedback_line_search(const OcpProblem& problem, PredictionData& data, const Deadline& deadline,
                               double* cost, double slope, int halvings, double* trial_cost, long* rollouts,
                               Details* details, Duration* rollout_time) noexcept {

@@ -926,8 +926,13 @@ std::shared_ptr<PathReference> straight_line_at(double speed) {
   return std::make_shared<PathReference>(make_line_curve({0.0, 0.0}, 0.0, 50.0), profile, 0.0);
 }
 
-Controller::SolverFactory rti_factory() {
-  return [](const OcpProblem& problem) { return std::make_unique<RtiSolver>(problem, RtiOptions{}); };
+// The wear-aware controller with the rti backend (library defaults) on `reference`, stepping on
+// `clock`.
+Controller rti_controller(const VehicleParams& params, std::shared_ptr<const Reference> reference, const Clock& clock) {
+  Controller controller(params, std::move(reference), closed_loop_options(1.0, InputParameterization::kBodyTwist),
+                        [](const OcpProblem& problem) { return std::make_unique<RtiSolver>(problem, RtiOptions{}); });
+  controller.set_clock(clock);
+  return controller;
 }
 
 // A lane-keeping run from 5 cm off a straight line with the rti backend at one iteration per
@@ -939,9 +944,8 @@ struct PreparedRun {
 PreparedRun run_rti(bool prepare) {
   const VehicleParams params = small_robot();
   const auto reference = straight_line_at(0.5);
-  Controller controller(params, reference, closed_loop_options(1.0, InputParameterization::kBodyTwist), rti_factory());
   const testing::WorkClock clock(kClockTick);
-  controller.set_clock(clock);
+  Controller controller = rti_controller(params, reference, clock);
   const auto& rti = dynamic_cast<const RtiSolver&>(controller.solver());
   testing::ModelPlant plant(params, 0.05);
   PreparedRun run;
@@ -1020,9 +1024,8 @@ TEST(Controller, APreparationIsHandedThePlanAndTheBaselinesGuessesMovedOnAPeriod
 TEST(Controller, AStepAtAnotherTimeThanTheOnePreparedForSolvesWhole) {
   const VehicleParams params = small_robot();
   const auto reference = straight_line_at(0.5);
-  Controller controller(params, reference, closed_loop_options(1.0, InputParameterization::kBodyTwist), rti_factory());
   const testing::WorkClock clock(kClockTick);
-  controller.set_clock(clock);
+  Controller controller = rti_controller(params, reference, clock);
   const auto& rti = dynamic_cast<const RtiSolver&>(controller.solver());
   const Eigen::VectorXd state = offset_start(0.0);
   controller.step(state, 0.0);

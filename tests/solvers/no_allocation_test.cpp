@@ -36,54 +36,56 @@ TEST(BoundedInputQp, SolvesWithoutAllocating) {
   EXPECT_TRUE(result.converged) << result.reason;
 }
 
-TEST(RtiSolver, SolvesWithoutAllocatingAfterItsFirstSolve) {
-  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting is unavailable in this build";
-  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
-  RtiOptions options;
-  options.max_iterations = 3;
-  RtiSolver solver(s.problem, options);
+// The rti solver after its first solve of the sidestep problem, the problem one cycle on and the
+// shifted plan its guess: where a controller's steady state begins.
+struct RtiOneCycleOn {
+  testing::SwerveTestProblem s{testing::SwerveScene::kSidestep};
+  RtiSolver solver;
   const WorkClock stopped;
   Solution plan;
-  plan.resize(10, 3, 20);
   Eigen::MatrixXd guess = s.problem.previous_input().replicate(1, 20);
   InitialGuesses guesses;
-  guesses.add(&guess);
   SolveSummary summary;
-  ASSERT_TRUE(has_solution(solver.solve(s.problem, guesses, Deadline(stopped.now() + 10s, stopped), &plan, &summary)));
-  s.next_cycle(1, &plan);
-  guess = plan.inputs;
-  const Deadline deadline = Deadline(stopped.now() + 10s, stopped);
+  explicit RtiOneCycleOn(const RtiOptions& options) : solver(s.problem, options) {
+    plan.resize(10, 3, 20);
+    guesses.add(&guess);
+  }
+  void first_solve() {
+    ASSERT_TRUE(has_solution(solver.solve(s.problem, guesses, deadline(), &plan, &summary)));
+    s.next_cycle(1, &plan);
+    guess = plan.inputs;
+  }
+  Deadline deadline() const { return Deadline(stopped.now() + 10s, stopped); }
+};
+
+TEST(RtiSolver, SolvesWithoutAllocatingAfterItsFirstSolve) {
+  if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting is unavailable in this build";
+  RtiOptions options;
+  options.max_iterations = 3;
+  RtiOneCycleOn f(options);
+  ASSERT_NO_FATAL_FAILURE(f.first_solve());
+  const Deadline deadline = f.deadline();
   testing::AllocationCounter counter;
-  const SolveStatus status = solver.solve(s.problem, guesses, deadline, &plan, &summary);
+  const SolveStatus status = f.solver.solve(f.s.problem, f.guesses, deadline, &f.plan, &f.summary);
   EXPECT_EQ(counter.count(), 0);
-  EXPECT_TRUE(has_solution(status)) << summary.reason;
+  EXPECT_TRUE(has_solution(status)) << f.summary.reason;
 }
 
 TEST(RtiSolver, PreparesAndFeedsBackWithoutAllocating) {
   if (!testing::AllocationCounter::available()) GTEST_SKIP() << "allocation counting is unavailable in this build";
-  testing::SwerveTestProblem s(testing::SwerveScene::kSidestep);
-  RtiSolver solver(s.problem, RtiOptions{});
-  const WorkClock stopped;
-  Solution plan;
-  plan.resize(10, 3, 20);
-  Eigen::MatrixXd guess = s.problem.previous_input().replicate(1, 20);
-  InitialGuesses guesses;
-  guesses.add(&guess);
-  SolveSummary summary;
-  ASSERT_TRUE(has_solution(solver.solve(s.problem, guesses, Deadline(stopped.now() + 10s, stopped), &plan, &summary)));
-  s.next_cycle(1, &plan);
-  guess = plan.inputs;
-  Eigen::VectorXd measured = s.problem.initial_state();
+  RtiOneCycleOn f(RtiOptions{});
+  ASSERT_NO_FATAL_FAILURE(f.first_solve());
+  Eigen::VectorXd measured = f.s.problem.initial_state();
   measured[1] += 0.01;
-  const Deadline deadline = Deadline(stopped.now() + 10s, stopped);
+  const Deadline deadline = f.deadline();
   testing::AllocationCounter counter;
-  const bool prepared = solver.prepare(s.problem, guesses, deadline);
-  s.problem.set_initial_state(measured);
-  const SolveStatus status = solver.solve(s.problem, guesses, deadline, &plan, &summary);
+  const bool prepared = f.solver.prepare(f.s.problem, f.guesses, deadline);
+  f.s.problem.set_initial_state(measured);
+  const SolveStatus status = f.solver.solve(f.s.problem, f.guesses, deadline, &f.plan, &f.summary);
   EXPECT_EQ(counter.count(), 0);
   EXPECT_TRUE(prepared);
-  EXPECT_TRUE(solver.last_details().feedback);
-  EXPECT_TRUE(has_solution(status)) << summary.reason;
+  EXPECT_TRUE(f.solver.last_details().feedback);
+  EXPECT_TRUE(has_solution(status)) << f.summary.reason;
 }
 
 }  // namespace
