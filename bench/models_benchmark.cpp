@@ -164,7 +164,7 @@ void BM_Models_PredictionStep(benchmark::State& state) {
   state.counters["s_per_unit"] = benchmark::Counter(units * iterations, benchmark::Counter::kIsRate |
                                                                             benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_Models_PredictionStep)->ArgsProduct({{4, 8, 16}, {0, 1}})->ArgNames({"modules", "jacobian"});
+BENCHMARK(BM_Models_PredictionStep)->ArgsProduct({{4, 8, 10, 16}, {0, 1}})->ArgNames({"modules", "jacobian"});
 
 }  // namespace
 }  // namespace swerve

@@ -17,6 +17,9 @@ template class DiscreteDynamics<ModelJet>;
 template WheelSlip<TwistJet> compute_wheel_slip<TwistJet>(const MagicFormulaParams&, TwistJet, TwistJet, TwistJet);
 template class MagicFormulaTire<TwistJet>;
 template class VehicleModel<TwistJet>;
+template WheelSlip<ModuleJet> compute_wheel_slip<ModuleJet>(const MagicFormulaParams&, ModuleJet, ModuleJet, ModuleJet);
+template class MagicFormulaTire<ModuleJet>;
+template class VehicleModel<ModuleJet>;
 
 struct DynamicsJacobian::Impl {
   Impl(const VehicleParams& params, Fidelity fidelity, IntegratorMethod method)

@@ -14,6 +14,16 @@ struct SemiImplicitStepJacobian::Twin {
   SemiImplicitStep<ModelJet> step;
 };
 
+namespace {
+
+// The twist-to-module map differentiated once per Jacobian: directions 0-2 the twist, direction 3
+// every module's steering angle (module i's inputs depend on the twist and its own angle alone).
+using CommandJet = ceres::Jet<double, 4>;
+using CommandJetVector = Eigen::Matrix<CommandJet, Eigen::Dynamic, 1>;
+constexpr int kAngleDirection = 3;
+
+}  // namespace
+
 struct SemiImplicitStepJacobian::Data::Impl {
   Impl(const SemiImplicitStepJacobian& jacobian, const SemiImplicitStep<ModelJet>& step)
       : owner(&jacobian),
@@ -21,10 +31,13 @@ struct SemiImplicitStepJacobian::Data::Impl {
         x(ModelJetVector::Zero(step.state_size())),
         u(ModelJetVector::Zero(step.model().input_size())),
         twist(ModelJetVector::Zero(3)),
-        out(ModelJetVector::Zero(step.state_size())) {}
+        out(ModelJetVector::Zero(step.state_size())),
+        command_angles(CommandJetVector::Zero(step.model().modules())),
+        commands(CommandJetVector::Zero(step.model().input_size())) {}
   const SemiImplicitStepJacobian* owner;  // its scratch is shaped for this one only
   SemiImplicitStep<ModelJet>::Data data;
   ModelJetVector x, u, twist, out;  // u: module inputs (given, or mapped from the twist)
+  CommandJetVector command_angles, commands;  // twist_step's map, differentiated once
 };
 
 SemiImplicitStepJacobian::SemiImplicitStepJacobian(const VehicleParams& params, const PredictionOptions& options)
@@ -88,12 +101,25 @@ bool SemiImplicitStepJacobian::twist_step(Data& data, const Eigen::Ref<const Eig
   }
   const SemiImplicitStep<ModelJet>& step = twin_->step;
   Data::Impl& j = *data.impl_;
+  const int modules = step.model().modules();
+  Eigen::Matrix<CommandJet, 3, 1> command_twist;
+  for (int k = 0; k < 3; ++k) command_twist[k] = CommandJet(twist_body[k], k);
+  for (int i = 0; i < modules; ++i) j.command_angles[i] = CommandJet(x[StateIndex::steering(i)], kAngleDirection);
+  step.module_inputs_at<CommandJet>(command_twist, j.command_angles, dt, j.commands);
   bool first = true;
   const bool ok = jet_jacobian(x, twist_body, j.x, j.twist, j.out, x_next, a, b, stage_wear, wear_gradient.data(),
                                [&](ModelJet* wear) {
                                  SemiImplicitStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
-                                 const Eigen::Matrix<ModelJet, 3, 1> twist = j.twist;
-                                 step.module_inputs(j.x, twist, dt, j.u);
+                                 // The chunk's directions through the map's partials (chain rule).
+                                 for (int i = 0; i < modules; ++i) {
+                                   for (const int k : {InputIndex::steering_rate(i), InputIndex::wheel_speed(i)}) {
+                                     const CommandJet& command = j.commands[k];
+                                     ModelJet& input = j.u[k];
+                                     input = ModelJet(command.a);
+                                     for (int t = 0; t < 3; ++t) input.v += command.v[t] * j.twist[t].v;
+                                     input.v += command.v[kAngleDirection] * j.x[StateIndex::steering(i)].v;
+                                   }
+                                 }
                                  return step.step(j.data, j.x, j.u, dt, j.out, wear);
                                });
   return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();

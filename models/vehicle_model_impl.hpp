@@ -107,6 +107,21 @@ int VehicleModel<T>::recommended_substeps(double dt, double contact_speed) const
 }
 
 template <typename T>
+Eigen::Matrix<double, 3, 2> VehicleModel<T>::acceleration_per_module_force(int module) const noexcept {
+  // Module i adds (fx, fy) to the force sums and arm x f to the yaw moment about the CoM; then
+  // r_dot = Mz / Iz, vx_dot = Fx / m + r_dot c_y, vy_dot = Fy / m - r_dot c_x (derivative_at_steering).
+  const Eigen::Vector2d arm = params_.layout.position_body(module) - params_.center_of_mass_body;
+  const double cx = params_.center_of_mass_body.x();
+  const double cy = params_.center_of_mass_body.y();
+  const Eigen::RowVector2d yaw(-arm.y() / params_.yaw_inertia, arm.x() / params_.yaw_inertia);
+  Eigen::Matrix<double, 3, 2> per_force;
+  per_force.row(0) = Eigen::RowVector2d(1.0 / params_.mass, 0.0) + cy * yaw;
+  per_force.row(1) = Eigen::RowVector2d(0.0, 1.0 / params_.mass) - cx * yaw;
+  per_force.row(2) = yaw;
+  return per_force;
+}
+
+template <typename T>
 Eigen::VectorXd VehicleModel<T>::complete_state(const Eigen::VectorXd& prefix) const {
   Eigen::VectorXd x = Eigen::VectorXd::Zero(state_size_);
   x.head(prefix.size()) = prefix;

@@ -18,6 +18,10 @@ using ModelJet = ceres::Jet<double, kModelJetSize>;
 // backward-Euler residual in its Newton solve).
 using TwistJet = ceres::Jet<double, 3>;
 
+// Five directions: one module's own variables (the body twist, its steering angle, its wheel
+// speed), for the model's linearisation per module (model_linearisation.hpp).
+using ModuleJet = ceres::Jet<double, 5>;
+
 extern template class MagicFormulaTire<ModelJet>;
 extern template class VehicleModel<ModelJet>;
 extern template class DiscreteDynamics<ModelJet>;
@@ -27,5 +31,9 @@ extern template class MagicFormulaTire<TwistJet>;
 extern template class VehicleModel<TwistJet>;
 extern template WheelSlip<TwistJet> compute_wheel_slip<TwistJet>(const MagicFormulaParams&, TwistJet,
                                                                   TwistJet, TwistJet);
+extern template class MagicFormulaTire<ModuleJet>;
+extern template class VehicleModel<ModuleJet>;
+extern template WheelSlip<ModuleJet> compute_wheel_slip<ModuleJet>(const MagicFormulaParams&, ModuleJet,
+                                                                    ModuleJet, ModuleJet);
 
 }  // namespace swerve

@@ -8,9 +8,9 @@
 //
 // The backward-Euler body twist v+ solves G(v+, p) = v+ - v0 - h a(v+, p) = 0 (p: state and
 // inputs). Newton's method finds its value in double (BodyTwistSolver); its derivatives follow from
-// the implicit function theorem, dv+/dp = -(dG/dv)^-1 dG/dp, with both partials from Jets of the
-// model's derivative at the converged v+ (exact, no finite differences and no differentiation of the
-// Newton iterations). The module inputs come from the shared twist-to-module map and its smooth limits
+// the implicit function theorem, dv+/dp = -(dG/dv)^-1 dG/dp, with both partials from the model
+// linearised once per substep at the converged v+ (model_linearisation.hpp: exact, no finite
+// differences and no differentiation of the Newton iterations). The module inputs come from the shared twist-to-module map and its smooth limits
 // (kinematics/module_commands.hpp, core/smoothing.hpp), so every optimiser sees one map.
 #pragma once
 
@@ -31,6 +31,7 @@
 #include "swerve/models/drive_response.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/jet.hpp"
+#include "swerve/models/model_linearisation.hpp"
 #include "swerve/models/vehicle_model.hpp"
 
 namespace swerve {
@@ -226,8 +227,8 @@ class SemiImplicitStep {
 
   SemiImplicitStep(const VehicleParams& params, const PredictionOptions& options)
       : options_(options), model_(params, Fidelity::kIdeal), rk4_(model_, IntegratorMethod::kRk4),
-        twist_solver_(params, options.max_newton_iterations), layout_(params.layout), kinematics_(params.layout),
-        modules_(model_.modules()) {
+        twist_solver_(params, options.max_newton_iterations), linearisation_(params), layout_(params.layout),
+        kinematics_(params.layout), modules_(model_.modules()) {
     energy_wear_ = params.casters.empty() && params.wear.model == WearModelKind::kFrictionalPower;
     wheel_radius_ = params.layout.wheel_radius();
     wear_coefficient_ = params.wear.coefficient;
@@ -257,7 +258,8 @@ class SemiImplicitStep {
   // The step's scratch, owned by its caller (Crocoddyl's createData(), acados' workspace): the
   // step itself is immutable, so rollouts with a Data each may run on threads of their own.
   struct Data {
-    explicit Data(const SemiImplicitStep& step) : rk4(step.rk4_), twist(step.twist_solver_) {
+    explicit Data(const SemiImplicitStep& step)
+        : rk4(step.rk4_), twist(step.twist_solver_), linearisation(step.linearisation_) {
       const int nx = step.model_.state_size();
       const int nu = step.model_.input_size();
       u_applied = Vector::Zero(nu);
@@ -275,6 +277,7 @@ class SemiImplicitStep {
           ((std::size_t{1} << (kMaxSplits + 1)) - 1);
       twist_values.assign(most_solves, Eigen::Vector3d::Zero());
       twist_factorizations.assign(most_solves, Eigen::PartialPivLU<Eigen::Matrix3d>(Eigen::Matrix3d::Identity()));
+      if constexpr (!std::is_same_v<T, double>) linear_points.assign(most_solves, step.linearisation_.make_point());
       split.assign(most_solves, 0);
       split_states.assign(kMaxSplits, Vector::Zero(nx));
       wheel_states = ModuleStates(step.modules_);
@@ -299,13 +302,15 @@ class SemiImplicitStep {
     bool replay = false;  // see begin_chunk
     int substep_index = 0;
     std::vector<Eigen::Vector3d> twist_values;                             // per solve
-    std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> twist_factorizations;  // per solve
+    std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> twist_factorizations;  // per solve: dG/dv
+    std::vector<ModelLinearisation::Point> linear_points;                    // per solve (Jets only)
     std::vector<char> split;                                                 // per solve
     std::vector<Vector> split_states;                                        // per split depth
     ModuleStates wheel_states;
     typename DiscreteDynamics<T>::Data rk4;  // PredictionMethod::kRk4's stages
     long rk4_evaluations = 0;                 // its derivative evaluations (4 per substep)
     BodyTwistSolver::Data twist;
+    ModelLinearisation::Data linearisation;
   };
 
   const VehicleModel<T>& model() const noexcept { return model_; }
@@ -320,8 +325,8 @@ class SemiImplicitStep {
   }
 
   // Jacobians are evaluated in chunks of Jet directions, each a full step at the same values. The
-  // first chunk records each substep's Newton solution and dG/dv factorisation; later chunks
-  // replay them instead of solving again (Jet instances only).
+  // first chunk records each substep's Newton solution and the model's linearisation there; later
+  // chunks replay them instead of solving and linearising again (Jet instances only).
   static void begin_chunk(Data& d, bool first) noexcept { d.replay = !first; }
 
   // x_next = F(x, u) over dt with module inputs u (steering rate, wheel speed per module) and the
@@ -406,14 +411,21 @@ class SemiImplicitStep {
   // end stop) and smooth limits, so the optimisers' derivatives see no kink.
   void module_inputs(const Eigen::Ref<const Vector>& x, const Vector3& twist_body, double dt,
                      Eigen::Ref<Vector> inputs) const noexcept {
+    module_inputs_at<T>(twist_body, x.segment(StateIndex::kFirstSteering, modules_), dt, inputs.head(2 * modules_));
+  }
+  // The same map in any scalar S, from the steering angles alone (n): module i's inputs depend on
+  // the twist and its own angle only (the Jacobian colours them; semi_implicit_step_jacobian.cpp).
+  template <typename S>
+  void module_inputs_at(const Eigen::Matrix<S, 3, 1>& twist_body,
+                        const Eigen::Ref<const Eigen::Matrix<S, Eigen::Dynamic, 1>>& angles, double dt,
+                        Eigen::Ref<Eigen::Matrix<S, Eigen::Dynamic, 1>> inputs) const noexcept {
     static_assert(InputIndex::steering_rate(1) == 2 && InputIndex::wheel_speed(1) == 3,
                   "module_commands interleaves (steering rate, wheel speed) per module");
     ModuleCommandRule rule;
     rule.flip = FlipPolicy::kNearest;
     rule.tie_band = kDirectionTieBand;
     rule.shape = LimitShape::kSmooth;
-    module_commands<T>(layout_, twist_body, x.segment(StateIndex::kFirstSteering, modules_), dt, rule,
-                       inputs.head(2 * modules_));
+    module_commands<S>(layout_, twist_body, angles, dt, rule, inputs);
   }
 
  private:
@@ -425,26 +437,42 @@ class SemiImplicitStep {
     return 0.5 * p.mass * (v_com.x() * v_com.x() + v_com.y() * v_com.y()) + 0.5 * p.yaw_inertia * v.z() * v.z();
   }
 
-  // dv+/dp by the implicit function theorem at the converged v+ (T is a Jet; see the top). A member
-  // template so that the double instantiation never compiles it.
+  // The model linearised at the converged v+ of solve `slot` (state_values and input_values hold
+  // the substep's point), and dG/dv = I - h da/dv factorised. Jet instances only.
+  bool linearise_substep(Data& d, const Eigen::Vector3d& v_value, double h, std::size_t slot) const noexcept {
+    d.state_values.template segment<3>(StateIndex::kVx) = v_value;
+    ModelLinearisation::Point& point = d.linear_points[slot];
+    if (!linearisation_.linearise(d.linearisation, d.state_values, d.input_values, &point)) return false;
+    const Eigen::Matrix3d dg_dv = Eigen::Matrix3d::Identity() - h * point.acceleration_per_twist;
+    d.twist_factorizations[slot].compute(dg_dv);
+    return dg_dv.allFinite();
+  }
+
+  // The derivative part of a model input's Jet: module i's steering angle after the substep's
+  // advance, or its wheel speed.
+  static const auto& steering_derivatives(const Data& d, int module) noexcept {
+    return d.trial_state[StateIndex::steering(module)].v;
+  }
+  static const auto& wheel_speed_derivatives(const Data& d, int module) noexcept {
+    return d.u_applied[InputIndex::wheel_speed(module)].v;
+  }
+
+  // dv+/dp by the implicit function theorem at the converged v+ (T is a Jet; see the top): dG/dp
+  // holds v at its value, so it is the start's own derivatives and the model's through the
+  // steering angles and wheel speeds, chained from the substep's linearisation. A member template
+  // so that the double instantiation never compiles it.
   template <typename Jet = T>
-  bool implicit_twist(Data& d, const Vector3& v0, const Eigen::Vector3d& v_value, double h, std::size_t slot,
+  bool implicit_twist(const Data& d, const Vector3& v0, const Eigen::Vector3d& v_value, double h, std::size_t slot,
                       Vector3* v) const noexcept {
     constexpr int kDirections = decltype(std::declval<Jet>().v)::RowsAtCompileTime;
-    static_assert(kDirections >= 3, "the Jet must hold the three twist directions");
-    Eigen::PartialPivLU<Eigen::Matrix3d>& lu = d.twist_factorizations[slot];
-    if (!d.replay) {
-      if (!twist_jacobian(d, v_value, h, &lu)) return false;
-    }
-    // dG/dp: v held at its value, the state's and inputs' own derivatives flowing.
-    for (int j = 0; j < 3; ++j) d.trial_state[StateIndex::kVx + j] = T(v_value[j]);
-    if (model_.derivative(d.trial_state, d.u_applied, d.state_dot) != ModelStatus::kOk) return false;
+    const ModelLinearisation::Point& point = d.linear_points[slot];
     Eigen::Matrix<double, 3, kDirections> dg_dp;
-    for (int i = 0; i < 3; ++i) {
-      const T g = T(v_value[i]) - v0[i] - h * d.state_dot[StateIndex::kVx + i];
-      dg_dp.row(i) = g.v.transpose();
+    for (int i = 0; i < 3; ++i) dg_dp.row(i) = -v0[i].v.transpose();
+    for (int i = 0; i < modules_; ++i) {
+      dg_dp.noalias() -= (h * point.acceleration_per_steering.col(i)) * steering_derivatives(d, i).transpose();
+      dg_dp.noalias() -= (h * point.acceleration_per_wheel_speed.col(i)) * wheel_speed_derivatives(d, i).transpose();
     }
-    const Eigen::Matrix<double, 3, kDirections> dv_dp = -lu.solve(dg_dp);
+    const Eigen::Matrix<double, 3, kDirections> dv_dp = -d.twist_factorizations[slot].solve(dg_dp);
     for (int i = 0; i < 3; ++i) {
       (*v)[i] = T(v_value[i]);
       (*v)[i].v = dv_dp.row(i).transpose();
@@ -452,22 +480,23 @@ class SemiImplicitStep {
     return dv_dp.allFinite();
   }
 
-  // dG/dv = I - h da/dv at v+, exactly: the twist seeded alone, everything else constant.
+  // The wear rate and each module's drive force at v+, their derivatives chained from the
+  // substep's linearisation through v+ (*v), the steering angles and the wheel speeds.
   template <typename Jet = T>
-  bool twist_jacobian(Data& d, const Eigen::Vector3d& v_value, double h, Eigen::PartialPivLU<Eigen::Matrix3d>* lu) const noexcept {
-    for (Eigen::Index k = 0; k < d.trial_state.size(); ++k) d.seeded_state[k] = T(scalar_value(d.trial_state[k]));
-    for (Eigen::Index k = 0; k < d.u_applied.size(); ++k) d.constant_inputs[k] = T(scalar_value(d.u_applied[k]));
-    for (int j = 0; j < 3; ++j) {
-      d.seeded_state[StateIndex::kVx + j] = T(v_value[j]);
-      d.seeded_state[StateIndex::kVx + j].v[j] = 1.0;
+  void outputs_at_twist(Data& d, const Vector3& v, std::size_t slot, T* wear_rate) const noexcept {
+    const ModelLinearisation::Point& point = d.linear_points[slot];
+    *wear_rate = T(point.wear_rate);
+    for (int j = 0; j < 3; ++j) wear_rate->v += point.wear_rate_per_twist[j] * v[j].v;
+    for (int i = 0; i < modules_; ++i) {
+      wear_rate->v += point.wear_rate_per_steering[i] * steering_derivatives(d, i) +
+                      point.wear_rate_per_wheel_speed[i] * wheel_speed_derivatives(d, i);
+      T& force = d.diagnostics[static_cast<std::size_t>(i)].fx_wheel;
+      const auto partials = point.drive_force_partials.row(i);
+      force = T(point.drive_force[i]);
+      for (int j = 0; j < 3; ++j) force.v += partials[ModelLinearisation::kTwist + j] * v[j].v;
+      force.v += partials[ModelLinearisation::kSteering] * steering_derivatives(d, i) +
+                 partials[ModelLinearisation::kWheelSpeed] * wheel_speed_derivatives(d, i);
     }
-    if (model_.derivative(d.seeded_state, d.constant_inputs, d.state_dot) != ModelStatus::kOk) return false;
-    Eigen::Matrix3d dg_dv;
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) dg_dv(i, j) = (i == j ? 1.0 : 0.0) - h * d.state_dot[StateIndex::kVx + i].v[j];
-    }
-    lu->compute(dg_dv);
-    return dg_dv.allFinite();
   }
 
   // Where the stiff tyres put v+ to first order: each tyre a damper (time constant tau_t, see
@@ -534,6 +563,7 @@ class SemiImplicitStep {
       if (!d.replay) {
         d.split[slot] = !twist_solver_.solve(d.twist, d.state_values, d.input_values, v0_value,
                                             quasi_steady_twist(d, d.state_values, d.input_values, v0_value, h), h, &v_value);
+        if (!d.split[slot] && !linearise_substep(d, v_value, h, slot)) return false;
       }
       if (!d.split[slot] && !implicit_twist(d, v0, v_value, h, slot, &v)) return false;
     }
@@ -552,9 +582,7 @@ class SemiImplicitStep {
       wear_rate = BodyTwistSolver::wear_rate(d.twist);
       for (int i = 0; i < modules_; ++i) d.diagnostics[static_cast<std::size_t>(i)].fx_wheel = BodyTwistSolver::drive_force(d.twist, i);
     } else {
-      if (model_.derivative(d.trial_state, d.u_applied, d.state_dot, d.diagnostics.data(), &wear_rate) != ModelStatus::kOk) {
-        return false;
-      }
+      outputs_at_twist(d, v, slot, &wear_rate);
     }
     T step_wear = h * wear_rate;
     if (energy_wear_) {
@@ -611,6 +639,7 @@ class SemiImplicitStep {
   VehicleModel<T> model_;
   DiscreteDynamics<T> rk4_;
   BodyTwistSolver twist_solver_;
+  ModelLinearisation linearisation_;  // the Jet instances' partials per substep
   ModuleLayout layout_;
   Kinematics kinematics_;
   int modules_;

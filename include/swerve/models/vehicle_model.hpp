@@ -118,6 +118,10 @@ class VehicleModel {
                                      const double* steering_cos, const double* steering_sin, Eigen::Ref<Vector> x_dot,
                                      ModuleDiagnostics<T>* diagnostics, T* total_wear_rate) const noexcept;
 
+  // d[vx_dot, vy_dot, r_dot] / d[fx_body_i, fy_body_i]: how module i's body-frame contact force moves
+  // the body's acceleration (the rigid-body equations above are linear in the forces).
+  Eigen::Matrix<double, 3, 2> acceleration_per_module_force(int module) const noexcept;
+
   // A full state from its prefix (size 6 + n): fidelity extras set to pure rolling (wheel speeds
   // matching the contact speed, steering rates and transient slips zero). Allocates (setup only).
   Eigen::VectorXd complete_state(const Eigen::VectorXd& prefix) const;
