@@ -60,6 +60,13 @@ SemiImplicitStepJacobian::Data& SemiImplicitStepJacobian::Data::operator=(Data&&
 
 namespace {
 
+// Every entry finite, as one sum: a NaN or an infinity in any entry makes it non-finite (finite
+// entries this large do not occur), at a fraction of Eigen's allFinite() over ~nx^2 entries.
+bool derivatives_finite(const Eigen::Ref<Eigen::MatrixXd>& a, const Eigen::Ref<Eigen::MatrixXd>& b,
+                        const Eigen::Ref<Eigen::VectorXd>& wear_gradient) {
+  return std::isfinite(a.sum() + b.sum() + wear_gradient.sum());
+}
+
 bool arguments_ok(int nx, int nu, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                   double dt, const Eigen::Ref<Eigen::VectorXd>& x_next, const Eigen::Ref<Eigen::MatrixXd>& a,
                   const Eigen::Ref<Eigen::MatrixXd>& b, const Eigen::Ref<Eigen::VectorXd>& wear_gradient) {
@@ -87,7 +94,7 @@ bool SemiImplicitStepJacobian::module_step(Data& data, const Eigen::Ref<const Ei
                                  SemiImplicitStep<ModelJet>::begin_chunk(j.data, std::exchange(first, false));
                                  return step.step(j.data, j.x, j.u, dt, j.out, wear);
                                });
-  return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
+  return ok && derivatives_finite(a, b, wear_gradient);
 }
 
 bool SemiImplicitStepJacobian::twist_step(Data& data, const Eigen::Ref<const Eigen::VectorXd>& x,
@@ -122,7 +129,7 @@ bool SemiImplicitStepJacobian::twist_step(Data& data, const Eigen::Ref<const Eig
                                  }
                                  return step.step(j.data, j.x, j.u, dt, j.out, wear);
                                });
-  return ok && a.allFinite() && b.allFinite() && wear_gradient.allFinite();
+  return ok && derivatives_finite(a, b, wear_gradient);
 }
 
 }  // namespace swerve

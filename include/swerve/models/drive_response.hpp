@@ -17,23 +17,33 @@ struct DriveLag {
   double max_acceleration = std::numeric_limits<double>::infinity();  // alpha, rad/s^2 (> 0); inf: no clamp
 };
 
-// From `start`, commanded `command` over `h`: the wheel speed at the end (*end) and its mean over
-// the step (*mean). With the error e = command - omega: while |e| > alpha tau the clamp holds and
-// |e| falls linearly at alpha; below it, e decays as e^-t/tau. Branches are chosen on values, so a
-// Jet differentiates the piece the double evaluation takes.
+// A lag over one step of h, with its decay exp(-h / tau) computed once: the prediction steps every
+// module's drive and steering over the same h, and the exponential was most of a response's cost.
+struct DriveLagStep {
+  DriveLagStep(const DriveLag& lag_in, double h_in) noexcept
+      : lag(lag_in), h(h_in), decay(std::exp(-h_in / lag_in.time_constant)) {}
+  DriveLag lag;
+  double h;
+  double decay;
+};
+
+// From `start`, commanded `command` over `step.h`: the wheel speed at the end (*end) and its mean
+// over the step (*mean). With the error e = command - omega: while |e| > alpha tau the clamp holds
+// and |e| falls linearly at alpha; below it, e decays as e^-t/tau. Branches are chosen on values,
+// so a Jet differentiates the piece the double evaluation takes.
 template <typename T>
-void drive_response(const T& start, const T& command, const DriveLag& lag, double h, T* end, T* mean) noexcept {
+void drive_response(const T& start, const T& command, const DriveLagStep& step, T* end, T* mean) noexcept {
   using std::exp;
-  const double tau = lag.time_constant;
-  const double alpha = lag.max_acceleration;
+  const double tau = step.lag.time_constant;
+  const double alpha = step.lag.max_acceleration;
+  const double h = step.h;
   const T error = command - start;
   const double size = std::abs(scalar_value(error));
   const double sign = scalar_value(error) < 0.0 ? -1.0 : 1.0;
   T end_error, mean_error;
   if (size <= alpha * tau) {  // unclamped throughout
-    const double decay = std::exp(-h / tau);
-    end_error = error * decay;
-    mean_error = error * (tau / h * (1.0 - decay));
+    end_error = error * step.decay;
+    mean_error = error * (tau / h * (1.0 - step.decay));
   } else {
     const T magnitude = sign * error;                        // |e0|, differentiable
     const T clamped_time = (magnitude - alpha * tau) / alpha;  // until |e| = alpha tau
@@ -51,6 +61,12 @@ void drive_response(const T& start, const T& command, const DriveLag& lag, doubl
   }
   *end = command - end_error;
   *mean = command - mean_error;
+}
+
+// The same for one drive over h.
+template <typename T>
+void drive_response(const T& start, const T& command, const DriveLag& lag, double h, T* end, T* mean) noexcept {
+  drive_response<T>(start, command, DriveLagStep(lag, h), end, mean);
 }
 
 }  // namespace swerve

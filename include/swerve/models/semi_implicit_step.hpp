@@ -255,6 +255,12 @@ class SemiImplicitStep {
     }
   }
 
+  // A lag's response over one step (end and mean) linearised in its start and command.
+  struct LagResponse {
+    double end = 0.0, mean = 0.0;
+    double end_per_start = 0.0, end_per_command = 0.0, mean_per_start = 0.0, mean_per_command = 0.0;
+  };
+
   // The step's scratch, owned by its caller (Crocoddyl's createData(), acados' workspace): the
   // step itself is immutable, so rollouts with a Data each may run on threads of their own.
   struct Data {
@@ -277,7 +283,11 @@ class SemiImplicitStep {
           ((std::size_t{1} << (kMaxSplits + 1)) - 1);
       twist_values.assign(most_solves, Eigen::Vector3d::Zero());
       twist_factorizations.assign(most_solves, Eigen::PartialPivLU<Eigen::Matrix3d>(Eigen::Matrix3d::Identity()));
-      if constexpr (!std::is_same_v<T, double>) linear_points.assign(most_solves, step.linearisation_.make_point());
+      if constexpr (!std::is_same_v<T, double>) {
+        linear_points.assign(most_solves, step.linearisation_.make_point());
+        // Each substep steps every drive and steering lag once, and the step the drives once more.
+        lag_responses.resize(2 * static_cast<std::size_t>(step.modules_) * (most_solves + 1));
+      }
       split.assign(most_solves, 0);
       split_states.assign(kMaxSplits, Vector::Zero(nx));
       wheel_states = ModuleStates(step.modules_);
@@ -304,6 +314,8 @@ class SemiImplicitStep {
     std::vector<Eigen::Vector3d> twist_values;                             // per solve
     std::vector<Eigen::PartialPivLU<Eigen::Matrix3d>> twist_factorizations;  // per solve: dG/dv
     std::vector<ModelLinearisation::Point> linear_points;                    // per solve (Jets only)
+    std::vector<LagResponse> lag_responses;                                  // per lag stepped (Jets only)
+    std::size_t lag_response_index = 0;
     std::vector<char> split;                                                 // per solve
     std::vector<Vector> split_states;                                        // per split depth
     ModuleStates wheel_states;
@@ -361,12 +373,15 @@ class SemiImplicitStep {
     // Lagged actuators start at their states (*_now). The wheels' mean speeds over the whole step
     // decide the slow-motion substeps below; RK4 runs on the means over the step, and the
     // semi-implicit substeps follow each lag substep by substep instead.
-    for (int i = 0; i < lag_states_; ++i) {
-      T& wheel = d.u_applied[InputIndex::wheel_speed(i)];
-      d.wheel_commands[i] = wheel;
-      d.wheel_speeds_now[i] = x_full[model_size + i];
-      drive_response<T>(d.wheel_speeds_now[i], d.wheel_commands[i], drive_response_, dt,
-                        &d.wheel_speeds_next[i], &wheel);
+    d.lag_response_index = 0;
+    if (lag_states_ > 0) {
+      const DriveLagStep drive_over_dt(drive_response_, dt);
+      for (int i = 0; i < lag_states_; ++i) {
+        T& wheel = d.u_applied[InputIndex::wheel_speed(i)];
+        d.wheel_commands[i] = wheel;
+        d.wheel_speeds_now[i] = x_full[model_size + i];
+        lag_response(d, d.wheel_speeds_now[i], d.wheel_commands[i], drive_over_dt, &d.wheel_speeds_next[i], &wheel);
+      }
     }
     for (int i = 0; i < steering_lag_states_; ++i) {
       d.steering_commands[i] = d.u_applied[InputIndex::steering_rate(i)];
@@ -435,6 +450,33 @@ class SemiImplicitStep {
     const Eigen::Vector2d& c = p.center_of_mass_body;
     const Eigen::Matrix<T, 2, 1> v_com = point_velocity<T>(v, c);
     return 0.5 * p.mass * (v_com.x() * v_com.x() + v_com.y() * v_com.y()) + 0.5 * p.yaw_inertia * v.z() * v.z();
+  }
+
+  // A lag's response (drive_response) from `start` towards `command`. A Jet instance linearises it
+  // in the two once, in a Jacobian's first chunk, and later chunks chain those partials: the wide
+  // Jets' own arithmetic here was a fifth of a Jacobian.
+  void lag_response(Data& d, const T& start, const T& command, const DriveLagStep& step, T* end, T* mean) const noexcept {
+    if constexpr (std::is_same_v<T, double>) {
+      drive_response<double>(start, command, step, end, mean);
+    } else {
+      if (d.lag_response_index >= d.lag_responses.size()) {  // not foreseen by Data's sizing
+        drive_response<T>(start, command, step, end, mean);
+        return;
+      }
+      LagResponse& response = d.lag_responses[d.lag_response_index++];
+      if (!d.replay) {
+        using ResponseJet = ceres::Jet<double, 2>;  // directions: start, command
+        ResponseJet end_jet, mean_jet;
+        drive_response<ResponseJet>(ResponseJet(scalar_value(start), 0), ResponseJet(scalar_value(command), 1), step,
+                                    &end_jet, &mean_jet);
+        response = {end_jet.a, mean_jet.a, end_jet.v[0], end_jet.v[1], mean_jet.v[0], mean_jet.v[1]};
+      }
+      T end_out(response.end), mean_out(response.mean);
+      end_out.v = response.end_per_start * start.v + response.end_per_command * command.v;
+      mean_out.v = response.mean_per_start * start.v + response.mean_per_command * command.v;
+      *end = end_out;
+      *mean = mean_out;
+    }
   }
 
   // The model linearised at the converged v+ of solve `slot` (state_values and input_values hold
@@ -529,14 +571,20 @@ class SemiImplicitStep {
     // source ramping at a leads the body by a tau_t there, as in the plant; the mean speed left the
     // body a h / 2 further behind and priced a ramp's rollout 1.4-3x the plant's), and the drives'
     // work below on its mean (the integral of force times speed).
-    for (int i = 0; i < lag_states_; ++i) {
-      drive_response<T>(d.wheel_speeds_now[i], d.wheel_commands[i], drive_response_, h,
-                        &d.u_applied[InputIndex::wheel_speed(i)], &d.wheel_speeds_mean[i]);
+    if (lag_states_ > 0) {
+      const DriveLagStep drive_over_h(drive_response_, h);
+      for (int i = 0; i < lag_states_; ++i) {
+        lag_response(d, d.wheel_speeds_now[i], d.wheel_commands[i], drive_over_h,
+                     &d.u_applied[InputIndex::wheel_speed(i)], &d.wheel_speeds_mean[i]);
+      }
     }
     // Lagged steering: the angle advances by the rate's mean over the substep.
-    for (int i = 0; i < steering_lag_states_; ++i) {
-      drive_response<T>(d.steering_rates_now[i], d.steering_commands[i], steering_response_, h,
-                        &d.steering_rates_end[i], &d.u_applied[InputIndex::steering_rate(i)]);
+    if (steering_lag_states_ > 0) {
+      const DriveLagStep steering_over_h(steering_response_, h);
+      for (int i = 0; i < steering_lag_states_; ++i) {
+        lag_response(d, d.steering_rates_now[i], d.steering_commands[i], steering_over_h, &d.steering_rates_end[i],
+                     &d.u_applied[InputIndex::steering_rate(i)]);
+      }
     }
     // Steering advances explicitly under the (already end-stop-clipped) rate.
     const ModuleLimits& limits = layout_.limits();
