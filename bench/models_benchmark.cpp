@@ -11,6 +11,7 @@
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/semi_implicit_step_jacobian.hpp"
 #include "swerve/models/vehicle_model.hpp"
+#include "swerve/ocp/vehicle_prediction_model.hpp"
 
 namespace swerve {
 namespace {
@@ -142,6 +143,8 @@ void BM_Models_PredictionStep(benchmark::State& state) {
   Eigen::VectorXd inputs(model.input_size());
   double wear = 0.0;
   const long evaluations_before = SemiImplicitStep<double>::model_evaluations(data);
+  const long jacobian_evaluations_before = SemiImplicitStepJacobian::model_evaluations(jacobian_data);
+  const long linearisations_before = SemiImplicitStepJacobian::linearisations(jacobian_data);
   for (auto _ : state) {
     if (with_jacobian) {
       benchmark::DoNotOptimize(jacobian.twist_step(jacobian_data, x, twist, 0.05, next, a, b, &wear, gradient));
@@ -153,13 +156,24 @@ void BM_Models_PredictionStep(benchmark::State& state) {
   }
   state.counters["directions"] = with_jacobian ? nx + 3 : 0;
   // The work clock's units (WorkClock, VehiclePredictionModel::charge_work_to): module evaluations
-  // in double per step, or module Jet chunks per Jacobian. Time per unit is the rate to charge.
+  // in double per step; per Jacobian its twist solves' evaluations, its linearisations and its Jet
+  // chunks, as VehiclePredictionModel prices them. Time per unit is the rate to charge, so the two
+  // rows' s_per_unit agree when the Jacobian's prices are right.
+  const double per_iteration = 1.0 / std::max(static_cast<double>(state.iterations()), 1.0);
   const double iterations = static_cast<double>(state.iterations());
-  const double units = with_jacobian
-                           ? modules * SemiImplicitStepJacobian::chunks(nx + 3)
-                           : modules * static_cast<double>(SemiImplicitStep<double>::model_evaluations(data) -
-                                                           evaluations_before) /
-                                 std::max(iterations, 1.0);
+  double units = 0.0;
+  if (with_jacobian) {
+    const double evaluations =
+        static_cast<double>(SemiImplicitStepJacobian::model_evaluations(jacobian_data) - jacobian_evaluations_before);
+    const double linearisations =
+        static_cast<double>(SemiImplicitStepJacobian::linearisations(jacobian_data) - linearisations_before);
+    units = modules * (evaluations * per_iteration +
+                       VehiclePredictionModel::module_evaluations_per_linearisation() * linearisations * per_iteration +
+                       VehiclePredictionModel::module_evaluations_per_jet_chunk() * SemiImplicitStepJacobian::chunks(nx + 3));
+  } else {
+    units = modules * static_cast<double>(SemiImplicitStep<double>::model_evaluations(data) - evaluations_before) *
+            per_iteration;
+  }
   state.counters["work_units"] = units;
   state.counters["s_per_unit"] = benchmark::Counter(units * iterations, benchmark::Counter::kIsRate |
                                                                             benchmark::Counter::kInvert);

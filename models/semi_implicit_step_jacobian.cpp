@@ -52,6 +52,14 @@ int SemiImplicitStepJacobian::chunks(int directions) noexcept {
   return (directions + kModelJetSize - 1) / kModelJetSize;
 }
 
+long SemiImplicitStepJacobian::model_evaluations(const Data& data) noexcept {
+  return data.impl_ == nullptr ? 0 : SemiImplicitStep<ModelJet>::model_evaluations(data.impl_->data);
+}
+
+long SemiImplicitStepJacobian::linearisations(const Data& data) noexcept {
+  return data.impl_ == nullptr ? 0 : SemiImplicitStep<ModelJet>::linearisations(data.impl_->data);
+}
+
 SemiImplicitStepJacobian::Data::Data(const SemiImplicitStepJacobian& jacobian)
     : impl_(std::make_unique<Impl>(jacobian, jacobian.twin_->step)) {}
 SemiImplicitStepJacobian::Data::~Data() = default;

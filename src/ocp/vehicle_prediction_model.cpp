@@ -17,12 +17,27 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   modules_ = values_->model().modules();
   state_size_ = values_->state_size();
   input_size_ = values_->model().input_size();
-  module_jacobian_work_ =
-      modules_ * module_evaluations_per_jet_chunk() * SemiImplicitStepJacobian::chunks(state_size_ + input_size_);
-  twist_jacobian_work_ = modules_ * module_evaluations_per_jet_chunk() * SemiImplicitStepJacobian::chunks(state_size_ + 3);
+  module_jacobian_chunks_ = SemiImplicitStepJacobian::chunks(state_size_ + input_size_);
+  twist_jacobian_chunks_ = SemiImplicitStepJacobian::chunks(state_size_ + 3);
 }
 
-double VehiclePredictionModel::module_evaluations_per_jet_chunk() noexcept { return 6.0; }
+double VehiclePredictionModel::module_evaluations_per_linearisation() noexcept { return 1.4; }
+double VehiclePredictionModel::module_evaluations_per_jet_chunk() noexcept { return 1.0; }
+
+template <typename Evaluate>
+bool VehiclePredictionModel::charged_jacobian(Data::Impl& own, int chunks, const Evaluate& evaluate) const noexcept {
+  const long evaluations = SemiImplicitStepJacobian::model_evaluations(own.jacobian);
+  const long linearisations = SemiImplicitStepJacobian::linearisations(own.jacobian);
+  const bool ok = evaluate();
+  if (work_clock_ != nullptr) {
+    const double made = static_cast<double>(SemiImplicitStepJacobian::model_evaluations(own.jacobian) - evaluations);
+    const double linearised =
+        static_cast<double>(SemiImplicitStepJacobian::linearisations(own.jacobian) - linearisations);
+    work_clock_->charge(static_cast<double>(modules_) * (made + module_evaluations_per_linearisation() * linearised +
+                                                         module_evaluations_per_jet_chunk() * chunks));
+  }
+  return ok;
+}
 
 bool VehiclePredictionModel::charged_step(Data::Impl& own, const Eigen::Ref<const Eigen::VectorXd>& x,
                                           const Eigen::Ref<const Eigen::VectorXd>& u, double dt,
@@ -93,8 +108,10 @@ bool VehiclePredictionModel::step_jacobians(PredictionData& data, const Eigen::R
                                             Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                             Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                                             Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
-  if (work_clock_ != nullptr) work_clock_->charge(module_jacobian_work_);
-  return jacobian_->module_step(scratch(data).jacobian, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
+  Data::Impl& own = scratch(data);
+  return charged_jacobian(own, module_jacobian_chunks_, [&] {
+    return jacobian_->module_step(own.jacobian, x, u, dt, x_next, a, b, stage_wear, wear_gradient);
+  });
 }
 
 bool VehiclePredictionModel::twist_step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
@@ -102,8 +119,10 @@ bool VehiclePredictionModel::twist_step_jacobians(PredictionData& data, const Ei
                                                   Eigen::Ref<Eigen::VectorXd> x_next, Eigen::Ref<Eigen::MatrixXd> a,
                                                   Eigen::Ref<Eigen::MatrixXd> b, double* stage_wear,
                                                   Eigen::Ref<Eigen::VectorXd> wear_gradient) const noexcept {
-  if (work_clock_ != nullptr) work_clock_->charge(twist_jacobian_work_);
-  return jacobian_->twist_step(scratch(data).jacobian, x, twist_body, dt, x_next, a, b, stage_wear, wear_gradient);
+  Data::Impl& own = scratch(data);
+  return charged_jacobian(own, twist_jacobian_chunks_, [&] {
+    return jacobian_->twist_step(own.jacobian, x, twist_body, dt, x_next, a, b, stage_wear, wear_gradient);
+  });
 }
 
 }  // namespace swerve

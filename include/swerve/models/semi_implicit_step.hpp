@@ -316,6 +316,7 @@ class SemiImplicitStep {
     std::vector<ModelLinearisation::Point> linear_points;                    // per solve (Jets only)
     std::vector<LagResponse> lag_responses;                                  // per lag stepped (Jets only)
     std::size_t lag_response_index = 0;
+    long linearisations = 0;
     std::vector<char> split;                                                 // per solve
     std::vector<Vector> split_states;                                        // per split depth
     ModuleStates wheel_states;
@@ -335,6 +336,8 @@ class SemiImplicitStep {
   static long model_evaluations(const Data& d) noexcept {
     return BodyTwistSolver::evaluations(d.twist) + d.rk4_evaluations;
   }
+  // The model's linearisations (one per converged substep) by a Jet instance's steps so far.
+  static long linearisations(const Data& d) noexcept { return d.linearisations; }
 
   // Jacobians are evaluated in chunks of Jet directions, each a full step at the same values. The
   // first chunk records each substep's Newton solution and the model's linearisation there; later
@@ -484,6 +487,7 @@ class SemiImplicitStep {
   bool linearise_substep(Data& d, const Eigen::Vector3d& v_value, double h, std::size_t slot) const noexcept {
     d.state_values.template segment<3>(StateIndex::kVx) = v_value;
     ModelLinearisation::Point& point = d.linear_points[slot];
+    ++d.linearisations;
     if (!linearisation_.linearise(d.linearisation, d.state_values, d.input_values, &point)) return false;
     const Eigen::Matrix3d dg_dv = Eigen::Matrix3d::Identity() - h * point.acceleration_per_twist;
     d.twist_factorizations[slot].compute(dg_dv);

@@ -45,6 +45,11 @@ class SemiImplicitStepJacobian {
     std::unique_ptr<Impl> impl_;
   };
 
+  // The work the Jacobians on `data` did so far: the vehicle model's evaluations in their twist
+  // solves (as SemiImplicitStep::model_evaluations counts a double step's) and its linearisations.
+  static long model_evaluations(const Data& data) noexcept;
+  static long linearisations(const Data& data) noexcept;
+
   // With module inputs u (steering rate, wheel speed per module): a is nx x nx, b nx x nu,
   // wear_gradient nx + nu entries. False (outputs unspecified) for a Data made for another
   // Jacobian (or moved from), wrong sizes, a non-finite or non-positive dt, non-finite x or u, a

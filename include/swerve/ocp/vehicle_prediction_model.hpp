@@ -49,12 +49,14 @@ class VehiclePredictionModel final : public PredictionModel {
   int state_size() const noexcept override { return state_size_; }
   int input_size() const noexcept override { return input_size_; }
   int input_group_size() const noexcept override { return 2; }  // (steering rate, wheel speed) per module
-  // Charges modules x (double evaluations of the vehicle model) per step, and a Jacobian's Jet
-  // chunks at module_evaluations_per_jet_chunk() each per module.
+  // Charges modules x (double evaluations of the vehicle model) per step. A Jacobian is charged
+  // per module its twist solves' evaluations likewise, plus module_evaluations_per_linearisation()
+  // per substep linearised and module_evaluations_per_jet_chunk() per Jet chunk.
   void charge_work_to(const Clock* clock) noexcept override { work_clock_ = clock; }
-  // What one module's share of one Jet chunk of a step (kModelJetSize directions, with its substeps
-  // and the replayed twist solve) costs in double evaluations of one module, as
-  // BM_Models_PredictionStep measures the two on the reference machine.
+  // What one module's share of the model's linearisation at a substep, and of one Jet chunk of a
+  // step (kModelJetSize directions chained through it), cost in double evaluations of one module,
+  // as BM_Models_PredictionStep measures a step and its Jacobian on the reference machine.
+  static double module_evaluations_per_linearisation() noexcept;
   static double module_evaluations_per_jet_chunk() noexcept;
   bool has_jacobians() const noexcept override { return true; }
 
@@ -114,9 +116,12 @@ class VehiclePredictionModel final : public PredictionModel {
   std::unique_ptr<SemiImplicitStep<double>> values_;
   std::unique_ptr<SemiImplicitStepJacobian> jacobian_;  // the step's derivatives (models/)
   const Clock* work_clock_ = nullptr;              // charged with the work of every step (not owned)
-  double module_jacobian_work_ = 0.0, twist_jacobian_work_ = 0.0;  // module evaluations per Jacobian
+  int module_jacobian_chunks_ = 0, twist_jacobian_chunks_ = 0;  // Jet chunks per Jacobian
   bool charged_step(Data::Impl& own, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::Ref<const Eigen::VectorXd>& u,
                     double dt, Eigen::Ref<Eigen::VectorXd> x_next, double* stage_wear) const noexcept;
+  // Runs `evaluate` (a Jacobian on own's scratch, of `chunks` Jet chunks) and charges its work.
+  template <typename Evaluate>
+  bool charged_jacobian(Data::Impl& own, int chunks, const Evaluate& evaluate) const noexcept;
   static Data::Impl& scratch(PredictionData& data) noexcept;  // data's, which must be a Data
 };
 
