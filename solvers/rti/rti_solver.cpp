@@ -180,22 +180,14 @@ struct RtiSolver::Impl {
     // prediction carries it on past pi where a measurement wraps, and the cost wraps its error.
     start_change[2] = wrap_angle(start_change[2]);
     previous_input_change = problem.previous_input() - prepared_previous_input;
-    double curvature = 0.0;
-    if (!condensed.start_product(problem, derivatives, states, options.wear_curvature, start_change,
+    double change = 0.0;
+    if (!condensed.start_product(problem, derivatives, inputs, states, options.wear_curvature, start_change,
                                  previous_input_change, correction,
-                                 options.stage_quasi_newton ? &quasi_newton : nullptr, &curvature)) {
+                                 options.stage_quasi_newton ? &quasi_newton : nullptr, &change)) {
       return false;
     }
     Eigen::Map<Eigen::VectorXd>(gradient.data(), correction.size()) += correction;
-    double change = problem.weights().wear * derivatives.wear_gradient(0).head(start_change.size()).dot(start_change);
-    for (Eigen::Index j = 0; j < start_change.size(); ++j) {  // mu_0^T A_0 dx_0, column by column (no temporary)
-      change += start_change[j] * derivatives.a(0).col(j).dot(derivatives.costates().col(0));
-    }
-    for (Eigen::Index i = 0; i < previous_input_change.size(); ++i) {
-      const double rate = problem.rate_root()[i] * problem.rate_root()[i];
-      change -= rate * (inputs(i, 0) - prepared_previous_input[i]) * previous_input_change[i];
-    }
-    *estimated_cost = linearised_cost + change + 0.5 * curvature;
+    *estimated_cost = linearised_cost + change;
     return std::isfinite(*estimated_cost);
   }
   bool prepared_for(const OcpProblem& problem) const noexcept {

@@ -82,13 +82,15 @@ bool CondensedGaussNewton::hessian(const OcpProblem& problem, const OcpDerivativ
 }
 
 bool CondensedGaussNewton::start_product(const OcpProblem& problem, const OcpDerivatives& linearised,
+                                         const Eigen::Ref<const Eigen::MatrixXd>& inputs,
                                          const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
                                          const Eigen::Ref<const Eigen::VectorXd>& dx0,
                                          const Eigen::Ref<const Eigen::VectorXd>& du_previous,
                                          Eigen::Ref<Eigen::VectorXd> product, const StageQuasiNewton* stage_curvature,
-                                         double* start_curvature) noexcept {
+                                         double* cost_change) noexcept {
   if (problem.horizon() != horizon_ || problem.state_size() != nx_ || problem.input_size() != nu_ ||
-      linearised.horizon() != horizon_ || states.rows() != nx_ || states.cols() != horizon_ + 1 ||
+      linearised.horizon() != horizon_ || inputs.rows() != nu_ || inputs.cols() != horizon_ || states.rows() != nx_ ||
+      states.cols() != horizon_ + 1 ||
       dx0.size() != nx_ || du_previous.size() != nu_ || product.size() != n_ ||
       (stage_curvature != nullptr && stage_curvature->stage_size() != nx_ + nu_)) {
     return false;
@@ -132,14 +134,22 @@ bool CondensedGaussNewton::start_product(const OcpProblem& problem, const OcpDer
     costate_scratch_.noalias() = linearised.a(k).transpose() * costate_direction_;
     costate_direction_ = costate_scratch_ + stage_terms_.col(k).head(nx_);
   }
-  // The rate on u_0 - u_{-1}: its gradient over u_0 moves by -S du_{-1}.
+  // The slope at the linearisation: through x_1 (the costate mu_0 after stage 0, and A_0 dx0 from
+  // the forward pass) and stage 0's own wear.
+  double slope = linearised.costates().col(0).dot(start_direction_.col(1));
+  if (lambda > 0.0) slope += lambda * linearised.wear_gradient(0).head(nx_).dot(dx0);
+  // The rate on u_0 - u_{-1}: its gradient over u_0 moves by -S du_{-1}, and the cost by
+  // -S (u_0 - u_{-1}) du_{-1} at the linearisation's u_{-1}.
   for (int i = 0; i < nu_; ++i) {
     const double rate = problem.rate_root()[i] * problem.rate_root()[i];
+    const double linearised_previous = problem.previous_input()[i] - du_previous[i];
     product[i] -= rate * du_previous[i];
+    slope -= rate * (inputs(i, 0) - linearised_previous) * du_previous[i];
     curvature += rate * du_previous[i] * du_previous[i];
   }
-  if (start_curvature != nullptr) *start_curvature = curvature;
-  return product.allFinite() && std::isfinite(curvature);
+  const double change = slope + 0.5 * curvature;
+  if (cost_change != nullptr) *cost_change = change;
+  return product.allFinite() && std::isfinite(change);
 }
 
 void CondensedGaussNewton::add_stage_curvature(int k, const Eigen::MatrixXd& curvature,

@@ -293,7 +293,7 @@ TEST(CondensedGaussNewton, ItsStartProductMovesTheStepToTheStageWiseQpOfAMovedSt
   for (Eigen::Index i = 0; i < dx0.size(); ++i) dx0[i] = 0.01 * std::sin(1.0 + 2.0 * static_cast<double>(i));
   const Eigen::Vector3d du_previous(0.03, -0.02, 0.05);
   Eigen::VectorXd product(condensed.size());
-  ASSERT_TRUE(condensed.start_product(problem, derivatives, states, true, dx0, du_previous, product, &learnt));
+  ASSERT_TRUE(condensed.start_product(problem, derivatives, inputs, states, true, dx0, du_previous, product, &learnt));
   const Eigen::VectorXd g = Eigen::Map<const Eigen::VectorXd>(gradient.data(), gradient.size());
   const Eigen::VectorXd moved_step = -hessian.llt().solve(g + product);
   const Eigen::VectorXd stage_wise = stage_wise_step(problem, derivatives, states, inputs, dx0, du_previous, &learnt);
@@ -301,7 +301,45 @@ TEST(CondensedGaussNewton, ItsStartProductMovesTheStepToTheStageWiseQpOfAMovedSt
   EXPECT_LE((stage_wise - moved_step).cwiseAbs().maxCoeff(), 1e-8 * (1.0 + moved_step.cwiseAbs().maxCoeff()));
 }
 
-TEST(CondensedGaussNewton, ItsStartProductAndCurvatureAreTheCostsDerivativesInTheStartWhereEveryResidualVanishes) {
+TEST(CondensedGaussNewton, ItsCostChangeHasTheCostsExactSlopeInTheStartWithEveryTerm) {
+  // Away from zero residuals the model's curvature is approximate, but its slope is the cost's
+  // gradient in the start and last input, exactly: through the costate after stage 0, stage 0's
+  // wear and the rate. The two directions' changes give the slope apart from the curvature.
+  const EveryTermProblem p;
+  const OcpProblem& problem = p.problem;
+  ASSERT_GT(problem.weights().wear, 0.0);
+  const Eigen::MatrixXd inputs = p.inputs(8);
+  OcpDerivatives derivatives(problem);
+  Eigen::MatrixXd states(problem.state_size(), problem.horizon() + 1), gradient(3, problem.horizon());
+  ASSERT_TRUE(std::isfinite(derivatives.cost_and_gradient(problem, inputs, states, gradient)));
+  CondensedGaussNewton condensed(problem);
+  Eigen::VectorXd dx0(problem.state_size());
+  for (Eigen::Index i = 0; i < dx0.size(); ++i) dx0[i] = 0.01 * std::sin(1.0 + 2.0 * static_cast<double>(i));
+  const Eigen::Vector3d du_previous(0.03, -0.02, 0.05);
+  const auto moved_by = [&](double t) {
+    OcpProblem moved = problem;
+    moved.set_initial_state(problem.initial_state() + t * dx0);
+    moved.set_previous_input(problem.previous_input() + t * du_previous);
+    return moved;
+  };
+  Eigen::VectorXd product(condensed.size());
+  double change = 0.0, change_back = 0.0;
+  ASSERT_TRUE(condensed.start_product(moved_by(1.0), derivatives, inputs, states, true, dx0, du_previous, product,
+                                      nullptr, &change));
+  ASSERT_TRUE(condensed.start_product(moved_by(-1.0), derivatives, inputs, states, true, -dx0, -du_previous, product,
+                                      nullptr, &change_back));
+  const auto cost_at = [&](double t) {
+    const OcpProblem moved = moved_by(t);
+    Eigen::MatrixXd x(moved.state_size(), problem.horizon() + 1);
+    return testing::evaluate_once(moved, inputs, x).total();
+  };
+  const double step = 1e-5;
+  const double first = (cost_at(step) - cost_at(-step)) / (2.0 * step);
+  EXPECT_GT(std::abs(first), 1e-2);
+  EXPECT_NEAR(0.5 * (change - change_back), first, 1e-6 * (1.0 + std::abs(first)));
+}
+
+TEST(CondensedGaussNewton, ItsStartProductAndCostChangeAreTheCostsDerivativesInTheStartWhereEveryResidualVanishes) {
   // Where the tracking residuals are zero and there is no wear, Gauss-Newton's cross term is the
   // exact second derivative (the left-out terms are residuals and costates times curvatures), so
   // it must equal the gradient's central difference along a change of the start and last input.
@@ -322,16 +360,23 @@ TEST(CondensedGaussNewton, ItsStartProductAndCurvatureAreTheCostsDerivativesInTh
   Eigen::VectorXd dx0 = Eigen::VectorXd::Zero(problem.state_size());
   dx0.head<6>() << 0.02, -0.01, 0.03, 0.05, -0.04, 0.02;
   const Eigen::Vector3d du_previous(0.03, -0.02, 0.05);
-  Eigen::VectorXd product(condensed.size());
-  double curvature = 0.0;
-  ASSERT_TRUE(condensed.start_product(problem, derivatives, states, false, dx0, du_previous, product, nullptr,
-                                      &curvature));
-
-  const double h = 1e-5;
-  const auto gradient_at = [&](double t) {
+  // The problem moved by t times the change: what the measured start and last input pose.
+  const auto moved_by = [&](double t) {
     OcpProblem moved = problem;
     moved.set_initial_state(problem.initial_state() + t * dx0);
     moved.set_previous_input(problem.previous_input() + t * du_previous);
+    return moved;
+  };
+  Eigen::VectorXd product(condensed.size()), product_back(condensed.size());
+  double change = 0.0, change_back = 0.0;
+  ASSERT_TRUE(condensed.start_product(moved_by(1.0), derivatives, inputs, states, false, dx0, du_previous, product,
+                                      nullptr, &change));
+  ASSERT_TRUE(condensed.start_product(moved_by(-1.0), derivatives, inputs, states, false, -dx0, -du_previous,
+                                      product_back, nullptr, &change_back));
+
+  const double h = 1e-5;
+  const auto gradient_at = [&](double t) {
+    const OcpProblem moved = moved_by(t);
     OcpDerivatives probe(moved);
     Eigen::MatrixXd x(moved.state_size(), 11), g(3, 10);
     probe.cost_and_gradient(moved, inputs, x, g);
@@ -340,19 +385,22 @@ TEST(CondensedGaussNewton, ItsStartProductAndCurvatureAreTheCostsDerivativesInTh
   const Eigen::VectorXd expected = (gradient_at(h) - gradient_at(-h)) / (2.0 * h);
   EXPECT_GT(expected.norm(), 1e-3);
   EXPECT_LE((product - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff());
-  // And the curvature along the change is the cost's second derivative there (zero residuals: J^T J
-  // is all of it), by a second central difference of rollouts.
+  EXPECT_LE((product_back + expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff());
+  // The predicted cost change is slope + curvature / 2 each way, so the two give the slope and the
+  // curvature apart: the cost's first and second derivatives along the change (zero residuals:
+  // J^T J is all of the curvature), by central differences of rollouts.
   const auto cost_at = [&](double t) {
-    OcpProblem moved = problem;
-    moved.set_initial_state(problem.initial_state() + t * dx0);
-    moved.set_previous_input(problem.previous_input() + t * du_previous);
+    const OcpProblem moved = moved_by(t);
     Eigen::MatrixXd x(moved.state_size(), 11);
     return testing::evaluate_once(moved, inputs, x).total();
   };
   const double step = 1e-3;
+  const double first = (cost_at(step) - cost_at(-step)) / (2.0 * step);
   const double second = (cost_at(step) - 2.0 * cost_at(0.0) + cost_at(-step)) / (step * step);
   EXPECT_GT(second, 1e-3);
-  EXPECT_NEAR(curvature, second, 1e-4 * second);
+  EXPECT_GT(std::abs(first), 1e-3);  // the rate term's slope at least
+  EXPECT_NEAR(0.5 * (change - change_back), first, 1e-5 * (std::abs(first) + second));
+  EXPECT_NEAR(change + change_back, second, 1e-4 * second);
 }
 
 }  // namespace

@@ -49,15 +49,17 @@ class CondensedGaussNewton {
   // of a plan linearised from a predicted start, so the QP of the measured start is that plan's
   // Gauss-Newton model, to first order in the start's change, without a second linearisation. One
   // forward pass of dx0 through the A_k and one adjoint pass: O(N nx^2), no sensitivity matrices.
-  // With `start_curvature`, also the model's curvature along the start's change,
-  // (dx0, du_previous)^T H_{start,start} (dx0, du_previous), so that the cost of the same inputs
-  // from the moved start is predicted to second order. false on wrong sizes or a non-finite
-  // result. noexcept.
+  // `problem` holds the moved start and last input; the plan `inputs` was linearised (and rolled
+  // out into `states`) from problem.initial_state() - dx0 after problem.previous_input() -
+  // du_previous. With `cost_change`, also how the model predicts the plan's cost to move with the
+  // start, to second order: the slope (A_0^T mu_0 + lambda dW_0/dx_0) dx0 - S (u_0 - u_-1) du_previous
+  // plus half the curvature (dx0, du_previous)^T H_{start,start} (dx0, du_previous). false on wrong
+  // sizes or a non-finite result. noexcept.
   bool start_product(const OcpProblem& problem, const OcpDerivatives& linearised,
-                     const Eigen::Ref<const Eigen::MatrixXd>& states, bool wear_curvature,
-                     const Eigen::Ref<const Eigen::VectorXd>& dx0, const Eigen::Ref<const Eigen::VectorXd>& du_previous,
-                     Eigen::Ref<Eigen::VectorXd> product, const StageQuasiNewton* stage_curvature = nullptr,
-                     double* start_curvature = nullptr) noexcept;
+                     const Eigen::Ref<const Eigen::MatrixXd>& inputs, const Eigen::Ref<const Eigen::MatrixXd>& states,
+                     bool wear_curvature, const Eigen::Ref<const Eigen::VectorXd>& dx0,
+                     const Eigen::Ref<const Eigen::VectorXd>& du_previous, Eigen::Ref<Eigen::VectorXd> product,
+                     const StageQuasiNewton* stage_curvature = nullptr, double* cost_change = nullptr) noexcept;
 
  private:
   // hessian += M_k^T B_k M_k, with sensitivity_ holding dx_k/dU.
