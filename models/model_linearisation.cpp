@@ -37,10 +37,12 @@ ModelLinearisation::Point ModelLinearisation::make_point() const {
 }
 
 bool ModelLinearisation::linearise(Data& data, const Eigen::Ref<const Eigen::VectorXd>& state,
-                                   const Eigen::Ref<const Eigen::VectorXd>& inputs, Point* point) const noexcept {
+                                   const Eigen::Ref<const Eigen::VectorXd>& inputs,
+                                   Point* point) const noexcept {
   const int n = model_.modules();
-  if (state.size() != model_.state_size() || inputs.size() != model_.input_size() || data.state.size() != state.size() ||
-      data.inputs.size() != inputs.size() || point->drive_force.size() != n) {
+  if (state.size() != model_.state_size() || inputs.size() != model_.input_size() ||
+      data.state.size() != state.size() || data.inputs.size() != inputs.size() ||
+      point->drive_force.size() != n) {
     return false;
   }
   for (Eigen::Index k = 0; k < state.size(); ++k) data.state[k] = ModuleJet(state[k]);
@@ -51,7 +53,8 @@ bool ModelLinearisation::linearise(Data& data, const Eigen::Ref<const Eigen::Vec
     data.inputs[InputIndex::wheel_speed(i)].v[kWheelSpeed] = 1.0;
   }
   ModuleJet wear(0.0);
-  if (model_.derivative(data.state, data.inputs, data.state_dot, data.diagnostics.data(), &wear) != ModelStatus::kOk) {
+  if (model_.derivative(data.state, data.inputs, data.state_dot, data.diagnostics.data(), &wear) !=
+      ModelStatus::kOk) {
     return false;
   }
   // Directions 0-2 are the twist's alone, so the sums' partials there are exact; directions 3 and 4
@@ -67,8 +70,8 @@ bool ModelLinearisation::linearise(Data& data, const Eigen::Ref<const Eigen::Vec
     const ModuleDiagnostics<ModuleJet>& module = data.diagnostics[static_cast<std::size_t>(i)];
     point->acceleration_per_steering.col(i) =
         per_force_x_.col(i) * module.fx_body.v[kSteering] + per_force_y_.col(i) * module.fy_body.v[kSteering];
-    point->acceleration_per_wheel_speed.col(i) =
-        per_force_x_.col(i) * module.fx_body.v[kWheelSpeed] + per_force_y_.col(i) * module.fy_body.v[kWheelSpeed];
+    point->acceleration_per_wheel_speed.col(i) = per_force_x_.col(i) * module.fx_body.v[kWheelSpeed] +
+                                                 per_force_y_.col(i) * module.fy_body.v[kWheelSpeed];
     point->wear_rate_per_steering[i] = module.wear_rate.v[kSteering];
     point->wear_rate_per_wheel_speed[i] = module.wear_rate.v[kWheelSpeed];
     point->drive_force[i] = module.fx_wheel.a;

@@ -72,9 +72,11 @@ void expect_partials_match_the_full_jacobian(const VehicleParams& params) {
     for (int i = 0; i < n; ++i) {
       const double per_steering = a(state_row, StateIndex::steering(i));
       const double per_wheel = b(state_row, InputIndex::wheel_speed(i));
-      EXPECT_NEAR(point.acceleration_per_steering(row, i), per_steering, kTolerance * (1.0 + std::abs(per_steering)))
+      EXPECT_NEAR(point.acceleration_per_steering(row, i), per_steering,
+                  kTolerance * (1.0 + std::abs(per_steering)))
           << "row " << row << ", module " << i;
-      EXPECT_NEAR(point.acceleration_per_wheel_speed(row, i), per_wheel, kTolerance * (1.0 + std::abs(per_wheel)))
+      EXPECT_NEAR(point.acceleration_per_wheel_speed(row, i), per_wheel,
+                  kTolerance * (1.0 + std::abs(per_wheel)))
           << "row " << row << ", module " << i;
       // What the colouring rests on: the forces do not see the steering rate, nor the pose.
       EXPECT_EQ(b(state_row, InputIndex::steering_rate(i)), 0.0);
@@ -112,10 +114,12 @@ TEST(ModelLinearisation, EachModulesDriveForcePartialsAreCentralDifferencesOfTha
   ModelLinearisation::Point point = linearisation.make_point();
   ASSERT_TRUE(linearisation.linearise(data, x, u, &point));
 
-  std::vector<ModuleDiagnostics<double>> plus(static_cast<std::size_t>(n)), minus(static_cast<std::size_t>(n));
+  std::vector<ModuleDiagnostics<double>> plus(static_cast<std::size_t>(n)),
+      minus(static_cast<std::size_t>(n));
   Eigen::VectorXd x_dot(model.state_size());
   ASSERT_EQ(model.derivative(x, u, x_dot, plus.data()), ModelStatus::kOk);
-  for (int i = 0; i < n; ++i) EXPECT_NEAR(point.drive_force[i], plus[static_cast<std::size_t>(i)].fx_wheel, 1e-9);
+  for (int i = 0; i < n; ++i)
+    EXPECT_NEAR(point.drive_force[i], plus[static_cast<std::size_t>(i)].fx_wheel, 1e-9);
   constexpr double kH = 1e-6;
   for (int i = 0; i < n; ++i) {
     // Module i's own directions: vx, vy, r, its steering angle, its wheel speed.
@@ -146,7 +150,8 @@ TEST(ModelLinearisation, AccelerationPerModuleForceIsTheModelsOwnResponseToThatM
   Eigen::VectorXd x, u;
   turning_point(model, &x, &u);
   const int module = 4;
-  VehicleModel<ModelJet>::Vector x_jet(model.state_size()), u_jet(model.input_size()), x_dot(model.state_size());
+  VehicleModel<ModelJet>::Vector x_jet(model.state_size()), u_jet(model.input_size()),
+      x_dot(model.state_size());
   for (Eigen::Index k = 0; k < x.size(); ++k) x_jet[k] = ModelJet(x[k]);
   for (Eigen::Index k = 0; k < u.size(); ++k) u_jet[k] = ModelJet(u[k]);
   x_jet[StateIndex::steering(module)].v[0] = 1.0;

@@ -51,6 +51,15 @@ struct EveryTermProblem {
   }
 };
 
+// `problem` with its start and last input moved by t times (dx0, du_previous): what a measured start
+// poses to a plan linearised from `problem`'s.
+OcpProblem moved_start(const OcpProblem& problem, double t, const Eigen::VectorXd& dx0, const Eigen::Vector3d& du_previous) {
+  OcpProblem moved = problem;
+  moved.set_initial_state(problem.initial_state() + t * dx0);
+  moved.set_previous_input(problem.previous_input() + t * du_previous);
+  return moved;
+}
+
 // Every least-squares residual of the cost, stacked stage by stage, from a rollout of `inputs`.
 Eigen::VectorXd stacked_residuals(const OcpProblem& problem, const Eigen::MatrixXd& inputs) {
   const int horizon = problem.horizon();
@@ -316,12 +325,7 @@ TEST(CondensedGaussNewton, ItsCostChangeHasTheCostsExactSlopeInTheStartWithEvery
   Eigen::VectorXd dx0(problem.state_size());
   for (Eigen::Index i = 0; i < dx0.size(); ++i) dx0[i] = 0.01 * std::sin(1.0 + 2.0 * static_cast<double>(i));
   const Eigen::Vector3d du_previous(0.03, -0.02, 0.05);
-  const auto moved_by = [&](double t) {
-    OcpProblem moved = problem;
-    moved.set_initial_state(problem.initial_state() + t * dx0);
-    moved.set_previous_input(problem.previous_input() + t * du_previous);
-    return moved;
-  };
+  const auto moved_by = [&](double t) { return moved_start(problem, t, dx0, du_previous); };
   Eigen::VectorXd product(condensed.size());
   double change = 0.0, change_back = 0.0;
   ASSERT_TRUE(condensed.start_product(moved_by(1.0), derivatives, inputs, states, true, dx0, du_previous, product,
@@ -360,13 +364,7 @@ TEST(CondensedGaussNewton, ItsStartProductAndCostChangeAreTheCostsDerivativesInT
   Eigen::VectorXd dx0 = Eigen::VectorXd::Zero(problem.state_size());
   dx0.head<6>() << 0.02, -0.01, 0.03, 0.05, -0.04, 0.02;
   const Eigen::Vector3d du_previous(0.03, -0.02, 0.05);
-  // The problem moved by t times the change: what the measured start and last input pose.
-  const auto moved_by = [&](double t) {
-    OcpProblem moved = problem;
-    moved.set_initial_state(problem.initial_state() + t * dx0);
-    moved.set_previous_input(problem.previous_input() + t * du_previous);
-    return moved;
-  };
+  const auto moved_by = [&](double t) { return moved_start(problem, t, dx0, du_previous); };
   Eigen::VectorXd product(condensed.size()), product_back(condensed.size());
   double change = 0.0, change_back = 0.0;
   ASSERT_TRUE(condensed.start_product(moved_by(1.0), derivatives, inputs, states, false, dx0, du_previous, product,

@@ -26,15 +26,15 @@ class ModelLinearisation {
 
   // The linearisation at one point; sized for the model by make_point() (allocates).
   struct Point {
-    Eigen::Vector3d acceleration;                         // d[vx, vy, r]/dt
-    Eigen::Matrix3d acceleration_per_twist;               // d acceleration / d v
-    Eigen::Matrix3Xd acceleration_per_steering;           // column i: d acceleration / d delta_i
-    Eigen::Matrix3Xd acceleration_per_wheel_speed;        // column i: d acceleration / d omega_i
-    double wear_rate = 0.0;                               // all modules
+    Eigen::Vector3d acceleration;                   // d[vx, vy, r]/dt
+    Eigen::Matrix3d acceleration_per_twist;         // d acceleration / d v
+    Eigen::Matrix3Xd acceleration_per_steering;     // column i: d acceleration / d delta_i
+    Eigen::Matrix3Xd acceleration_per_wheel_speed;  // column i: d acceleration / d omega_i
+    double wear_rate = 0.0;                         // all modules
     Eigen::Vector3d wear_rate_per_twist;
-    Eigen::VectorXd wear_rate_per_steering;               // entry i: d wear rate / d delta_i
+    Eigen::VectorXd wear_rate_per_steering;  // entry i: d wear rate / d delta_i
     Eigen::VectorXd wear_rate_per_wheel_speed;
-    Eigen::VectorXd drive_force;                          // each module's wheel-frame Fx (N)
+    Eigen::VectorXd drive_force;                                    // each module's wheel-frame Fx (N)
     Eigen::Matrix<double, Eigen::Dynamic, 5> drive_force_partials;  // row i: over module i's directions
   };
 
@@ -51,8 +51,8 @@ class ModelLinearisation {
   // At the model state `state` (the ideal model's: pose, twist, steering angles) and module inputs
   // `inputs` (steering rate, wheel speed per module). False (the point unspecified) for wrong sizes,
   // a non-finite input or result. No allocation.
-  bool linearise(Data& data, const Eigen::Ref<const Eigen::VectorXd>& state, const Eigen::Ref<const Eigen::VectorXd>& inputs,
-                 Point* point) const noexcept;
+  bool linearise(Data& data, const Eigen::Ref<const Eigen::VectorXd>& state,
+                 const Eigen::Ref<const Eigen::VectorXd>& inputs, Point* point) const noexcept;
 
   const VehicleModel<ModuleJet>& model() const noexcept { return model_; }
 
