@@ -68,8 +68,9 @@ SemiImplicitStepJacobian::Data& SemiImplicitStepJacobian::Data::operator=(Data&&
 
 namespace {
 
-// Every entry finite, as one sum: a NaN or an infinity in any entry makes it non-finite (finite
-// entries this large do not occur), at a fraction of Eigen's allFinite() over ~nx^2 entries.
+// Every entry finite, as one sum: a NaN or an infinity in any entry makes it non-finite, at a
+// fraction of Eigen's allFinite() over ~nx^2 entries. Finite entries could only sum to infinity
+// near 1e308, which no step's derivative comes close to.
 bool derivatives_finite(const Eigen::Ref<Eigen::MatrixXd>& a, const Eigen::Ref<Eigen::MatrixXd>& b,
                         const Eigen::Ref<Eigen::VectorXd>& wear_gradient) {
   return std::isfinite(a.sum() + b.sum() + wear_gradient.sum());

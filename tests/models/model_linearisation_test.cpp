@@ -143,7 +143,7 @@ TEST(ModelLinearisation, EachModulesDriveForcePartialsAreCentralDifferencesOfTha
   }
 }
 
-TEST(ModelLinearisation, AccelerationPerModuleForceIsTheModelsOwnResponseToThatModulesSteering) {
+TEST(ModelLinearisation, AccelerationPerModuleForceIsTheModelsOwnResponseToThatModulesSteeringAndNoOtherModuleSeesIt) {
   const VehicleParams params = off_centre_vehicle();
   const VehicleModel<double> model(params, Fidelity::kIdeal);
   const VehicleModel<ModelJet> jet_model(params, Fidelity::kIdeal);
@@ -155,6 +155,7 @@ TEST(ModelLinearisation, AccelerationPerModuleForceIsTheModelsOwnResponseToThatM
   for (Eigen::Index k = 0; k < x.size(); ++k) x_jet[k] = ModelJet(x[k]);
   for (Eigen::Index k = 0; k < u.size(); ++k) u_jet[k] = ModelJet(u[k]);
   x_jet[StateIndex::steering(module)].v[0] = 1.0;
+  u_jet[InputIndex::wheel_speed(module)].v[1] = 1.0;
   std::vector<ModuleDiagnostics<ModelJet>> diagnostics(static_cast<std::size_t>(model.modules()));
   ASSERT_EQ(jet_model.derivative(x_jet, u_jet, x_dot, diagnostics.data()), ModelStatus::kOk);
   const ModuleDiagnostics<ModelJet>& moved = diagnostics[static_cast<std::size_t>(module)];
@@ -163,6 +164,18 @@ TEST(ModelLinearisation, AccelerationPerModuleForceIsTheModelsOwnResponseToThatM
   const Eigen::Vector3d expected = model.acceleration_per_module_force(module) * force_change;
   for (int row = 0; row < 3; ++row) {
     EXPECT_NEAR(x_dot[StateIndex::kVx + row].v[0], expected[row], 1e-12 * (1.0 + std::abs(expected[row])));
+  }
+  // What the colouring rests on: the other modules' forces and wear do not see this module's
+  // steering angle or wheel speed at all.
+  for (int other = 0; other < model.modules(); ++other) {
+    if (other == module) continue;
+    const ModuleDiagnostics<ModelJet>& still = diagnostics[static_cast<std::size_t>(other)];
+    for (int direction = 0; direction < 2; ++direction) {
+      EXPECT_EQ(still.fx_wheel.v[direction], 0.0) << "module " << other;
+      EXPECT_EQ(still.fx_body.v[direction], 0.0) << "module " << other;
+      EXPECT_EQ(still.fy_body.v[direction], 0.0) << "module " << other;
+      EXPECT_EQ(still.wear_rate.v[direction], 0.0) << "module " << other;
+    }
   }
 }
 

@@ -1,10 +1,11 @@
-// The ideal vehicle model linearised at one point in the inputs its forces depend on: the body
-// twist v, each module's steering angle delta_i and each wheel speed omega_i. The prediction step's
-// Jacobian (semi_implicit_step.hpp) chains these partials through its implicit twist instead of
-// evaluating the whole model once per chunk of Jet directions. Needs Ceres' headers, as jet.hpp.
+// The ideal vehicle model linearised at one point in what its forces depend on (body twist, each
+// steering angle and wheel speed), for the prediction step's Jacobian (semi_implicit_step.hpp) to
+// chain through its Jet chunks. Needs Ceres' headers, as jet.hpp.
 #pragma once
 
 #include <Eigen/Core>
+
+#include <vector>
 
 #include "swerve/models/jet.hpp"
 #include "swerve/models/vehicle_model.hpp"

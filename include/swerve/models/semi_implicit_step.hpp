@@ -10,8 +10,9 @@
 // inputs). Newton's method finds its value in double (BodyTwistSolver); its derivatives follow from
 // the implicit function theorem, dv+/dp = -(dG/dv)^-1 dG/dp, with both partials from the model
 // linearised once per substep at the converged v+ (model_linearisation.hpp: exact, no finite
-// differences and no differentiation of the Newton iterations). The module inputs come from the shared twist-to-module map and its smooth limits
-// (kinematics/module_commands.hpp, core/smoothing.hpp), so every optimiser sees one map.
+// differences and no differentiation of the Newton iterations). The module inputs come from the
+// shared twist-to-module map and its smooth limits (kinematics/module_commands.hpp,
+// core/smoothing.hpp), so every optimiser sees one map.
 #pragma once
 
 #include <Eigen/Dense>
