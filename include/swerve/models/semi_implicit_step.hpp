@@ -271,10 +271,7 @@ class SemiImplicitStep {
       const int nu = step.model_.input_size();
       u_applied = Vector::Zero(nu);
       trial_state = Vector::Zero(nx);
-      state_dot = Vector::Zero(nx);
       substep_state = Vector::Zero(nx);
-      seeded_state = Vector::Zero(nx);
-      constant_inputs = Vector::Zero(nu);
       state_values = Eigen::VectorXd::Zero(nx);
       input_values = Eigen::VectorXd::Zero(nu);
       diagnostics.resize(static_cast<std::size_t>(step.modules_));
@@ -300,7 +297,7 @@ class SemiImplicitStep {
       steering_rates_now = Vector::Zero(step.steering_lag_states_);
       steering_rates_end = Vector::Zero(step.steering_lag_states_);
     }
-    Vector u_applied, trial_state, state_dot, substep_state, seeded_state, constant_inputs;
+    Vector u_applied, trial_state, substep_state;
     Vector wheel_speeds_next;  // drive lag: the wheel speeds at the end of the whole step
     // Drive lag: each wheel's command, its speed at the current substep's start, and its mean over
     // the substep.
