@@ -41,12 +41,16 @@ struct SemiImplicitStepJacobian::Data::Impl {
 };
 
 SemiImplicitStepJacobian::SemiImplicitStepJacobian(const VehicleParams& params, const PredictionOptions& options)
-    : twin_(std::make_unique<const Twin>(params, options)) {
+    : twin_(std::make_unique<Twin>(params, options)) {
   state_size_ = twin_->step.state_size();
   input_size_ = twin_->step.model().input_size();
 }
 
 SemiImplicitStepJacobian::~SemiImplicitStepJacobian() = default;
+
+void SemiImplicitStepJacobian::observe_module_faults(const ModuleFaults* faults) noexcept {
+  twin_->step.observe_module_faults(faults);
+}
 
 int SemiImplicitStepJacobian::chunks(int directions) noexcept {
   return (directions + kModelJetSize - 1) / kModelJetSize;

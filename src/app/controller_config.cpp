@@ -120,6 +120,11 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
   if (const auto filter = node.optional_child("measurement_filter")) {
     c.set_measurement_filter(load_measurement_filter(*filter, c.mpc.measurement_filter));
   }
+  // The stuck-steering detector, for either kind (the wear-aware controller's baseline runs none).
+  if (const auto detection = node.optional_child("fault_detection")) {
+    read_fields(*detection, FaultDetectionOptions::fields(), &c.mpc.fault_detection);
+    c.baseline.fault_detection = c.mpc.fault_detection;
+  }
   try {
     c.validate();
   } catch (const ConfigError& error) {

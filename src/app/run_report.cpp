@@ -131,6 +131,12 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
         {"fallbacks", m.fallbacks},
         {"tracking_first_steps", m.tracking_first_steps},
         {"reference_delay_s", m.reference_delay_s},
+        {"safe_stops", m.safe_stops},
+        {"fault_onset_s", m.fault_onset_s >= 0.0 ? json(m.fault_onset_s) : json()},
+        {"fault_detection_cycles", m.fault_detection_cycles >= 0 ? json(m.fault_detection_cycles) : json()},
+        {"tracking_rmse_after_fault_known_m",
+         m.tracking_rmse_after_fault_known_m >= 0.0 ? json(m.tracking_rmse_after_fault_known_m) : json()},
+        {"false_fault_alarms", m.false_fault_alarms},
         {"log_csv", formats.csv ? nlohmann::json(run.name + ".csv") : nlohmann::json()},
     };
   }

@@ -10,6 +10,32 @@
 namespace swerve {
 namespace {
 
+// simulator.faults: [{module, at, kind, announced}], each module of the vehicle, each time inside
+// the run, one fault per module.
+std::vector<PlantFault> load_plant_faults(const config::ConfigNode& node, int modules, double duration) {
+  if (!node.is_sequence()) node.fail("expected a list of faults, e.g. [{module: 2, at: 5.0, kind: stuck_steering}]");
+  std::vector<PlantFault> faults;
+  for (std::size_t f = 0; f < node.size(); ++f) {
+    const config::ConfigNode entry = node.at(f);
+    PlantFault fault;
+    fault.module = entry.get_int("module", 0, modules - 1);
+    fault.at = entry.get_double("at", Bound::non_negative());
+    if (fault.at >= duration) {
+      entry.fail_at("at", "= " + entry.child("at").to_yaml() + ": must be inside the run, before its end at " +
+                              std::to_string(duration) + " s");
+    }
+    fault.kind = module_fault_from_string(entry.get_choice("kind", {"stuck_steering"}), entry.path() + ".kind");
+    fault.announced = entry.get_bool_or("announced", false);
+    for (const PlantFault& other : faults) {
+      if (other.module == fault.module) {
+        entry.fail_at("module", "= " + std::to_string(fault.module) + ": module already has a fault in this list");
+      }
+    }
+    faults.push_back(fault);
+  }
+  return faults;
+}
+
 using config::Bound;
 using config::ConfigNode;
 
@@ -221,6 +247,7 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
     if (const auto noise = sim->optional_child("noise")) {
       config::read_fields(*noise, MeasurementNoise::fields(), &s.simulator.noise);
     }
+    if (const auto faults = sim->optional_child("faults")) s.simulator.faults = load_plant_faults(*faults, n, s.duration);
   }
 
   const ConfigNode controllers = node.child("controllers");

@@ -4,6 +4,17 @@
 #include <cmath>
 
 namespace swerve {
+namespace {
+
+std::uint32_t fault_mask(const ModuleFaults& faults) {
+  std::uint32_t mask = 0;
+  for (int i = 0; i < faults.size(); ++i) {
+    if (faults[i] != ModuleFault::kNone) mask |= 1u << i;
+  }
+  return mask;
+}
+
+}  // namespace
 
 ScenarioConfig apply_overrides(const ScenarioConfig& scenario, const RunOverrides& overrides) {
   ScenarioConfig s = scenario;
@@ -75,6 +86,12 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
   run.log.reserve(static_cast<std::size_t>(steps));
   for (int k = 0; k < steps; ++k) {
     const double t = k * period;
+    // A fault the vehicle's own diagnostics report reaches the controller as it begins.
+    for (const PlantFault& fault : scenario.simulator.faults) {
+      if (fault.announced && fault.at <= t + 1e-6 && tracker->module_faults()[fault.module] != fault.kind) {
+        tracker->set_module_fault(fault.module, fault.kind);
+      }
+    }
     // The measurement carries its timestamp, so a delayed one is known to be old.
     const ControlOutput& output = tracker->step(plant.measurement(), t, t - plant.measurement_age());
     StepRecord record;
@@ -95,6 +112,7 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     record.step_time_s = output.step_time_s;
     record.solve_late_s = output.solve.status == SolveStatus::kNotRun ? 0.0 : output.solve.late_s;
     record.work_budget_cut = output.work_budget_cut;
+    record.known_faults = fault_mask(tracker->module_faults());
     run.log.push_back(std::move(record));
     // While the commands act, the next step's preparation (rti; a no-op for the other backends),
     // outside that step's time, as a vehicle's loop would run it after sending its commands.
@@ -103,6 +121,8 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
       run.failure = "the plant diverged at t = " + std::to_string(plant.time()) + " s";
       break;
     }
+    // The faults the plant had over this period (one starting at t acts from t on).
+    run.log.back().plant_faults = fault_mask(plant.active_faults());
     if (progress) progress(index, k + 1, steps);
   }
   run.completed = run.failure.empty();

@@ -160,6 +160,7 @@ void ControllerOptions::validate() const {
                         "must not exceed dt (" + std::to_string(dt) + " s): a cycle must not skip a prediction step");
   }
   measurement_filter.validate();
+  fault_detection.validate();
   stale_measurement.validate();
   work_budget.validate();
   tracking_tolerance.validate();
@@ -172,7 +173,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
     : name_(std::move(name)), options_(validated(options)), layout_(vehicle.layout), reference_(std::move(reference)),
       baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()),
       monitor_(6 + vehicle.layout.size(), options_.stale_measurement, options_.period()), latency_(vehicle.layout, options_.period(), options_.measurement_filter,
-               ActuatorLags::of(vehicle)) {
+               ActuatorLags::of(vehicle)),
+      detector_(vehicle.layout, options_.period(), options_.fault_detection) {
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
@@ -190,6 +192,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   problem_ = std::make_unique<OcpProblem>(*model_, options_.horizon, options_.dt, cost_weights(options_, layout_, vehicle.mass, model_->state_size(),
                                                                        module_model->steering_rate_states()),
                                           twist ? twist_bounds(layout_, options_.dt) : input_bounds(layout_, options_.dt));
+  wear_weight_ = problem_->weights().wear;
   model_data_ = model_->create_data();
   solver_ = make_solver(*problem_);
   if (!solver_) throw ConfigError("Controller.solver: the solver factory returned nothing");
@@ -215,6 +218,22 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   // (steering_lag): the controller estimates them from the commands it sent, through the same
   // first-order lags.
   actuators_.emplace(vehicle, module_model->wheel_speed_states() > 0, module_model->steering_rate_states() > 0);
+  // One set of faults for the plans, the prediction and the baseline (on the heap: a move keeps it).
+  size_module_faults(modules_);
+  model_->observe_module_faults(&module_faults());
+  baseline_.follow_module_faults(&module_faults());
+}
+
+void Controller::module_faults_changed() noexcept {
+  // A fault cleared by hand may be found again.
+  for (int i = 0; i < modules_; ++i) {
+    if (module_faults()[i] == ModuleFault::kNone) detector_.forget(i);
+  }
+  // Tracking first while a steering is stuck: the stuck tire is dragged by any motion off its
+  // angle, and with the wear priced the plan bought its relief by leaving the path (on a 1 m lane
+  // change, a vehicle that rolled on along the stuck angle and ended 1.3 m off it). The path is
+  // the aisle; that tire's wear is the fault's cost. See docs/decisions/module-faults.md.
+  problem_->set_wear_weight(any_fault(module_faults()) ? 0.0 : wear_weight_);
 }
 
 void Controller::reset() noexcept {
@@ -229,6 +248,7 @@ void Controller::reset() noexcept {
   baseline_.reset();
   monitor_.reset();
   latency_.reset();
+  detector_.reset();  // the faults found stay: they are the hardware's
   motion_commanded_since_ = std::numeric_limits<double>::infinity();
   reference_hold_.reset();
   output_.reference_delay_s = 0.0;
@@ -240,6 +260,8 @@ void Controller::apply_module_inputs(const Eigen::Ref<const Eigen::VectorXd>& mo
   // The inputs are already feasible; the angle target follows the rate over one period.
   applied_input_ = module_inputs;
   for (int i = 0; i < modules_; ++i) {
+    // Every path (plan, baseline, fallback, safe stop) leaves a stuck steering alone.
+    if (steering_stuck(&module_faults(), i)) applied_input_[InputIndex::steering_rate(i)] = 0.0;
     ModuleCommand& command = output_.modules[i];
     command.steering_rate = applied_input_[2 * i];
     command.wheel_speed = applied_input_[2 * i + 1];
@@ -297,7 +319,7 @@ void Controller::steer_slow_modules_ahead(const Eigen::Ref<const Eigen::MatrixXd
   for (int i = 0; i < modules_; ++i) {
     const Eigen::Vector2d r_body = layout_.position_body(i);
     const Eigen::Vector2d v_now = point_velocity<double>(twist_now, r_body);
-    if (v_now.norm() >= threshold) continue;
+    if (v_now.norm() >= threshold || steering_stuck(&module_faults(), i)) continue;
     const double angle = state[StateIndex::steering(i)];
     // The least steering rate that turns the module to velocity `v_ahead`'s direction in `time`.
     const auto rate_toward = [&](const Eigen::Vector2d& v_ahead, double time) {
@@ -457,8 +479,19 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
   output_.source = CommandSource::kSafeStop;
 }
 
+void Controller::find_stuck_steering(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at) noexcept {
+  if (!detector_.observe(measured.segment(StateIndex::kFirstSteering, modules_), measured_at)) return;
+  for (int i = 0; i < modules_; ++i) {
+    if (detector_.stuck(i) && module_faults()[i] == ModuleFault::kNone) {
+      record_module_fault(i, ModuleFault::kStuckSteering);
+      output_.module_fault_found = true;
+    }
+  }
+}
+
 const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   latency_.record(output_.modules);
+  detector_.commanded(output_.modules, step_t_);
   // The frozen-measurement check asks since when motion has been commanded without a break.
   if (!motion_commanded()) {
     motion_commanded_since_ = std::numeric_limits<double>::infinity();
@@ -603,6 +636,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   actuators_->begin_step();
   output_.solve = SolveSummary{};
   output_.measurement_stale = false;
+  output_.module_fault_found = false;
   // The previous plan moves on by one cycle whatever happens now (period / dt of its steps).
   if (plan_.valid) {
     plan_.shift(options_.period() / options_.dt);
@@ -622,6 +656,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     refuse(measured, stale);
     return finish(step_start);
   }
+  find_stuck_steering(measured, measured_at);
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
     // No trajectory, or only a stale one: nothing to follow that the planner still stands by.

@@ -59,13 +59,15 @@ void BaselineOptions::validate() const {
     throw_invalid_field(kOwner, "twist_weight", twist_weight.transpose(), "or rate_weight must be > 0 on every axis (the plan must be unique)");
   }
   measurement_filter.validate();
+  fault_detection.validate();
 }
 
 KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr<const Reference> reference,
                                      BaselineOptions options, ActuatorLags lags)
     : options_(validated(options)), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
       horizon_(options_.horizon), heading_memory_(layout.size()), planned_memory_(layout.size()),
-      latency_(layout, options_.dt, options_.measurement_filter, lags) {
+      latency_(layout, options_.dt, options_.measurement_filter, lags),
+      detector_(layout, options_.dt, options_.fault_detection) {
   if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
   pre_aligns_ = options_.pre_align &&
                 (!options_.pre_align_only_with_end_stops || layout.limits().has_steering_end_stops());
@@ -86,6 +88,7 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
   directions_ = ModuleArray<DriveDirection<double>>(modules_);
   now_ = Eigen::VectorXd::Zero(6 + modules_);
   output_.modules = ModuleArray<ModuleCommand>(modules_);
+  size_module_faults(modules_);
   const StepRescale rescale = step_rescale(options_.dt, options_.weights_step);
   for (int k = 0; k < horizon_; ++k) {
     const double scale = k == horizon_ - 1 ? rescale.per_change * options_.terminal_scale : 1.0;
@@ -103,6 +106,7 @@ void KinematicBaseline::reset() noexcept {
   aligning_ = true;
   reference_hold_.reset();
   latency_.reset();
+  detector_.reset();  // the faults found stay: they are the hardware's
 }
 
 bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
@@ -319,6 +323,14 @@ void KinematicBaseline::plan_module_directions(double threshold, bool at_rest_ru
       for (int k = 0; k <= fastest; ++k) steer_from_(i, k) = fastest;
     }
   }
+  // A module whose steering is stuck is steered nowhere: it holds, and its wheel rolls with the
+  // planned velocity's component along its angle (module_inputs' rule for a module with no
+  // direction ahead), so neither the cosine scaling nor the pre-alignment waits for it.
+  for (int i = 0; i < modules_; ++i) {
+    if (steering_stuck(followed_faults_ != nullptr ? followed_faults_ : &module_faults(), i)) {
+      steer_from_.row(i).setConstant(-1);
+    }
+  }
 }
 
 void KinematicBaseline::module_inputs(const Eigen::Ref<const Eigen::VectorXd>& steering_angles,
@@ -422,16 +434,28 @@ const ControlOutput& KinematicBaseline::stop_safely(const Eigen::Ref<const Eigen
   output_.reason = reason;
   twist_committed_ = false;
   latency_.record(output_.modules);
+  detector_.commanded(output_.modules, step_t_);
   return output_;
 }
 
 const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
                                              double measured_at) noexcept {
   output_.solve = SolveSummary{};
+  output_.module_fault_found = false;
+  step_t_ = t;
   const TimePoint start = clock().now();
   if (measured.size() != 6 + modules_ || !measured.allFinite() || !std::isfinite(t) ||
       !is_plausible_state(measured, kinematics_.layout())) {
     return stop_safely(measured, "measured state rejected (wrong size, NaN/inf or implausible)");
+  }
+  // A steering that stopped following its commands is taken as a fault from this step on.
+  if (detector_.observe(measured.segment(6, modules_), measured_at)) {
+    for (int i = 0; i < modules_; ++i) {
+      if (detector_.stuck(i) && module_faults()[i] == ModuleFault::kNone) {
+        record_module_fault(i, ModuleFault::kStuckSteering);
+        output_.module_fault_found = true;
+      }
+    }
   }
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
@@ -470,6 +494,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     command.wheel_speed = inputs_(2 * i + 1, 0);
   }
   latency_.record(output_.modules);
+  detector_.commanded(output_.modules, t);
   output_.source = CommandSource::kOptimizer;
   output_.reason = pre_aligning ? "kinematic plan; the wheels wait while the modules pre-align" : "kinematic plan";
   output_.reference_delay_s = reference_hold_.delay_s();

@@ -21,6 +21,11 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   twist_jacobian_chunks_ = SemiImplicitStepJacobian::chunks(state_size_ + 3);
 }
 
+void VehiclePredictionModel::observe_module_faults(const ModuleFaults* faults) noexcept {
+  values_->observe_module_faults(faults);
+  jacobian_->observe_module_faults(faults);
+}
+
 double VehiclePredictionModel::module_evaluations_per_linearisation() noexcept { return 1.4; }
 double VehiclePredictionModel::module_evaluations_per_jet_chunk() noexcept { return 1.0; }
 

@@ -16,6 +16,32 @@ double percentile(std::vector<double> values, double q) {
   return values[std::min(index, values.size() - 1)];
 }
 
+namespace {
+
+// RunMetrics' fault fields from the log's fault masks.
+void add_fault_metrics(const std::vector<StepRecord>& log, RunMetrics* m) {
+  std::uint32_t false_alarms = 0;
+  int onset = -1, known = -1;
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    const StepRecord& record = log[k];
+    false_alarms |= record.known_faults & ~record.plant_faults;
+    if (onset < 0 && record.plant_faults != 0) onset = static_cast<int>(k);
+    if (onset >= 0 && known < 0 && (record.known_faults & record.plant_faults) != 0) known = static_cast<int>(k);
+  }
+  for (; false_alarms != 0; false_alarms &= false_alarms - 1) ++m->false_fault_alarms;
+  if (onset < 0) return;
+  m->fault_onset_s = log[static_cast<std::size_t>(onset)].t;
+  if (known < 0) return;
+  m->fault_detection_cycles = known - onset;
+  double position_sq = 0.0;
+  for (std::size_t k = static_cast<std::size_t>(known); k < log.size(); ++k) {
+    position_sq += log[k].position_error() * log[k].position_error();
+  }
+  m->tracking_rmse_after_fault_known_m = std::sqrt(position_sq / static_cast<double>(log.size() - static_cast<std::size_t>(known)));
+}
+
+}  // namespace
+
 RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector<double>& wear_per_module,
                            double frictional_energy, double control_period, double solve_budget) {
   RunMetrics m;
@@ -61,6 +87,7 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
     if (record.source == CommandSource::kTrackingFirst) ++m.tracking_first_steps;
     m.reference_delay_s = record.reference_delay_s;
     if (record.source != CommandSource::kOptimizer && record.source != CommandSource::kTrackingFirst) ++m.fallbacks;
+    if (record.source == CommandSource::kSafeStop) ++m.safe_stops;
   }
   if (!log.empty()) {
     m.tracking_rmse_m = std::sqrt(position_sq / static_cast<double>(log.size()));
@@ -85,6 +112,7 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
     m.step_time_p99_ms = percentile(step_ms, 99.0);
     m.step_time_max_ms = *std::max_element(step_ms.begin(), step_ms.end());
   }
+  add_fault_metrics(log, &m);
   return m;
 }
 

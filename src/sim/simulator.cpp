@@ -38,6 +38,16 @@ const OptionFields<SimulatorOptions>& SimulatorOptions::fields() {
 
 void SimulatorOptions::validate() const {
   if (!std::isfinite(control_period) || control_period <= 0.0) throw_invalid_field(kOwner, "control_period", control_period, "must be > 0");
+  for (std::size_t f = 0; f < faults.size(); ++f) {
+    const std::string field = "faults[" + std::to_string(f) + "]";
+    if (faults[f].module < 0 || faults[f].module >= kMaxModules) {
+      throw_invalid_field(kOwner, field + ".module", faults[f].module, "must name a module of the vehicle");
+    }
+    if (!std::isfinite(faults[f].at) || faults[f].at < 0.0) throw_invalid_field(kOwner, field + ".at", faults[f].at, "must be >= 0 (s)");
+    if (faults[f].kind != ModuleFault::kStuckSteering) {
+      throw_invalid_field(kOwner, field + ".kind", to_string(faults[f].kind), "must be stuck_steering");
+    }
+  }
   check_fields("SimulatorOptions", *this, fields());
   check_fields("SimulatorOptions.noise", noise, MeasurementNoise::fields());
 }
@@ -56,6 +66,28 @@ Simulator::Simulator(const VehicleParams& vehicle, SimulatorOptions options)
   step_module_wear_.assign(static_cast<std::size_t>(n), 0.0);
   period_module_wear_.assign(static_cast<std::size_t>(n), 0.0);
   samples_.resize(static_cast<std::size_t>(n));
+  active_faults_ = ModuleFaults(n, ModuleFault::kNone);
+  for (std::size_t f = 0; f < options_.faults.size(); ++f) {
+    if (options_.faults[f].module >= n) {
+      throw_invalid_field(kOwner, "faults[" + std::to_string(f) + "].module", options_.faults[f].module,
+                          "must name a module of the vehicle, 0 to " + std::to_string(n - 1));
+    }
+  }
+}
+
+void Simulator::apply_faults() noexcept {
+  // A period that starts within a microsecond of a fault's time counts as starting at it.
+  constexpr double kSameTime = 1e-6;
+  for (const PlantFault& fault : options_.faults) {
+    if (fault.at > time_ + kSameTime || active_faults_[fault.module] == fault.kind) continue;
+    active_faults_[fault.module] = fault.kind;
+    // The steering stops where it is: its rate state too, not only the commands from now on.
+    const int rate = model_.steering_rate_index(fault.module);
+    if (rate >= 0) state_[rate] = 0.0;
+  }
+  for (int i = 0; i < model_.modules(); ++i) {
+    if (steering_stuck(&active_faults_, i)) input_[InputIndex::steering_rate(i)] = 0.0;
+  }
 }
 
 void Simulator::reset(const Eigen::VectorXd& initial_prefix) {
@@ -71,6 +103,7 @@ void Simulator::reset(const Eigen::VectorXd& initial_prefix) {
   time_ = 0.0;
   frictional_energy_ = 0.0;
   std::fill(module_wear_.begin(), module_wear_.end(), 0.0);
+  for (int i = 0; i < n; ++i) active_faults_[i] = ModuleFault::kNone;
   input_.setZero();
   for (int i = 0; i < n; ++i) {  // hold the initial wheel speeds until the first command
     const int index = model_.wheel_speed_index(i);
@@ -132,6 +165,7 @@ bool Simulator::advance(const ModuleArray<ModuleCommand>& commands) noexcept {
     input_[InputIndex::wheel_speed(i)] = commands[i].wheel_speed;
   }
   if (!input_.allFinite()) return false;
+  apply_faults();
   const double h = options_.control_period / substeps_;
   double energy = 0.0;
   std::fill(period_module_wear_.begin(), period_module_wear_.end(), 0.0);

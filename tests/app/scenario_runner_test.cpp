@@ -309,6 +309,11 @@ TEST(ScenarioConfig, BadFilesNameTheFileTheKeyPathAndTheValue) {
   expect_config_error("device_csv_reference.yaml",
                       "scenario.reference.file: cannot load: /dev/zero: a character device, not a regular file");
   expect_config_error("bad_measurement_filter.yaml", "scenario.measurement_filter.pose_gain = 0");
+  expect_config_error("fault_unknown_module.yaml", "scenario.simulator.faults[0].module");
+  expect_config_error("fault_unknown_kind.yaml", "scenario.simulator.faults[0].kind");
+  expect_config_error("fault_unknown_kind.yaml", "dead_drive");
+  expect_config_error("fault_after_the_run.yaml", "scenario.simulator.faults[0].at = 4");
+  expect_config_error("fault_twice_on_a_module.yaml", "scenario.simulator.faults[1].module = 1");
 }
 
 TEST(ScenarioConfig, AScenarioWideMeasurementFilterReachesEveryController) {

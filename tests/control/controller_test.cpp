@@ -1913,5 +1913,49 @@ TEST(Controller, RejectsAHeadingLeverThatIsNotPositiveNamingTheField) {
   }
 }
 
+TEST(Controller, AModuleFaultOnAModuleTheVehicleDoesNotHaveIsRefusedNamingIt) {
+  FakeScript script;
+  Controller controller = make_fake_controller(&script);
+  try {
+    controller.set_module_fault(4, ModuleFault::kStuckSteering);
+    FAIL() << "module 4 of a 4-module vehicle was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("set_module_fault.module = 4"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(controller.set_module_fault(-1, ModuleFault::kStuckSteering), ConfigError);
+  EXPECT_THROW(controller.set_module_fault(0, static_cast<ModuleFault>(7)), ConfigError);
+  EXPECT_EQ(controller.module_faults()[0], ModuleFault::kNone);
+}
+
+TEST(Controller, AStuckModuleIsNeverCommandedASteeringRateByThePlanOrByTheBaselineFallback) {
+  // Module rates: the fake plan steers every module at 0.01 (k + 1) rad/s, so the plan path would
+  // steer module 1; the failing solver then hands over to the baseline, which steers toward the
+  // line from 0.2 rad.
+  for (const InputParameterization parameterization : kParameterizations) {
+    SCOPED_TRACE(to_string(parameterization));
+    FakeScript script;
+    // The measured state repeats, so every module "refuses" its commands: the detector is off.
+    ControllerOptions options = fast_options(parameterization);
+    options.fault_detection.enabled = false;
+    Controller controller = make_fake_controller(&script, options);
+    controller.set_module_fault(1, ModuleFault::kStuckSteering);
+    Eigen::VectorXd state = cruising();
+    state.tail(4).setConstant(0.2);
+    for (int k = 0; k < 8; ++k) {
+      script.mode = k < 4 ? FakeMode::kGood : FakeMode::kFail;
+      const ControlOutput& out = controller.step(state, 0.05 * k);
+      EXPECT_EQ(out.modules[1].steering_rate, 0.0) << "cycle " << k << " from " << to_string(out.source);
+      EXPECT_EQ(out.modules[1].steering_angle, 0.2) << "cycle " << k;
+      EXPECT_FALSE(out.module_fault_found);
+    }
+    EXPECT_EQ(controller.module_faults()[1], ModuleFault::kStuckSteering);
+    EXPECT_EQ(controller.module_faults()[0], ModuleFault::kNone);
+    // Cleared, the module steers again.
+    controller.set_module_fault(1, ModuleFault::kNone);
+    script.mode = FakeMode::kFail;
+    EXPECT_NE(controller.step(state, 0.4).modules[1].steering_rate, 0.0);
+  }
+}
+
 }  // namespace
 }  // namespace swerve

@@ -116,31 +116,57 @@ TEST_F(SemiImplicitStepJacobianTest, ModuleInputsGiveTheDoubleStepsValueAndItsCe
   expect_module_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, u, 1e-5);
 }
 
-TEST_F(SemiImplicitStepJacobianTest, TheTwistInputDifferentiatesThroughTheModuleMapToo) {
-  const int nx = jacobian_.state_size();
-  const Eigen::Vector3d twist(0.85, 0.05, 0.25);
+// The twist-input Jacobian at (x, twist): the double step's value through the module map, and
+// its central differences.
+void expect_twist_jacobian_matches_the_step(const SemiImplicitStep<double>& step,
+                                            SemiImplicitStep<double>::Data& step_data,
+                                            const SemiImplicitStepJacobian& jacobian,
+                                            SemiImplicitStepJacobian::Data& data, const Eigen::VectorXd& x_at,
+                                            const Eigen::Vector3d& twist) {
+  const int nx = jacobian.state_size();
   Eigen::VectorXd x_next(nx), wear_gradient(nx + 3);
   Eigen::MatrixXd a(nx, nx), b(nx, 3);
   double wear = 0.0;
-  ASSERT_TRUE(jacobian_.twist_step(data_, x_, twist, kDt, x_next, a, b, &wear, wear_gradient));
-  Eigen::VectorXd inputs(jacobian_.input_size());
+  ASSERT_TRUE(jacobian.twist_step(data, x_at, twist, kDt, x_next, a, b, &wear, wear_gradient));
+  Eigen::VectorXd inputs(jacobian.input_size());
   const auto twist_step = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& t, Eigen::VectorXd& next, double* w) {
-    step_.module_inputs(x, Eigen::Vector3d(t), kDt, inputs);
-    return step_.step(step_data_, x, inputs, kDt, next, w);
+    step.module_inputs(x, Eigen::Vector3d(t), kDt, inputs);
+    return step.step(step_data, x, inputs, kDt, next, w);
   };
   Eigen::VectorXd value(nx);
   double value_wear = 0.0;
-  ASSERT_TRUE(twist_step(x_, twist, value, &value_wear));
+  ASSERT_TRUE(twist_step(x_at, twist, value, &value_wear));
   EXPECT_LT((x_next - value).cwiseAbs().maxCoeff(), 1e-10);
 
   Eigen::MatrixXd fd_a(nx, nx), fd_b(nx, 3);
   Eigen::VectorXd fd_wear(nx + 3);
-  central_differences(x_, twist, twist_step, &fd_a, &fd_b, &fd_wear);
+  central_differences(x_at, twist, twist_step, &fd_a, &fd_b, &fd_wear);
   EXPECT_LT(relative_error(a, fd_a), 1e-5);
   EXPECT_LT(relative_error(b, fd_b), 1e-5);
   EXPECT_LT(relative_error(wear_gradient, fd_wear), 1e-4);
   // The twist's columns are the module inputs' chained through the map: not zero.
   EXPECT_GT(b.cwiseAbs().maxCoeff(), 1e-3);
+}
+
+TEST_F(SemiImplicitStepJacobianTest, TheTwistInputDifferentiatesThroughTheModuleMapToo) {
+  expect_twist_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, Eigen::Vector3d(0.85, 0.05, 0.25));
+}
+
+TEST_F(SemiImplicitStepJacobianTest, WithAStuckSteeringTheAngleHoldsAndTheJacobiansStillMatchTheStep) {
+  ModuleFaults faults(4, ModuleFault::kNone);
+  faults[1] = ModuleFault::kStuckSteering;
+  step_.observe_module_faults(&faults);
+  jacobian_.observe_module_faults(&faults);
+  Eigen::VectorXd u(jacobian_.input_size());
+  step_.module_inputs(x_, Eigen::Vector3d(0.85, 0.05, 0.25), kDt, u);
+  EXPECT_EQ(u[InputIndex::steering_rate(1)], 0.0);  // the map leaves it alone
+  u[InputIndex::steering_rate(1)] = 2.0;            // and the step ignores a rate commanded anyway
+  Eigen::VectorXd x_next(step_.state_size());
+  ASSERT_TRUE(step_.step(step_data_, x_, u, kDt, x_next, nullptr));
+  EXPECT_EQ(x_next[StateIndex::steering(1)], x_[StateIndex::steering(1)]);
+  EXPECT_NE(x_next[StateIndex::steering(0)], x_[StateIndex::steering(0)]);
+  expect_module_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, u, 1e-5);
+  expect_twist_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, Eigen::Vector3d(0.85, 0.05, 0.25));
 }
 
 TEST(SemiImplicitStepJacobian, ASplitSubstepIsDifferentiatedAsTheDoubleStepTakesIt) {

@@ -79,5 +79,33 @@ TEST(Metrics, PercentileIsNearestRank) {
   EXPECT_DOUBLE_EQ(percentile({3.0, 1.0, 2.0}, 0.0), 1.0);
 }
 
+TEST(Metrics, AFaultsDetectionDelayTheTrackingAfterItAndFalseAlarmsFromTheMasks) {
+  // The plant's module 1 fails at step 3; the controller knows of it from step 5 (2 cycles) and
+  // wrongly takes module 0 as faulty at step 8: one false alarm. Errors 0.1 before step 5, 0.3 from
+  // it on: the RMSE after detection is 0.3. Step 6 sent a safe stop.
+  std::vector<StepRecord> log;
+  for (int k = 0; k < 10; ++k) {
+    StepRecord r = record(0.1 * k, k < 5 ? 0.1 : 0.3, 0.0, 0.001, k == 6 ? CommandSource::kSafeStop : CommandSource::kOptimizer);
+    r.plant_faults = k >= 3 ? 0b10u : 0u;
+    r.known_faults = (k >= 5 ? 0b10u : 0u) | (k >= 8 ? 0b01u : 0u);
+    log.push_back(r);
+  }
+  const RunMetrics m = compute_metrics(log, {1.0, 1.0}, 1.0, 0.1, 0.02);
+  EXPECT_NEAR(m.fault_onset_s, 0.3, 1e-12);
+  EXPECT_EQ(m.fault_detection_cycles, 2);
+  EXPECT_NEAR(m.tracking_rmse_after_fault_known_m, 0.3, 1e-12);
+  EXPECT_EQ(m.false_fault_alarms, 1);
+  EXPECT_EQ(m.safe_stops, 1);
+}
+
+TEST(Metrics, WithoutFaultsTheFaultFieldsSayNone) {
+  const std::vector<StepRecord> log = {record(0.0, 0.0, 0.0, 0.001, CommandSource::kOptimizer)};
+  const RunMetrics m = compute_metrics(log, {1.0}, 1.0, 0.1, 0.02);
+  EXPECT_EQ(m.fault_onset_s, -1.0);
+  EXPECT_EQ(m.fault_detection_cycles, -1);
+  EXPECT_EQ(m.tracking_rmse_after_fault_known_m, -1.0);
+  EXPECT_EQ(m.false_fault_alarms, 0);
+}
+
 }  // namespace
 }  // namespace swerve

@@ -196,5 +196,39 @@ TEST(Simulator, InvalidOptionsAndInitialStatesNameTheField) {
   EXPECT_THROW(simulator.reset(nan_state), ConfigError);
 }
 
+TEST(Simulator, AStuckSteeringHoldsItsAngleFromItsOnsetWhileTheOthersTurn) {
+  // The plant with its steering lag: module 1 sticks at 0.2 s (the fifth period), mid-turn.
+  VehicleParams params = testing::make_params(4);
+  SimulatorOptions options;
+  options.faults.push_back({1, 0.2, ModuleFault::kStuckSteering, false});
+  Simulator simulator(params, options);
+  simulator.reset(Eigen::VectorXd::Zero(10));
+  ModuleArray<ModuleCommand> commands(4);
+  for (int i = 0; i < 4; ++i) commands[i].steering_rate = 1.0;
+  for (int k = 0; k < 4; ++k) ASSERT_TRUE(simulator.advance(commands));
+  EXPECT_EQ(simulator.active_faults()[1], ModuleFault::kNone);  // not before its onset
+  const double angle_at_onset = simulator.state()[StateIndex::steering(1)];
+  const double other_at_onset = simulator.state()[StateIndex::steering(0)];
+  EXPECT_GT(angle_at_onset, 0.05);  // it was turning
+  for (int k = 0; k < 10; ++k) ASSERT_TRUE(simulator.advance(commands));
+  EXPECT_EQ(simulator.active_faults()[1], ModuleFault::kStuckSteering);
+  EXPECT_EQ(simulator.state()[StateIndex::steering(1)], angle_at_onset);
+  EXPECT_GT(simulator.state()[StateIndex::steering(0)], other_at_onset + 0.4);
+  // A new run starts healthy.
+  simulator.reset(Eigen::VectorXd::Zero(10));
+  EXPECT_EQ(simulator.active_faults()[1], ModuleFault::kNone);
+}
+
+TEST(Simulator, AFaultOnAModuleTheVehicleDoesNotHaveIsRefusedNamingIt) {
+  SimulatorOptions options;
+  options.faults.push_back({4, 1.0, ModuleFault::kStuckSteering, false});
+  const std::string message = testing::config_error_of([&] { Simulator(ideal_plant_params(), options); });
+  EXPECT_NE(message.find("faults[0].module = 4"), std::string::npos) << message;
+  options.faults[0] = {0, -1.0, ModuleFault::kStuckSteering, false};
+  EXPECT_NE(testing::config_error_of([&] { options.validate(); }).find("faults[0].at = -1"), std::string::npos);
+  options.faults[0] = {0, 1.0, ModuleFault::kNone, false};
+  EXPECT_NE(testing::config_error_of([&] { options.validate(); }).find("faults[0].kind = none"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace swerve

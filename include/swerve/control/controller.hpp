@@ -25,6 +25,7 @@
 #include "swerve/ocp/ocp_problem.hpp"
 #include "swerve/control/reference.hpp"
 #include "swerve/control/reference_hold.hpp"
+#include "swerve/control/steering_fault_detector.hpp"
 #include "swerve/control/tracking_controller.hpp"
 #include "swerve/control/tracking_tube.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
@@ -118,6 +119,9 @@ struct ControllerOptions {
   StalenessOptions stale_measurement;  // when a measurement is too old or frozen to act on
   TrackingTolerance tracking_tolerance;  // off by default
   MeasurementFilterOptions measurement_filter;  // off by default (gains 1)
+  // The stuck-steering detector (SteeringFaultDetector); a module it finds is taken as
+  // set_module_fault(i, kStuckSteering) would.
+  FaultDetectionOptions fault_detection;
   // The rules of the fields, read by the YAML loader too: the sampling (horizon, dt; shared with the
   // baseline), the timing and replanning fields, and the cost weights (their YAML keys under
   // `weights:`). The nested options have tables of their own.
@@ -198,6 +202,9 @@ class Controller final : public TrackingController {
     fallback_input_ = input.cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
   }
   void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
+  // The detector on this step's measurement; a module it newly finds stuck becomes a fault.
+  void find_stuck_steering(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at) noexcept;
+  void module_faults_changed() noexcept override;
   // A stale measurement or an unusable reference: kInvalidInput with `reason`, the plan dropped, a
   // safe stop.
   void refuse(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
@@ -241,6 +248,8 @@ class Controller final : public TrackingController {
   Eigen::MatrixXd baseline_states_;  // nx x N+1: the baseline's policy rolled out (close_baseline_loop)
   std::optional<TrackingTube> tube_;  // tracking_tolerance's (made with the problem)
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
+  SteeringFaultDetector detector_;   // commands sent against the steering angles measured
+  double wear_weight_ = 0.0;         // the cost's wear weight without faults (with one: 0, tracking first)
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
   Eigen::VectorXd prediction_state_;  // nx: now_, then the estimated wheel speeds and steering rates
   // The wheel speeds and steering rates the prediction starts from (made with the model, which

@@ -16,6 +16,7 @@
 
 #include "swerve/core/option_fields.hpp"
 #include "swerve/kinematics/kinematics.hpp"
+#include "swerve/control/steering_fault_detector.hpp"
 #include "swerve/kinematics/module_commands.hpp"
 #include "swerve/kinematics/module_heading_memory.hpp"
 #include "swerve/control/latency_compensator.hpp"
@@ -65,6 +66,9 @@ struct BaselineOptions {
   // holds, and its wheel drives the planned velocity's component along its heading.
   double steer_speed_threshold = 0.03;
   MeasurementFilterOptions measurement_filter;  // off by default (gains 1), as the wear-aware controller's
+  // The stuck-steering detector of the baseline run as a controller of its own (step()), as the
+  // wear-aware controller's (ControllerOptions::fault_detection).
+  FaultDetectionOptions fault_detection;
   // The rules of the fields the YAML file sets (horizon and dt come from the controller's).
   static const OptionFields<BaselineOptions>& fields();
   void validate() const;             // throws ConfigError naming the field and value
@@ -116,6 +120,9 @@ class KinematicBaseline final : public TrackingController {
     committed_twist_ = twists_.col(0);
     twist_committed_ = true;
   }
+  // Inside another controller (the wear-aware one's baseline): read that controller's module faults
+  // instead of this one's own; null: its own again. Not owned: `faults` must outlive this.
+  void follow_module_faults(const ModuleFaults* faults) noexcept { followed_faults_ = faults; }
   const BaselineOptions& options() const noexcept { return options_; }
   // Whether starts from rest pre-align on this vehicle (pre_align, and pre_align_only_with_end_stops).
   bool pre_aligns() const noexcept { return pre_aligns_; }
@@ -146,6 +153,7 @@ class KinematicBaseline final : public TrackingController {
   const ControlOutput& stop_safely(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
   BaselineOptions options_;
   Kinematics kinematics_;
+  const ModuleFaults* followed_faults_ = nullptr;  // follow_module_faults (not owned)
   std::shared_ptr<const Reference> reference_;
   int modules_, horizon_;
   ModuleHeadingMemory heading_memory_;                // the flip decisions of the command last sent
@@ -178,6 +186,8 @@ class KinematicBaseline final : public TrackingController {
 
   ModuleStates module_states_;
   LatencyCompensator latency_;
+  SteeringFaultDetector detector_;  // run by step() alone
+  double step_t_ = 0.0;             // this step's t
   Eigen::VectorXd now_;                               // 6 + n: the measurement rolled forward to t
   ControlOutput output_;
 };

@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "swerve/core/option_fields.hpp"
+#include "swerve/kinematics/module_faults.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/ocp/solver.hpp"
 
@@ -58,11 +59,25 @@ struct ControlOutput {
   // The step's clock cut a work-budgeted solve short (ControllerOptions::work_budget): the machine
   // ran slower than the budget's rates, and this answer depends on its speed.
   bool work_budget_cut = false;
+  // This step's detector found a module fault (TrackingController::module_faults() says which).
+  bool module_fault_found = false;
 };
 
 class TrackingController {
  public:
+  TrackingController() = default;
   virtual ~TrackingController() = default;
+  // A copy has faults of its own (copied); a move takes them along, so a moved controller's
+  // prediction model keeps reading the faults it was given.
+  TrackingController(const TrackingController& other)
+      : clock_(other.clock_), faults_(std::make_unique<ModuleFaults>(*other.faults_)) {}
+  TrackingController& operator=(const TrackingController& other) {
+    clock_ = other.clock_;
+    faults_ = std::make_unique<ModuleFaults>(*other.faults_);
+    return *this;
+  }
+  TrackingController(TrackingController&&) noexcept = default;
+  TrackingController& operator=(TrackingController&&) noexcept = default;
   virtual const char* name() const noexcept = 0;
   // `measured_state`: pose_world (x, y, psi), v_body (vx, vy, r), steering angles delta_1..n, taken
   // at `measured_at` (s, the same time base as t; a measurement older than the controller accepts
@@ -86,13 +101,34 @@ class TrackingController {
   // the real-time path: releasing the old reference may free it. Throws ConfigError for null.
   virtual void set_reference(std::shared_ptr<const Reference> reference) = 0;
 
+  // A module fault taken from the next step on (ModuleFault::kNone clears it): a stuck steering
+  // gets no steering rate and its wheel rolls along its angle; the wear-aware controller's plans
+  // and prediction take it too. Throws ConfigError naming the module when the vehicle has no such
+  // module (or the fault is not a ModuleFault). Between steps, not from the real-time path.
+  void set_module_fault(int module, ModuleFault fault);
+  // Every module's fault: those set above and those the controller's own detector found.
+  const ModuleFaults& module_faults() const noexcept { return *faults_; }
+
   // The clock step() is timed and its deadline kept on: the steady clock unless a test or a
   // simulated-time host injects another. Not owned; it must outlive the controller.
   void set_clock(const Clock& clock) noexcept { clock_ = &clock; }
   const Clock& clock() const noexcept { return *clock_; }
 
+ protected:
+  // Every derived constructor: one entry per module, all healthy.
+  void size_module_faults(int modules) { *faults_ = ModuleFaults(modules, ModuleFault::kNone); }
+  // A fault found in step() (noexcept; `module` in range).
+  void record_module_fault(int module, ModuleFault fault) noexcept {
+    (*faults_)[module] = fault;
+    module_faults_changed();
+  }
+  // After the faults changed: what a controller built of others passes on (the wear-aware one to
+  // its baseline). The faults live on the heap, so a moved controller's model keeps reading them.
+  virtual void module_faults_changed() noexcept {}
+
  private:
   const Clock* clock_ = &steady_clock();
+  std::unique_ptr<ModuleFaults> faults_ = std::make_unique<ModuleFaults>();
 };
 
 }  // namespace swerve

@@ -13,6 +13,7 @@
 
 #include "swerve/core/scalar.hpp"
 #include "swerve/core/smoothing.hpp"
+#include "swerve/kinematics/module_faults.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/kinematics/se2.hpp"
@@ -212,6 +213,10 @@ struct ModuleCommandRule {
   // m/s: below it the singularity hold (kHoldSpeed), and the wheel rolls with the velocity's
   // component along the held angle.
   double hold_speed = kHoldSpeed;
+  // Known faults (null: none). A module whose steering is stuck gets no steering rate, and its
+  // wheel rolls with the contact velocity's component along its angle, as in the hold: driving it
+  // anywhere else would only add longitudinal slip to the lateral drag it cannot avoid.
+  const ModuleFaults* faults = nullptr;
 };
 
 // Module inputs that carry out `twist_body` over the next dt from the steering angles `angles`
@@ -232,7 +237,8 @@ void module_commands(const ModuleLayout& layout, const Eigen::Matrix<T, 3, 1>& t
     const T& angle = angles[i];
     T rate(0.0), wheel_speed(0.0);
     int sign = previous_signs != nullptr ? previous_signs[i] : 0;
-    if (std::hypot(scalar_value(velocity.x()), scalar_value(velocity.y())) >= rule.hold_speed) {
+    if (!steering_stuck(rule.faults, i) &&
+        std::hypot(scalar_value(velocity.x()), scalar_value(velocity.y())) >= rule.hold_speed) {
       const T speed = sqrt(velocity.squaredNorm());
       const DriveDirection<T> direction = choose_drive_direction<T>(atan2(velocity.y(), velocity.x()), angle, sign,
                                                                     rule.flip, rule.flip_hysteresis, limits,

@@ -342,6 +342,11 @@ class SemiImplicitStep {
   // chunks replay them instead of solving and linearising again (Jet instances only).
   static void begin_chunk(Data& d, bool first) noexcept { d.replay = !first; }
 
+  // The modules' faults from now on (null: none): a module whose steering is stuck gets no
+  // steering rate, and the twist map rolls its wheel along its angle (ModuleCommandRule::faults).
+  // Wiring like charge_work_to, not part of an evaluation: `faults` must outlive the step.
+  void observe_module_faults(const ModuleFaults* faults) noexcept { faults_ = faults; }
+
   // x_next = F(x, u) over dt with module inputs u (steering rate, wheel speed per module) and the
   // stage wear. Sizes and finiteness are the caller's to check. No allocation.
   //
@@ -366,6 +371,10 @@ class SemiImplicitStep {
     // [-pi, pi] range means none: the module turns freely through +-pi (a clip there left a
     // module reversed by pi unable to steer one way, and the tracking stuck).
     d.u_applied = u;
+    // A stuck steering holds its angle whatever it is commanded (observe_module_faults).
+    for (int i = 0; i < modules_ && faults_ != nullptr; ++i) {
+      if (steering_stuck(faults_, i)) d.u_applied[InputIndex::steering_rate(i)] = T(0.0);
+    }
     for (int i = 0; i < modules_ && limits.has_steering_end_stops(); ++i) {
       const T& angle = x[StateIndex::steering(i)];
       T& rate = d.u_applied[InputIndex::steering_rate(i)];
@@ -386,7 +395,8 @@ class SemiImplicitStep {
     }
     for (int i = 0; i < steering_lag_states_; ++i) {
       d.steering_commands[i] = d.u_applied[InputIndex::steering_rate(i)];
-      d.steering_rates_now[i] = x_full[model_size + lag_states_ + i];
+      // A stuck steering does not turn at the rate it turned before it stuck, either.
+      d.steering_rates_now[i] = steering_stuck(faults_, i) ? T(0.0) : T(x_full[model_size + lag_states_ + i]);
     }
     T wear(0.0);
     bool ok = true;
@@ -441,6 +451,7 @@ class SemiImplicitStep {
     rule.flip = FlipPolicy::kNearest;
     rule.tie_band = kDirectionTieBand;
     rule.shape = LimitShape::kSmooth;
+    rule.faults = faults_;
     module_commands<S>(layout_, twist_body, angles, dt, rule, inputs);
   }
 
@@ -693,6 +704,7 @@ class SemiImplicitStep {
   ModuleLayout layout_;
   Kinematics kinematics_;
   int modules_;
+  const ModuleFaults* faults_ = nullptr;  // observe_module_faults (not owned)
   bool energy_wear_ = false;
   double wheel_radius_ = 0.0, wear_coefficient_ = 0.0;
   double drive_lag_ = 0.0, mass_ = 0.0, slip_speed_epsilon_ = 0.0, slip_stiffness_sum_ = 0.0;

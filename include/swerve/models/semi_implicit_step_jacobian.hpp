@@ -45,6 +45,9 @@ class SemiImplicitStepJacobian {
     std::unique_ptr<Impl> impl_;
   };
 
+  // The modules' faults from now on (SemiImplicitStep::observe_module_faults; null: none).
+  void observe_module_faults(const ModuleFaults* faults) noexcept;
+
   // The work the Jacobians on `data` did so far: the vehicle model's evaluations in their twist
   // solves (as SemiImplicitStep::model_evaluations counts a double step's) and its linearisations.
   static long model_evaluations(const Data& data) noexcept;
@@ -68,7 +71,7 @@ class SemiImplicitStepJacobian {
 
  private:
   struct Twin;                        // SemiImplicitStep<ModelJet>, defined where Jets are known
-  std::unique_ptr<const Twin> twin_;  // immutable, shared by every Data
+  std::unique_ptr<Twin> twin_;  // shared by every Data; immutable but for the faults observed
   int state_size_ = 0;
   int input_size_ = 0;
 };

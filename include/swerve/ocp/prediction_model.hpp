@@ -11,6 +11,7 @@
 #include <memory>
 #include <vector>
 
+#include "swerve/kinematics/module_faults.hpp"
 #include "swerve/ocp/deadline.hpp"
 
 namespace swerve {
@@ -51,6 +52,11 @@ class PredictionModel {
   // set by the owner before solving, not part of an evaluation: the clock must outlive the model.
   // Models whose cost does not grow with a vehicle's size may leave it unused (the default).
   virtual void charge_work_to(const Clock* clock) noexcept { (void)clock; }
+
+  // The modules' faults the prediction takes from now on (a stuck steering holds its angle);
+  // null: none. Wiring like charge_work_to: `faults` must outlive the model, and may change
+  // between solves, never during one. Models without module steering ignore it (the default).
+  virtual void observe_module_faults(const ModuleFaults* faults) noexcept { (void)faults; }
 
   // Whether step_jacobians() gives exact derivatives (gradient-based backends need them).
   virtual bool has_jacobians() const noexcept { return false; }

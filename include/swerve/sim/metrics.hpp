@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <vector>
 
 #include "swerve/control/tracking_controller.hpp"
@@ -28,6 +29,9 @@ struct StepRecord {
   double solve_late_s = 0.0;                                  // how far past its deadline the solver returned
   bool work_budget_cut = false;                               // ControlOutput::work_budget_cut
   int solve_iterations = -1;
+  // Module faults as bit masks (bit i: module i): the plant's over the period from t, and those
+  // the controller knew of (set or found) after its step at t.
+  std::uint32_t plant_faults = 0, known_faults = 0;
   // The optimiser's own view of the step: the predicted cost of the plan it returned, by part, and
   // of the best initial guess it started from (< 0 when no solve ran or the solver reports none).
   CostBreakdown plan_cost;
@@ -66,6 +70,15 @@ struct RunMetrics {
   int tracking_first_steps = 0;    // periods that sent the baseline's commands because the plan left the tube
   double reference_delay_s = 0.0;  // the controller's reference clock behind t at the end (ControlOutput)
   double solve_iterations_mean = 0.0;
+  int safe_stops = 0;              // periods that sent a safe stop
+  // Runs with plant faults (StepRecord::plant_faults): when the first began (s, -1: none), how many
+  // control periods later the controller first knew of a module the plant had a fault on (-1:
+  // never), and the position RMSE from that step on (-1: never known). false_fault_alarms: modules
+  // the controller took as faulty while the plant had no fault there.
+  double fault_onset_s = -1.0;
+  int fault_detection_cycles = -1;
+  double tracking_rmse_after_fault_known_m = -1.0;
+  int false_fault_alarms = 0;
 };
 
 // Nearest-rank percentile (q in [0, 100]) of `values`; 0 for an empty list.

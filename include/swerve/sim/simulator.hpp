@@ -14,6 +14,7 @@
 #include "swerve/core/option_fields.hpp"
 #include "swerve/models/integrators.hpp"
 #include "swerve/models/vehicle_model.hpp"
+#include "swerve/kinematics/module_faults.hpp"
 #include "swerve/kinematics/module_state.hpp"
 
 namespace swerve {
@@ -28,6 +29,17 @@ struct MeasurementNoise {
   static const OptionFields<MeasurementNoise>& fields();
 };
 
+// A fault the plant develops during a run: from the first control period that starts at or after
+// `at` (s), module `module` has `kind` (a stuck steering stops turning where it is).
+struct PlantFault {
+  int module = 0;
+  double at = 0.0;
+  ModuleFault kind = ModuleFault::kStuckSteering;
+  // Whether the controllers are told at onset (TrackingController::set_module_fault), as a
+  // vehicle's own diagnostics would; false: they must find it themselves.
+  bool announced = false;
+};
+
 struct SimulatorOptions {
   double control_period = 0.05;  // s between controller calls
   // Plant RK4 substeps per control period; 0 picks them from the tire-slip time constant of a wheel
@@ -36,6 +48,7 @@ struct SimulatorOptions {
   MeasurementNoise noise;
   int measurement_delay_steps = 0;  // the controller sees the state this many periods old
   std::uint64_t seed = 1;
+  std::vector<PlantFault> faults;   // none by default
   // The rules of the fields a scenario's `simulator:` block sets (substeps, measurement_delay_steps),
   // one table for validate() and the loader. control_period is the controllers' (checked by
   // validate() alone), the seed any unsigned integer, the noise MeasurementNoise::fields().
@@ -84,9 +97,13 @@ class Simulator {
   double frictional_energy() const noexcept { return frictional_energy_; }  // J, all contacts
   // Per-module slips, forces and wear rate at the current state under the last command.
   const std::vector<PlantModuleSample>& module_samples() const noexcept { return samples_; }
+  // The faults the plant has now (PlantFault): every module kNone before its fault's onset.
+  const ModuleFaults& active_faults() const noexcept { return active_faults_; }
 
  private:
   void refresh_samples() noexcept;
+  // Starts the faults due by the period starting now, and holds a stuck steering's rate at zero.
+  void apply_faults() noexcept;
   void update_measurement() noexcept;
   double gaussian() noexcept;
 
@@ -101,6 +118,7 @@ class Simulator {
   std::vector<double> module_wear_, step_module_wear_, period_module_wear_;
   double frictional_energy_ = 0.0;
   std::vector<PlantModuleSample> samples_;
+  ModuleFaults active_faults_;
   std::deque<Eigen::VectorXd> delayed_;  // true prefixes awaiting their delay
   std::uint64_t rng_state_ = 0;
 };

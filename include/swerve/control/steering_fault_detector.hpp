@@ -1,0 +1,78 @@
+// Finds a steering that stopped following its commands: over a window of control periods, the
+// angle change the commands asked of a module (its steering rates times the period, within its end
+// stops) against the change its measured angle made. A module asked to turn far that turns a small
+// share of it, in consecutive windows, is stuck. Fixed capacity: no allocation after construction.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+
+#include "swerve/core/option_fields.hpp"
+#include "swerve/kinematics/module_layout.hpp"
+#include "swerve/kinematics/module_state.hpp"
+
+namespace swerve {
+
+struct FaultDetectionOptions {
+  bool enabled = true;
+  // rad: the least turn the window's commands must ask of a module before it is judged. Far above
+  // the change steering-encoder noise makes of two angles (crab90_noisy's 0.02 rad noise: 0.03 rad
+  // standard deviation), and below what a controller asks of a module stuck a few degrees off its
+  // target (the command is the remaining turn per period, up to the rate limit).
+  double min_commanded_turn = 0.2;
+  // The share of the commanded turn a healthy module makes at least. Its first-order rate lag
+  // keeps it behind the command by (time constant) x (rate change): at full rate from rest over a
+  // 3-period window of 50 ms with a 50 ms lag that is a third of the turn, so two thirds follow.
+  double max_followed_share = 0.25;
+  int window_cycles = 3;   // control periods per window (the measurements' stamps decide)
+  int confirm_cycles = 2;  // consecutive windows that must agree
+  static const OptionFields<FaultDetectionOptions>& fields();
+  void validate() const;  // throws ConfigError naming the field and value
+};
+
+// One value per module with the time it belongs to (s).
+struct StampedModuleValues {
+  double t = 0.0;
+  std::array<double, kMaxModules> values{};
+};
+
+class SteeringFaultDetector {
+ public:
+  // Throws ConfigError for invalid options, a non-positive period or a layout of no modules.
+  SteeringFaultDetector(const ModuleLayout& layout, double control_period, FaultDetectionOptions options);
+
+  // The measured steering angles (n) taken at `measured_at` (s). Returns true when it found a
+  // module newly stuck (stuck() says which). Non-finite input is ignored. noexcept, no allocation.
+  bool observe(const Eigen::Ref<const Eigen::VectorXd>& steering_angles, double measured_at) noexcept;
+  // The steering rates sent at `t` (s), acting over the next period.
+  void commanded(const ModuleArray<ModuleCommand>& commands, double t) noexcept;
+  bool stuck(int module) const noexcept {
+    return module >= 0 && module < modules_ && stuck_[static_cast<std::size_t>(module)];
+  }
+  // Forget the history and every verdict (a new run).
+  void reset() noexcept;
+  // Forget the verdict on one module (its fault was cleared); out of range: nothing.
+  void forget(int module) noexcept {
+    if (module < 0 || module >= modules_) return;
+    stuck_[static_cast<std::size_t>(module)] = false;
+    agreeing_[static_cast<std::size_t>(module)] = 0;
+  }
+  const FaultDetectionOptions& options() const noexcept { return options_; }
+
+ private:
+  static constexpr int kHistory = 64;  // periods kept: windows of up to 60 periods
+  using Sample = StampedModuleValues;
+  // The index of the stored sample of `history` stamped within half a period of `t`, or -1.
+  int find(const std::array<Sample, kHistory>& history, int count, int newest, double t) const noexcept;
+
+  FaultDetectionOptions options_;
+  ModuleLimits limits_;
+  int modules_;
+  double period_;
+  std::array<Sample, kHistory> angles_{}, rates_{};  // ring buffers, newest at *_newest_
+  int angle_count_ = 0, angle_newest_ = -1, rate_count_ = 0, rate_newest_ = -1;
+  std::array<int, kMaxModules> agreeing_{};  // consecutive windows judged stuck
+  std::array<bool, kMaxModules> stuck_{};
+};
+
+}  // namespace swerve

@@ -1,0 +1,126 @@
+#include "swerve/control/steering_fault_detector.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "swerve/core/config_error.hpp"
+
+namespace swerve {
+
+const OptionFields<FaultDetectionOptions>& FaultDetectionOptions::fields() {
+  // Direct-list-initialised: with `= {` and a bool field GCC 12 stops with an internal error.
+  static const OptionFields<FaultDetectionOptions> table{
+      {"enabled", &FaultDetectionOptions::enabled},
+      {"min_commanded_turn",
+       &FaultDetectionOptions::min_commanded_turn,
+       Bound::positive(),
+       {},
+       nullptr,
+       "(rad)"},
+      {"max_followed_share", &FaultDetectionOptions::max_followed_share, Bound::open(0.0, 1.0)},
+      {"window_cycles", &FaultDetectionOptions::window_cycles, Bound::closed(1, 60)},
+      {"confirm_cycles", &FaultDetectionOptions::confirm_cycles, Bound::closed(1, 60)},
+  };
+  return table;
+}
+
+void FaultDetectionOptions::validate() const { check_fields("FaultDetectionOptions", *this, fields()); }
+
+SteeringFaultDetector::SteeringFaultDetector(const ModuleLayout& layout, double control_period,
+                                             FaultDetectionOptions options)
+    : options_(options), limits_(layout.limits()), modules_(layout.size()), period_(control_period) {
+  options_.validate();
+  if (!std::isfinite(control_period) || control_period <= 0.0) {
+    throw_invalid_field("SteeringFaultDetector", "control_period", control_period, "must be > 0");
+  }
+  if (modules_ < 1 || modules_ > kMaxModules) {
+    throw_invalid_field("SteeringFaultDetector", "modules", modules_, "must be in [1, 16]");
+  }
+}
+
+void SteeringFaultDetector::reset() noexcept {
+  angle_count_ = rate_count_ = 0;
+  angle_newest_ = rate_newest_ = -1;
+  agreeing_.fill(0);
+  stuck_.fill(false);
+}
+
+int SteeringFaultDetector::find(const std::array<Sample, kHistory>& history, int count, int newest,
+                                double t) const noexcept {
+  for (int back = 0; back < count; ++back) {
+    const int index = (newest - back + kHistory) % kHistory;
+    if (std::abs(history[static_cast<std::size_t>(index)].t - t) <= 0.5 * period_) return index;
+  }
+  return -1;
+}
+
+void SteeringFaultDetector::commanded(const ModuleArray<ModuleCommand>& commands, double t) noexcept {
+  if (!std::isfinite(t) || commands.size() != modules_) return;
+  rate_newest_ = (rate_newest_ + 1) % kHistory;
+  rate_count_ = std::min(rate_count_ + 1, kHistory);
+  Sample& sample = rates_[static_cast<std::size_t>(rate_newest_)];
+  sample.t = t;
+  for (int i = 0; i < modules_; ++i) {
+    const double rate = commands[i].steering_rate;
+    sample.values[static_cast<std::size_t>(i)] = std::isfinite(rate) ? rate : 0.0;
+  }
+}
+
+bool SteeringFaultDetector::observe(const Eigen::Ref<const Eigen::VectorXd>& steering_angles,
+                                    double measured_at) noexcept {
+  if (steering_angles.size() != modules_ || !steering_angles.allFinite() || !std::isfinite(measured_at))
+    return false;
+  // A measurement no newer than the last (a frozen sensor) adds no window.
+  if (angle_newest_ >= 0 &&
+      measured_at <= angles_[static_cast<std::size_t>(angle_newest_)].t + 0.5 * period_) {
+    return false;
+  }
+  angle_newest_ = (angle_newest_ + 1) % kHistory;
+  angle_count_ = std::min(angle_count_ + 1, kHistory);
+  Sample& newest = angles_[static_cast<std::size_t>(angle_newest_)];
+  newest.t = measured_at;
+  for (int i = 0; i < modules_; ++i) newest.values[static_cast<std::size_t>(i)] = steering_angles[i];
+  if (!options_.enabled) return false;
+
+  // The window [start, measured_at]: the angles at both ends, and the commands sent in it (each
+  // acts over the period after it; the rate lag's delay is what max_followed_share allows for).
+  const double start = measured_at - options_.window_cycles * period_;
+  const int first = find(angles_, angle_count_, angle_newest_, start);
+  if (first < 0) return false;
+  std::array<double, kMaxModules> asked{};
+  int periods = 0;
+  for (int back = 0; back < rate_count_; ++back) {
+    const Sample& sample = rates_[static_cast<std::size_t>((rate_newest_ - back + kHistory) % kHistory)];
+    if (sample.t < start - 0.5 * period_ || sample.t >= measured_at - 0.5 * period_) continue;
+    ++periods;
+    for (int i = 0; i < modules_; ++i)
+      asked[static_cast<std::size_t>(i)] += sample.values[static_cast<std::size_t>(i)] * period_;
+  }
+  // Judged only on a window every command of which is known (no gap in the history).
+  if (periods != options_.window_cycles) return false;
+  const Sample& before = angles_[static_cast<std::size_t>(first)];
+  const bool end_stops = limits_.has_steering_end_stops();
+  bool found = false;
+  for (int i = 0; i < modules_; ++i) {
+    const auto m = static_cast<std::size_t>(i);
+    if (stuck_[m]) continue;
+    double turn = asked[m];
+    // The end stops bound what a working steering can make of the commands.
+    if (end_stops) {
+      turn = std::clamp(turn, limits_.min_steering_angle - before.values[m],
+                        limits_.max_steering_angle - before.values[m]);
+    }
+    const double moved =
+        end_stops ? newest.values[m] - before.values[m] : wrap_angle(newest.values[m] - before.values[m]);
+    const bool refused = std::abs(turn) >= options_.min_commanded_turn &&
+                         moved * (turn > 0.0 ? 1.0 : -1.0) < options_.max_followed_share * std::abs(turn);
+    agreeing_[m] = refused ? agreeing_[m] + 1 : 0;
+    if (agreeing_[m] >= options_.confirm_cycles) {
+      stuck_[m] = true;
+      found = true;
+    }
+  }
+  return found;
+}
+
+}  // namespace swerve
