@@ -82,6 +82,9 @@ std::string reference() {
               ControllerOptions::weight_fields(), controller);
   write_table(out, "controller.stale_measurement", "When a measurement is too old or frozen to act on.",
               StalenessOptions::fields(), StalenessOptions{});
+  write_table(out, "controller.fault_detection",
+              "The stuck-steering detector (either controller type; a module found stuck rolls along its angle).",
+              FaultDetectionOptions::fields(), FaultDetectionOptions{});
   write_table(out, "controller.work_budget",
               "The solve's budget counted in work at the target's rates (the step's clock then guards).",
               WorkBudgetOptions::fields(), WorkBudgetOptions{});
@@ -112,7 +115,9 @@ std::string reference() {
               PlantOptions{});
   write_table(out, "kinematics", "The hardware command chain (`load_kinematics_options`).",
               KinematicsOptions::fields(), KinematicsOptions{});
-  write_table(out, "scenario.simulator", "The simulated plant of a scenario (the seed: any unsigned integer).",
+  write_table(out, "scenario.simulator",
+              "The simulated plant of a scenario (the seed: any unsigned integer; `faults`: a list of "
+              "`{module, at, kind: stuck_steering, announced: false}`, each module once, each time inside the run).",
               SimulatorOptions::fields(), SimulatorOptions{});
   write_table(out, "scenario.simulator.noise", "Measurement noise, standard deviations.", MeasurementNoise::fields(),
               MeasurementNoise{});
