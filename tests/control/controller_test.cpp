@@ -1939,11 +1939,13 @@ TEST(Controller, AStuckModuleIsNeverCommandedASteeringRateByThePlanOrByTheBaseli
     options.fault_detection.enabled = false;
     Controller controller = make_fake_controller(&script, options);
     controller.set_module_fault(1, ModuleFault::kStuckSteering);
-    Eigen::VectorXd state = cruising();
+    Eigen::VectorXd state = at_rest();  // the fake module-rate plan keeps the wheels at rest
     state.tail(4).setConstant(0.2);
     for (int k = 0; k < 8; ++k) {
       script.mode = k < 4 ? FakeMode::kGood : FakeMode::kFail;
       const ControlOutput& out = controller.step(state, 0.05 * k);
+      EXPECT_EQ(out.source, k < 4 ? CommandSource::kOptimizer : (k < 7 ? CommandSource::kPreviousPlan : CommandSource::kBaseline))
+          << "cycle " << k << ": " << reason_of(out);
       EXPECT_EQ(out.modules[1].steering_rate, 0.0) << "cycle " << k << " from " << to_string(out.source);
       EXPECT_EQ(out.modules[1].steering_angle, 0.2) << "cycle " << k;
       EXPECT_FALSE(out.module_fault_found);
