@@ -92,6 +92,15 @@ double wear_reduction_pct(const RunMetrics& controller, const RunMetrics& refere
   return 100.0 * (reference.wear_total - controller.wear_total) / reference.wear_total;
 }
 
+// [{module, kind}] for every faulty module.
+nlohmann::json module_faults_json(const ModuleFaults& faults) {
+  nlohmann::json list = nlohmann::json::array();
+  for (int i = 0; i < faults.size(); ++i) {
+    if (faults[i] != ModuleFault::kNone) list.push_back({{"module", i}, {"kind", to_string(faults[i])}});
+  }
+  return list;
+}
+
 std::string summary_json(const ScenarioConfig& scenario, const std::vector<ControllerRun>& runs,
                          const LogFormats& formats) {
   using nlohmann::json;
@@ -137,6 +146,8 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
         {"tracking_rmse_after_fault_known_m",
          m.tracking_rmse_after_fault_known_m >= 0.0 ? json(m.tracking_rmse_after_fault_known_m) : json()},
         {"false_fault_alarms", m.false_fault_alarms},
+        {"module_faults", module_faults_json(run.module_faults)},
+        {"lost_motions", run.lost_motions.empty() ? json() : json(run.lost_motions)},
         {"log_csv", formats.csv ? nlohmann::json(run.name + ".csv") : nlohmann::json()},
     };
   }

@@ -276,6 +276,15 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
     if (node.has("duration")) node.fail_at("duration", "= " + node.child("duration").to_yaml() + rule);
     node.fail_at("duration", "= " + format(s.duration) + " (the reference's duration)" + rule);
   }
+  // A fault is in the run only if a control period starts at or after it.
+  for (std::size_t f = 0; f < s.simulator.faults.size(); ++f) {
+    const double last_start = (s.steps() - 1) * s.simulator.control_period;
+    if (s.simulator.faults[f].at > last_start + 1e-6) {
+      const config::ConfigNode at = node.child("simulator").child("faults").at(f).child("at");
+      at.fail("= " + at.to_yaml() + ": no control period starts at or after it (the last starts at " +
+              format(last_start) + " s)");
+    }
+  }
   if (const auto paper = node.optional_child("paper")) {
     s.paper_wear_reduction_pct = paper->get_double("wear_reduction_pct");
   }

@@ -117,14 +117,19 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     // While the commands act, the next step's preparation (rti; a no-op for the other backends),
     // outside that step's time, as a vehicle's loop would run it after sending its commands.
     tracker->prepare(t + period);
-    if (!plant.advance(output.modules)) {
+    const bool advanced = plant.advance(output.modules);
+    // The faults the plant had over this period (one starting at t acts from t on).
+    run.log.back().plant_faults = fault_mask(plant.active_faults());
+    if (!advanced) {
       run.failure = "the plant diverged at t = " + std::to_string(plant.time()) + " s";
       break;
     }
-    // The faults the plant had over this period (one starting at t acts from t on).
-    run.log.back().plant_faults = fault_mask(plant.active_faults());
     if (progress) progress(index, k + 1, steps);
   }
+  run.module_faults = tracker->module_faults();
+  ModuleArray<double> angles(n, 0.0);
+  for (int i = 0; i < n; ++i) angles[i] = plant.state()[StateIndex::steering(i)];
+  run.lost_motions = describe_lost_motions(scenario.vehicle.layout, run.module_faults, angles);
   run.completed = run.failure.empty();
   run.metrics = compute_metrics(run.log, plant.module_wear(), plant.frictional_energy(), period, run.solve_budget);
   return run;

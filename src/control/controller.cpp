@@ -174,7 +174,7 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
       baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()),
       monitor_(6 + vehicle.layout.size(), options_.stale_measurement, options_.period()), latency_(vehicle.layout, options_.period(), options_.measurement_filter,
                ActuatorLags::of(vehicle)),
-      detector_(vehicle.layout, options_.period(), options_.fault_detection) {
+      detector_(vehicle.layout, options_.period(), ActuatorLags::of(vehicle).steering, options_.fault_detection) {
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
@@ -225,10 +225,10 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
 }
 
 void Controller::module_faults_changed() noexcept {
-  // A fault cleared by hand may be found again.
-  for (int i = 0; i < modules_; ++i) {
-    if (module_faults()[i] == ModuleFault::kNone) detector_.forget(i);
-  }
+  detector_.forget_healthy(module_faults());  // a fault cleared by hand may be found again
+  // A preparation linearised the model without the change.
+  solver_->forget_preparation();
+  prepared_t_ = std::numeric_limits<double>::quiet_NaN();
   // Tracking first while a steering is stuck: the stuck tire is dragged by any motion off its
   // angle, and with the wear priced the plan bought its relief by leaving the path (on a 1 m lane
   // change, a vehicle that rolled on along the stuck angle and ended 1.3 m off it). The path is
@@ -480,12 +480,8 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
 }
 
 void Controller::find_stuck_steering(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at) noexcept {
-  if (!detector_.observe(measured.segment(StateIndex::kFirstSteering, modules_), measured_at)) return;
-  for (int i = 0; i < modules_; ++i) {
-    if (detector_.stuck(i) && module_faults()[i] == ModuleFault::kNone) {
-      record_module_fault(i, ModuleFault::kStuckSteering);
-      output_.module_fault_found = true;
-    }
+  if (detector_.observe(measured.segment(StateIndex::kFirstSteering, modules_), measured_at)) {
+    output_.module_fault_found = take_stuck_steering(detector_);
   }
 }
 
@@ -666,6 +662,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   // A measurement taken before t is rolled forward by the commands sent since (Smith predictor),
   // after the observer's filtering when it is on.
   latency_.estimate(measured, measured_at, t, now_);
+  hold_stuck_angles(measured, now_);
   // The time a pre-alignment held the reference does not count on the reference's clock.
   update_problem(t, reference_hold_.reference_time(t));
   bool policy_guess_usable = false;

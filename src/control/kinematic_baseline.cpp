@@ -67,7 +67,7 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
     : options_(validated(options)), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
       horizon_(options_.horizon), heading_memory_(layout.size()), planned_memory_(layout.size()),
       latency_(layout, options_.dt, options_.measurement_filter, lags),
-      detector_(layout, options_.dt, options_.fault_detection) {
+      detector_(layout, options_.dt, lags.steering, options_.fault_detection) {
   if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
   pre_aligns_ = options_.pre_align &&
                 (!options_.pre_align_only_with_end_stops || layout.limits().has_steering_end_stops());
@@ -449,14 +449,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     return stop_safely(measured, "measured state rejected (wrong size, NaN/inf or implausible)");
   }
   // A steering that stopped following its commands is taken as a fault from this step on.
-  if (detector_.observe(measured.segment(6, modules_), measured_at)) {
-    for (int i = 0; i < modules_; ++i) {
-      if (detector_.stuck(i) && module_faults()[i] == ModuleFault::kNone) {
-        record_module_fault(i, ModuleFault::kStuckSteering);
-        output_.module_fault_found = true;
-      }
-    }
-  }
+  if (detector_.observe(measured.segment(6, modules_), measured_at)) output_.module_fault_found = take_stuck_steering(detector_);
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
     return stop_safely(measured, unusable);
@@ -465,6 +458,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
   // steering law acting on a delayed angle would otherwise chase its own past and oscillate. The
   // observer, when on, filters it first.
   latency_.estimate(measured, measured_at, t, now_);
+  hold_stuck_angles(measured, now_);
   // The time since a step that waited for the steering does not count on the reference's clock.
   const double reference_t = reference_hold_.reference_time(t);
   for (int k = 0; k < horizon_; ++k) {

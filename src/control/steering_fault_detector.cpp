@@ -27,15 +27,32 @@ const OptionFields<FaultDetectionOptions>& FaultDetectionOptions::fields() {
 void FaultDetectionOptions::validate() const { check_fields("FaultDetectionOptions", *this, fields()); }
 
 SteeringFaultDetector::SteeringFaultDetector(const ModuleLayout& layout, double control_period,
-                                             FaultDetectionOptions options)
+                                             double steering_lag, FaultDetectionOptions options)
     : options_(options), limits_(layout.limits()), modules_(layout.size()), period_(control_period) {
   options_.validate();
   if (!std::isfinite(control_period) || control_period <= 0.0) {
     throw_invalid_field("SteeringFaultDetector", "control_period", control_period, "must be > 0");
   }
+  if (!std::isfinite(steering_lag) || steering_lag < 0.0) {
+    throw_invalid_field("SteeringFaultDetector", "steering_lag", steering_lag, "must be >= 0 (s)");
+  }
   if (modules_ < 1 || modules_ > kMaxModules) {
     throw_invalid_field("SteeringFaultDetector", "modules", modules_, "must be in [1, 16]");
   }
+  // Three lags: a healthy module at full rate from rest falls behind its commands by one lag's
+  // worth of turn, a third of such a window. And long enough that a module turning at half its
+  // rate limit is asked min_commanded_turn: on a 1 rad/s carrier at 20 Hz, 3 periods could never
+  // ask 0.2 rad.
+  const double for_lag = 3.0 * steering_lag / control_period;
+  const double for_turn = 2.0 * options_.min_commanded_turn / (limits_.max_steering_rate * control_period);
+  const double periods = std::max(
+      {static_cast<double>(options_.window_cycles), std::ceil(for_lag - 1e-9), std::ceil(for_turn - 1e-9)});
+  if (periods > kHistory - 4) {
+    throw_invalid_field("SteeringFaultDetector", "window", periods,
+                        "periods exceed the history of " + std::to_string(kHistory - 4) +
+                            " (a steering lag or min_commanded_turn far too large for this control period)");
+  }
+  window_ = static_cast<int>(periods);
 }
 
 void SteeringFaultDetector::reset() noexcept {
@@ -84,9 +101,13 @@ bool SteeringFaultDetector::observe(const Eigen::Ref<const Eigen::VectorXd>& ste
 
   // The window [start, measured_at]: the angles at both ends, and the commands sent in it (each
   // acts over the period after it; the rate lag's delay is what max_followed_share allows for).
-  const double start = measured_at - options_.window_cycles * period_;
+  const double start = measured_at - window_ * period_;
   const int first = find(angles_, angle_count_, angle_newest_, start);
-  if (first < 0) return false;
+  // A window with a gap is no window; the next whole one starts the agreement afresh.
+  if (first < 0) {
+    agreeing_.fill(0);
+    return false;
+  }
   std::array<double, kMaxModules> asked{};
   int periods = 0;
   for (int back = 0; back < rate_count_; ++back) {
@@ -97,7 +118,10 @@ bool SteeringFaultDetector::observe(const Eigen::Ref<const Eigen::VectorXd>& ste
       asked[static_cast<std::size_t>(i)] += sample.values[static_cast<std::size_t>(i)] * period_;
   }
   // Judged only on a window every command of which is known (no gap in the history).
-  if (periods != options_.window_cycles) return false;
+  if (periods != window_) {
+    agreeing_.fill(0);
+    return false;
+  }
   const Sample& before = angles_[static_cast<std::size_t>(first)];
   const bool end_stops = limits_.has_steering_end_stops();
   bool found = false;

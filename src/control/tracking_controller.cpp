@@ -5,6 +5,8 @@
 namespace swerve {
 
 void TrackingController::set_module_fault(int module, ModuleFault fault) {
+  if (!faults_)
+    throw ConfigError(std::string(name()) + ".set_module_fault: called on a moved-from controller");
   if (module < 0 || module >= faults_->size()) {
     throw_invalid_field(name(), "set_module_fault.module", module,
                         "must name a module of the vehicle, 0 to " + std::to_string(faults_->size() - 1));
@@ -13,6 +15,27 @@ void TrackingController::set_module_fault(int module, ModuleFault fault) {
     throw_invalid_field(name(), "set_module_fault.fault", static_cast<int>(fault), "is not a ModuleFault");
   }
   record_module_fault(module, fault);
+}
+
+bool TrackingController::take_stuck_steering(const SteeringFaultDetector& detector) noexcept {
+  bool found = false;
+  for (int i = 0; i < faults_->size(); ++i) {
+    if (detector.stuck(i) && (*faults_)[i] == ModuleFault::kNone) {
+      (*faults_)[i] = ModuleFault::kStuckSteering;
+      found = true;
+    }
+  }
+  if (found) module_faults_changed();
+  return found;
+}
+
+void TrackingController::hold_stuck_angles(const Eigen::Ref<const Eigen::VectorXd>& measured,
+                                           Eigen::Ref<Eigen::VectorXd> now) const noexcept {
+  for (int i = 0; i < faults_->size(); ++i) {
+    const Eigen::Index angle = 6 + i;
+    if (steering_stuck(faults_.get(), i) && angle < measured.size() && angle < now.size())
+      now[angle] = measured[angle];
+  }
 }
 
 }  // namespace swerve

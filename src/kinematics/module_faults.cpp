@@ -34,8 +34,10 @@ std::string describe_lost_motions(const ModuleLayout& layout, const ModuleFaults
     // A wheel at angle a rolls freely when its contact velocity points along a (or against it):
     // about a centre of rotation on the line through the module perpendicular to its wheel, or in
     // translation along a. Everything else drags its tire sideways.
-    text << "module " << i << " stuck at " << angle << " rad: it rolls freely only in translation along "
-         << angle << " rad and about centres of rotation on the line through it perpendicular to its wheel; "
+    const Eigen::Vector2d& at = layout.position_body(i);
+    text << "module " << i << " at (" << at.x() << ", " << at.y() << ") m stuck at " << angle
+         << " rad: it rolls freely only in translation along " << angle
+         << " rad and about centres of rotation on the line through it perpendicular to its wheel; "
          << "other motions drag its tire";
   }
   return text.str();

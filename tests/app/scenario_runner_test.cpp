@@ -354,6 +354,7 @@ TEST(ScenarioConfig, BadFilesNameTheFileTheKeyPathAndTheValue) {
   expect_config_error("fault_unknown_kind.yaml", "dead_drive");
   expect_config_error("fault_after_the_run.yaml", "scenario.simulator.faults[0].at = 4");
   expect_config_error("fault_twice_on_a_module.yaml", "scenario.simulator.faults[1].module = 1");
+  expect_config_error("fault_in_no_period.yaml", "scenario.simulator.faults[0].at = 3.99: no control period starts");
 }
 
 TEST(ScenarioConfig, AScenarioWideMeasurementFilterReachesEveryController) {

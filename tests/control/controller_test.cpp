@@ -1947,6 +1947,10 @@ TEST(Controller, AStuckModuleIsNeverCommandedASteeringRateByThePlanOrByTheBaseli
       EXPECT_EQ(out.source, k < 4 ? CommandSource::kOptimizer : (k < 7 ? CommandSource::kPreviousPlan : CommandSource::kBaseline))
           << "cycle " << k << ": " << reason_of(out);
       EXPECT_EQ(out.modules[1].steering_rate, 0.0) << "cycle " << k << " from " << to_string(out.source);
+      if (out.source == CommandSource::kOptimizer) {  // the plan itself holds module 1's angle
+        const Eigen::MatrixXd& states = controller.plan().states;
+        EXPECT_EQ(states.row(StateIndex::steering(1)).maxCoeff(), states.row(StateIndex::steering(1)).minCoeff());
+      }
       EXPECT_EQ(out.modules[1].steering_angle, 0.2) << "cycle " << k;
       EXPECT_FALSE(out.module_fault_found);
     }
@@ -1957,6 +1961,24 @@ TEST(Controller, AStuckModuleIsNeverCommandedASteeringRateByThePlanOrByTheBaseli
     script.mode = FakeMode::kFail;
     EXPECT_NE(controller.step(state, 0.4).modules[1].steering_rate, 0.0);
   }
+}
+
+TEST(Controller, ALateMeasurementOfAStuckModuleIsNotRolledForwardByTheRatesSentBeforeItsFaultWasKnown) {
+  FakeScript script;
+  ControllerOptions options = fast_options();
+  options.fault_detection.enabled = false;
+  Controller controller = make_fake_controller(&script, options);
+  Eigen::VectorXd state = at_rest();
+  state.tail(4).setConstant(0.2);  // the plan drives straight ahead: every module is steered toward 0
+  double sent = 0.0;
+  for (int k = 0; k < 3; ++k) sent = controller.step(state, 0.05 * k).modules[1].steering_rate;
+  ASSERT_NE(sent, 0.0);
+  controller.set_module_fault(1, ModuleFault::kStuckSteering);
+  // Taken two periods ago: the latency compensation rolls it forward by the rates sent since.
+  controller.step(state, 0.15, 0.05);
+  const Eigen::VectorXd& x0 = controller.problem().initial_state();
+  EXPECT_EQ(x0[StateIndex::steering(1)], 0.2);
+  EXPECT_NE(x0[StateIndex::steering(0)], 0.2);  // a working module is rolled forward
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
 
 #include "swerve/core/config_error.hpp"
 #include "swerve/kinematics/module_commands.hpp"
@@ -74,7 +75,11 @@ TEST(DescribeLostMotions, NamesEachStuckModuleAndItsAngleAndIsEmptyWithoutFaults
   faults[3] = ModuleFault::kStuckSteering;
   angles[3] = 0.25;
   const std::string text = describe_lost_motions(layout, faults, angles);
-  EXPECT_NE(text.find("module 3 stuck at 0.25 rad"), std::string::npos) << text;
+  const Eigen::Vector2d& at = layout.position_body(3);
+  std::ostringstream where;
+  where << "module 3 at (" << at.x() << ", " << at.y() << ") m stuck at 0.25 rad";
+  EXPECT_NE(text.find(where.str()), std::string::npos) << text;
+  EXPECT_EQ(text.find("module 0"), std::string::npos) << text;
 }
 
 }  // namespace

@@ -23,6 +23,10 @@ struct ControllerRun {
   double solve_budget = 0.0;    // s
   std::vector<StepRecord> log;
   RunMetrics metrics;
+  // The module faults the controller knew of at the end (set or found), and what the vehicle could
+  // then no longer do without dragging a tire (describe_lost_motions; "" without faults).
+  ModuleFaults module_faults;
+  std::string lost_motions;
   bool completed = false;       // false: the plant diverged; `failure` says when
   std::string failure;
 };

@@ -132,6 +132,7 @@ class KinematicBaseline final : public TrackingController {
   bool pre_align_holds() noexcept;
 
  private:
+  void module_faults_changed() noexcept override { detector_.forget_healthy(module_faults()); }
   // The drive limits: the per-step change of module speed the drive acceleration allows; `to`, or
   // the twist towards it from `from` that changes no module's velocity by more than `most`; and
   // `twist` within the drive speed, reached from `previous` within that change.

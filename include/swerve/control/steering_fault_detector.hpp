@@ -1,13 +1,14 @@
 // Finds a steering that stopped following its commands: over a window of control periods, the
 // angle change the commands asked of a module (its steering rates times the period, within its end
 // stops) against the change its measured angle made. A module asked to turn far that turns a small
-// share of it, in consecutive windows, is stuck. Fixed capacity: no allocation after construction.
+// share of it, window after window, is stuck. Fixed capacity: no allocation after construction.
 #pragma once
 
 #include <Eigen/Core>
 #include <array>
 
 #include "swerve/core/option_fields.hpp"
+#include "swerve/kinematics/module_faults.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/kinematics/module_state.hpp"
 
@@ -24,8 +25,13 @@ struct FaultDetectionOptions {
   // keeps it behind the command by (time constant) x (rate change): at full rate from rest over a
   // 3-period window of 50 ms with a 50 ms lag that is a third of the turn, so two thirds follow.
   double max_followed_share = 0.25;
-  int window_cycles = 3;   // control periods per window (the measurements' stamps decide)
-  int confirm_cycles = 2;  // consecutive windows that must agree
+  // Control periods per window, at least: the window is lengthened to 3 steering lags (a healthy
+  // module then makes two thirds of its turn from rest at full rate) and to what asks
+  // min_commanded_turn of a module at half its steering-rate limit (window_periods()).
+  int window_cycles = 3;
+  // Windows running that must agree. Each measurement ends a window, so they overlap: 2 windows
+  // of 3 periods span 4 periods.
+  int confirm_cycles = 2;
   static const OptionFields<FaultDetectionOptions>& fields();
   void validate() const;  // throws ConfigError naming the field and value
 };
@@ -38,8 +44,10 @@ struct StampedModuleValues {
 
 class SteeringFaultDetector {
  public:
-  // Throws ConfigError for invalid options, a non-positive period or a layout of no modules.
-  SteeringFaultDetector(const ModuleLayout& layout, double control_period, FaultDetectionOptions options);
+  // `steering_lag`: the steering drives' time constant (s; 0: none). Throws ConfigError for
+  // invalid options, a non-positive period, a negative lag or a layout of no modules.
+  SteeringFaultDetector(const ModuleLayout& layout, double control_period, double steering_lag,
+                        FaultDetectionOptions options);
 
   // The measured steering angles (n) taken at `measured_at` (s). Returns true when it found a
   // module newly stuck (stuck() says which). Non-finite input is ignored. noexcept, no allocation.
@@ -58,9 +66,17 @@ class SteeringFaultDetector {
     agreeing_[static_cast<std::size_t>(module)] = 0;
   }
   const FaultDetectionOptions& options() const noexcept { return options_; }
+  // The control periods each window spans on this vehicle (see FaultDetectionOptions::window_cycles).
+  int window_periods() const noexcept { return window_; }
+  // Forgets the verdict on every module `faults` has healthy (a fault cleared by hand).
+  void forget_healthy(const ModuleArray<ModuleFault>& faults) noexcept {
+    for (int i = 0; i < faults.size(); ++i) {
+      if (faults[i] == ModuleFault::kNone) forget(i);
+    }
+  }
 
  private:
-  static constexpr int kHistory = 64;  // periods kept: windows of up to 60 periods
+  static constexpr int kHistory = 128;  // periods kept: windows of up to 120 periods
   using Sample = StampedModuleValues;
   // The index of the stored sample of `history` stamped within half a period of `t`, or -1.
   int find(const std::array<Sample, kHistory>& history, int count, int newest, double t) const noexcept;
@@ -69,6 +85,7 @@ class SteeringFaultDetector {
   ModuleLimits limits_;
   int modules_;
   double period_;
+  int window_;                                       // periods per window
   std::array<Sample, kHistory> angles_{}, rates_{};  // ring buffers, newest at *_newest_
   int angle_count_ = 0, angle_newest_ = -1, rate_count_ = 0, rate_newest_ = -1;
   std::array<int, kMaxModules> agreeing_{};  // consecutive windows judged stuck

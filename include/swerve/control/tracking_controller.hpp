@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "swerve/core/option_fields.hpp"
+#include "swerve/control/steering_fault_detector.hpp"
 #include "swerve/kinematics/module_faults.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/ocp/solver.hpp"
@@ -69,11 +70,13 @@ class TrackingController {
   virtual ~TrackingController() = default;
   // A copy has faults of its own (copied); a move takes them along, so a moved controller's
   // prediction model keeps reading the faults it was given.
+  // A moved-from controller may only be destroyed or assigned to.
   TrackingController(const TrackingController& other)
-      : clock_(other.clock_), faults_(std::make_unique<ModuleFaults>(*other.faults_)) {}
+      : clock_(other.clock_),
+        faults_(std::make_unique<ModuleFaults>(other.faults_ ? *other.faults_ : ModuleFaults())) {}
   TrackingController& operator=(const TrackingController& other) {
     clock_ = other.clock_;
-    faults_ = std::make_unique<ModuleFaults>(*other.faults_);
+    faults_ = std::make_unique<ModuleFaults>(other.faults_ ? *other.faults_ : ModuleFaults());
     return *this;
   }
   TrackingController(TrackingController&&) noexcept = default;
@@ -104,7 +107,8 @@ class TrackingController {
   // A module fault taken from the next step on (ModuleFault::kNone clears it): a stuck steering
   // gets no steering rate and its wheel rolls along its angle; the wear-aware controller's plans
   // and prediction take it too. Throws ConfigError naming the module when the vehicle has no such
-  // module (or the fault is not a ModuleFault). Between steps, not from the real-time path.
+  // module (or the fault is not a ModuleFault). Between steps, on the thread that calls step() and
+  // prepare(): not from the real-time path, and not concurrently with it.
   void set_module_fault(int module, ModuleFault fault);
   // Every module's fault: those set above and those the controller's own detector found.
   const ModuleFaults& module_faults() const noexcept { return *faults_; }
@@ -122,6 +126,13 @@ class TrackingController {
     (*faults_)[module] = fault;
     module_faults_changed();
   }
+  // The modules `detector` finds stuck that are not faults yet become kStuckSteering; true when
+  // one did.
+  bool take_stuck_steering(const SteeringFaultDetector& detector) noexcept;
+  // After the latency compensation rolled a measurement forward by the rates sent: a stuck module
+  // did not turn, whatever was sent before its fault was known. `now` (6 + n) takes the measured
+  // angles (6 + n) of the stuck modules.
+  void hold_stuck_angles(const Eigen::Ref<const Eigen::VectorXd>& measured, Eigen::Ref<Eigen::VectorXd> now) const noexcept;
   // After the faults changed: what a controller built of others passes on (the wear-aware one to
   // its baseline). The faults live on the heap, so a moved controller's model keeps reading them.
   virtual void module_faults_changed() noexcept {}

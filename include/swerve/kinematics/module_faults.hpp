@@ -38,9 +38,10 @@ inline bool any_fault(const ModuleFaults& faults) noexcept {
 }
 
 // What a vehicle with these faults can no longer do without dragging a tire, in words for logs
-// and reports (e.g. "module 2 stuck at 0.31 rad: only motions about centres of rotation on the
-// line through it perpendicular to its wheel roll it freely"). `angles` (n): the steering angles
-// the faulty modules hold. "" without faults.
+// and reports: per stuck module, where it sits and the angle it holds, and that it rolls freely only
+// in translation along that angle or about a centre of rotation on the line through it
+// perpendicular to its wheel. `angles` (n): the steering angles the faulty modules hold. "" without
+// faults.
 std::string describe_lost_motions(const ModuleLayout& layout, const ModuleFaults& faults,
                                   const ModuleArray<double>& angles);
 
