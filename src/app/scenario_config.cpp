@@ -10,9 +10,9 @@
 namespace swerve {
 namespace {
 
-// simulator.faults: [{module, at, kind, announced}], each module of the vehicle, each time inside
-// the run, one fault per module.
-std::vector<PlantFault> load_plant_faults(const config::ConfigNode& node, int modules, double duration) {
+// simulator.faults: [{module, at, kind, announced}], each module of the vehicle once (whether a
+// period starts at or after `at` is checked once the period is known).
+std::vector<PlantFault> load_plant_faults(const config::ConfigNode& node, int modules) {
   if (!node.is_sequence()) node.fail("expected a list of faults, e.g. [{module: 2, at: 5.0, kind: stuck_steering}]");
   std::vector<PlantFault> faults;
   for (std::size_t f = 0; f < node.size(); ++f) {
@@ -20,10 +20,6 @@ std::vector<PlantFault> load_plant_faults(const config::ConfigNode& node, int mo
     PlantFault fault;
     fault.module = entry.get_int("module", 0, modules - 1);
     fault.at = entry.get_double("at", Bound::non_negative());
-    if (fault.at >= duration) {
-      entry.fail_at("at", "= " + entry.child("at").to_yaml() + ": must be inside the run, before its end at " +
-                              std::to_string(duration) + " s");
-    }
     fault.kind = module_fault_from_string(entry.get_choice("kind", {"stuck_steering"}), entry.path() + ".kind");
     fault.announced = entry.get_bool_or("announced", false);
     for (const PlantFault& other : faults) {
@@ -247,7 +243,7 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
     if (const auto noise = sim->optional_child("noise")) {
       config::read_fields(*noise, MeasurementNoise::fields(), &s.simulator.noise);
     }
-    if (const auto faults = sim->optional_child("faults")) s.simulator.faults = load_plant_faults(*faults, n, s.duration);
+    if (const auto faults = sim->optional_child("faults")) s.simulator.faults = load_plant_faults(*faults, n);
   }
 
   const ConfigNode controllers = node.child("controllers");
@@ -277,9 +273,9 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
     node.fail_at("duration", "= " + format(s.duration) + " (the reference's duration)" + rule);
   }
   // A fault is in the run only if a control period starts at or after it.
+  const double last_start = (s.steps() - 1) * s.simulator.control_period;
   for (std::size_t f = 0; f < s.simulator.faults.size(); ++f) {
-    const double last_start = (s.steps() - 1) * s.simulator.control_period;
-    if (s.simulator.faults[f].at > last_start + 1e-6) {
+    if (!s.simulator.faults[f].due_by(last_start)) {
       const config::ConfigNode at = node.child("simulator").child("faults").at(f).child("at");
       at.fail("= " + at.to_yaml() + ": no control period starts at or after it (the last starts at " +
               format(last_start) + " s)");

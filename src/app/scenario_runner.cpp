@@ -88,7 +88,7 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     const double t = k * period;
     // A fault the vehicle's own diagnostics report reaches the controller as it begins.
     for (const PlantFault& fault : scenario.simulator.faults) {
-      if (fault.announced && fault.at <= t + 1e-6 && tracker->module_faults()[fault.module] != fault.kind) {
+      if (fault.announced && fault.due_by(t) && tracker->module_faults()[fault.module] != fault.kind) {
         tracker->set_module_fault(fault.module, fault.kind);
       }
     }

@@ -479,12 +479,6 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
   output_.source = CommandSource::kSafeStop;
 }
 
-void Controller::find_stuck_steering(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at) noexcept {
-  if (detector_.observe(measured.segment(StateIndex::kFirstSteering, modules_), measured_at)) {
-    output_.module_fault_found = take_stuck_steering(detector_);
-  }
-}
-
 const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   latency_.record(output_.modules);
   detector_.commanded(output_.modules, step_t_);
@@ -652,7 +646,7 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     refuse(measured, stale);
     return finish(step_start);
   }
-  find_stuck_steering(measured, measured_at);
+  output_.module_fault_found = find_stuck_steering(detector_, measured, measured_at);
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
     // No trajectory, or only a stale one: nothing to follow that the planner still stands by.

@@ -449,7 +449,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
     return stop_safely(measured, "measured state rejected (wrong size, NaN/inf or implausible)");
   }
   // A steering that stopped following its commands is taken as a fault from this step on.
-  if (detector_.observe(measured.segment(6, modules_), measured_at)) output_.module_fault_found = take_stuck_steering(detector_);
+  output_.module_fault_found = find_stuck_steering(detector_, measured, measured_at);
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
     return stop_safely(measured, unusable);

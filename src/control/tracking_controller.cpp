@@ -14,10 +14,16 @@ void TrackingController::set_module_fault(int module, ModuleFault fault) {
   if (fault != ModuleFault::kNone && fault != ModuleFault::kStuckSteering) {
     throw_invalid_field(name(), "set_module_fault.fault", static_cast<int>(fault), "is not a ModuleFault");
   }
-  record_module_fault(module, fault);
+  (*faults_)[module] = fault;
+  module_faults_changed();
 }
 
-bool TrackingController::take_stuck_steering(const SteeringFaultDetector& detector) noexcept {
+bool TrackingController::find_stuck_steering(SteeringFaultDetector& detector,
+                                             const Eigen::Ref<const Eigen::VectorXd>& measured,
+                                             double measured_at) noexcept {
+  if (measured.size() != 6 + faults_->size() || !detector.observe(measured.tail(faults_->size()), measured_at)) {
+    return false;
+  }
   bool found = false;
   for (int i = 0; i < faults_->size(); ++i) {
     if (detector.stuck(i) && (*faults_)[i] == ModuleFault::kNone) {

@@ -76,10 +76,8 @@ Simulator::Simulator(const VehicleParams& vehicle, SimulatorOptions options)
 }
 
 void Simulator::apply_faults() noexcept {
-  // A period that starts within a microsecond of a fault's time counts as starting at it.
-  constexpr double kSameTime = 1e-6;
   for (const PlantFault& fault : options_.faults) {
-    if (fault.at > time_ + kSameTime || active_faults_[fault.module] == fault.kind) continue;
+    if (!fault.due_by(time_) || active_faults_[fault.module] == fault.kind) continue;
     active_faults_[fault.module] = fault.kind;
     // The steering stops where it is: its rate state too, not only the commands from now on.
     const int rate = model_.steering_rate_index(fault.module);

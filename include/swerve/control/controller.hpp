@@ -202,8 +202,6 @@ class Controller final : public TrackingController {
     fallback_input_ = input.cwiseMax(module_bounds_.lower).cwiseMin(module_bounds_.upper);
   }
   void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
-  // The detector on this step's measurement; a module it newly finds stuck becomes a fault.
-  void find_stuck_steering(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at) noexcept;
   void module_faults_changed() noexcept override;
   // A stale measurement or an unusable reference: kInvalidInput with `reason`, the plan dropped, a
   // safe stop.

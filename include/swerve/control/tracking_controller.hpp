@@ -121,14 +121,10 @@ class TrackingController {
  protected:
   // Every derived constructor: one entry per module, all healthy.
   void size_module_faults(int modules) { *faults_ = ModuleFaults(modules, ModuleFault::kNone); }
-  // A fault found in step() (noexcept; `module` in range).
-  void record_module_fault(int module, ModuleFault fault) noexcept {
-    (*faults_)[module] = fault;
-    module_faults_changed();
-  }
-  // The modules `detector` finds stuck that are not faults yet become kStuckSteering; true when
-  // one did.
-  bool take_stuck_steering(const SteeringFaultDetector& detector) noexcept;
+  // `detector` on the measurement (6 + n) taken at `measured_at`: the modules it newly finds stuck
+  // become kStuckSteering faults from this step on; true when one did.
+  bool find_stuck_steering(SteeringFaultDetector& detector, const Eigen::Ref<const Eigen::VectorXd>& measured,
+                           double measured_at) noexcept;
   // After the latency compensation rolled a measurement forward by the rates sent: a stuck module
   // did not turn, whatever was sent before its fault was known. `now` (6 + n) takes the measured
   // angles (6 + n) of the stuck modules.

@@ -38,6 +38,9 @@ struct PlantFault {
   // Whether the controllers are told at onset (TrackingController::set_module_fault), as a
   // vehicle's own diagnostics would; false: they must find it themselves.
   bool announced = false;
+  // Whether the period starting at `period_start` (s) has it: one starting within a microsecond
+  // of `at` counts as starting at it.
+  bool due_by(double period_start) const noexcept { return at <= period_start + 1e-6; }
 };
 
 struct SimulatorOptions {
