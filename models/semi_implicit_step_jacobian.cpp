@@ -48,6 +48,10 @@ SemiImplicitStepJacobian::SemiImplicitStepJacobian(const VehicleParams& params, 
 
 SemiImplicitStepJacobian::~SemiImplicitStepJacobian() = default;
 
+void SemiImplicitStepJacobian::observe_friction_scales(const double* scales) noexcept {
+  twin_->step.observe_friction_scales(scales);
+}
+
 void SemiImplicitStepJacobian::observe_module_faults(const ModuleFaults* faults) noexcept {
   twin_->step.observe_module_faults(faults);
 }

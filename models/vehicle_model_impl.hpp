@@ -226,7 +226,9 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
   }
   const T& kappa = sliding.slip_ratio;
   const T& alpha = sliding.slip_angle;
-  const TireForces<T> f = tire_.forces(kappa, alpha, fz);
+  // The floor's grip scales the peak D = mu Fz, so the curve keeps its shape (observe_friction_scales).
+  const TireForces<T> f =
+      tire_.forces(kappa, alpha, friction_scales_ != nullptr ? T(fz * friction_scales_[i]) : fz);
   const T fx_body = c * f.fx_wheel - s * f.fy_wheel;
   const T fy_body = s * f.fx_wheel + c * f.fy_wheel;
   const double arm_x = p.x() - params_.center_of_mass_body.x();

@@ -93,6 +93,9 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
       c.mpc.prediction.method = method == "rk4" ? PredictionMethod::kRk4 : PredictionMethod::kSemiImplicit;
       read_fields(*prediction, PredictionOptions::fields(), &c.mpc.prediction);
     }
+    if (const auto friction = node.optional_child("friction_estimation")) {
+      read_fields(*friction, FrictionEstimationOptions::fields(), &c.mpc.friction_estimation);
+    }
     if (const auto solver = node.optional_child("solver")) {
       c.solver.backend = solver->get_choice_or("backend", {"sa", "rti", "ipopt", "nlopt", "ceres"}, "sa");
       if (const auto sa = solver->optional_child("sa")) c.solver.sa = load_sa(*sa);

@@ -44,7 +44,8 @@ void write_csv(const ControllerRun& run, const std::string& path) {
   if (!out) throw std::runtime_error(path + ": cannot open for writing");
   out << std::setprecision(9);
   out << "t,x,y,psi,x_ref,y_ref,psi_ref,position_error_m,heading_error_rad,vx,vy,r,solve_time_ms,solve_iterations,source,status,"
-         "plan_tracking_cost,plan_wear_cost,plan_cost,initial_guess_cost";
+         "plan_tracking_cost,plan_wear_cost,plan_cost,initial_guess_cost,friction_scale,friction_scale_used,"
+         "prediction_position_error_m,prediction_wear_error";
   const std::size_t n = run.log.empty() ? 0 : run.log.front().modules.size();
   for (std::size_t i = 0; i < n; ++i) {
     out << ",delta_" << i << ",omega_" << i << ",slip_angle_" << i << ",slip_ratio_" << i << ",fx_" << i << ",fy_"
@@ -66,6 +67,10 @@ void write_csv(const ControllerRun& run, const std::string& path) {
     } else {
       out << ",,,";
     }
+    out << ',' << r.friction_scale << ',' << r.friction_scale_used << ',';
+    if (std::isfinite(r.prediction_position_error_m)) out << r.prediction_position_error_m;
+    out << ',';
+    if (std::isfinite(r.prediction_wear_error)) out << r.prediction_wear_error;
     for (std::size_t i = 0; i < r.modules.size(); ++i) {
       const PlantModuleSample& m = r.modules[i];
       const ModuleCommand& c = r.commands[i];
@@ -147,6 +152,14 @@ std::string summary_json(const ScenarioConfig& scenario, const std::vector<Contr
          m.tracking_rmse_after_fault_known_m >= 0.0 ? json(m.tracking_rmse_after_fault_known_m) : json()},
         {"false_fault_alarms", m.false_fault_alarms},
         {"module_faults", module_faults_json(run.module_faults)},
+        {"friction_change_s", m.friction_change_s >= 0.0 ? json(m.friction_change_s) : json()},
+        {"friction_change_complete_s", m.friction_change_complete_s >= 0.0 ? json(m.friction_change_complete_s) : json()},
+        {"friction_settle_after_change_s",
+         m.friction_settle_after_change_s >= 0.0 ? json(m.friction_settle_after_change_s) : json()},
+        {"friction_settle_after_complete_s",
+         m.friction_settle_after_complete_s >= 0.0 ? json(m.friction_settle_after_complete_s) : json()},
+        {"friction_error_after_settle_max_pct",
+         m.friction_error_after_settle_max_pct >= 0.0 ? json(m.friction_error_after_settle_max_pct) : json()},
         {"lost_motions", run.lost_motions.empty() ? json() : json(run.lost_motions)},
         {"log_csv", formats.csv ? nlohmann::json(run.name + ".csv") : nlohmann::json()},
     };

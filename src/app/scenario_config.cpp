@@ -32,6 +32,34 @@ std::vector<PlantFault> load_plant_faults(const config::ConfigNode& node, int mo
   return faults;
 }
 
+// simulator.friction_patches: [{min: [x, y], max: [x, y], mu}], rectangles in the world
+// frame that may touch but not overlap.
+std::vector<FrictionPatch> load_friction_patches(const config::ConfigNode& node) {
+  if (!node.is_sequence()) node.fail("expected a list of patches, e.g. [{min: [10, -5], max: [20, 5], mu: 0.4}]");
+  std::vector<FrictionPatch> patches;
+  for (std::size_t p = 0; p < node.size(); ++p) {
+    const config::ConfigNode entry = node.at(p);
+    FrictionPatch patch;
+    const std::vector<double> lower = entry.get_doubles("min", 2, Bound::any());
+    const std::vector<double> upper = entry.get_doubles("max", 2, Bound::any());
+    patch.min_world = Eigen::Vector2d(lower[0], lower[1]);
+    patch.max_world = Eigen::Vector2d(upper[0], upper[1]);
+    if (!(patch.max_world.array() > patch.min_world.array()).all()) {
+      entry.fail_at("max", "= " + entry.child("max").to_yaml() + ": must be greater than min = " +
+                                entry.child("min").to_yaml() + " in both x and y (m)");
+    }
+    patch.mu = entry.get_double("mu", Bound::positive());
+    for (std::size_t q = 0; q < patches.size(); ++q) {
+      const FrictionPatch& other = patches[q];
+      const bool apart = (patch.min_world.array() >= other.max_world.array()).any() ||
+                         (other.min_world.array() >= patch.max_world.array()).any();
+      if (!apart) entry.fail("overlaps friction_patches[" + std::to_string(q) + "] (patches may touch, not overlap)");
+    }
+    patches.push_back(patch);
+  }
+  return patches;
+}
+
 using config::Bound;
 using config::ConfigNode;
 
@@ -189,6 +217,10 @@ ScenarioController load_scenario_controller(const ConfigNode& entry, const std::
     if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("wear_weight", "only a wear_mpc controller has one");
     c.config.mpc.wear_weight = entry.get_double("wear_weight", Bound::non_negative());
   }
+  if (const auto friction = entry.optional_child("friction_estimation")) {
+    if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("friction_estimation", "only a wear_mpc controller has one");
+    config::read_fields(*friction, FrictionEstimationOptions::fields(), &c.config.mpc.friction_estimation);
+  }
   if (entry.has("backend")) {
     if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("backend", "only a wear_mpc controller has one");
     c.config.solver.backend = entry.get_string("backend");
@@ -244,6 +276,10 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
       config::read_fields(*noise, MeasurementNoise::fields(), &s.simulator.noise);
     }
     if (const auto faults = sim->optional_child("faults")) s.simulator.faults = load_plant_faults(*faults, n);
+    if (const auto patches = sim->optional_child("friction_patches")) {
+      s.simulator.friction_patches = load_friction_patches(*patches);
+    }
+    s.simulator.announce_friction = sim->get_bool_or("announce_friction", false);
   }
 
   const ConfigNode controllers = node.child("controllers");

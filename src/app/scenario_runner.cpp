@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+
+#include "swerve/ocp/vehicle_prediction_model.hpp"
 
 namespace swerve {
 namespace {
@@ -13,6 +16,59 @@ std::uint32_t fault_mask(const ModuleFaults& faults) {
   }
   return mask;
 }
+
+// How far a wear-aware controller's prediction model, at the grip it used, misses the plant over
+// one period: from the plant's true state (its actuator states included) under the commands sent,
+// the position and the wear one period on against the plant's. What a wrong grip costs shows here
+// before it shows in the tracking.
+class PredictionAudit {
+ public:
+  PredictionAudit(const VehicleParams& vehicle, const PredictionOptions& options)
+      : model_(vehicle, options), data_(model_.create_data()), scales_(static_cast<std::size_t>(kMaxModules), 1.0) {
+    model_.observe_friction_scales(scales_.data());
+    state_ = Eigen::VectorXd::Zero(model_.state_size());
+    next_ = state_;
+    inputs_ = Eigen::VectorXd::Zero(model_.input_size());
+  }
+  // Before the plant advances under `commands`, at the grip `scale` the controller used.
+  void predict(const Simulator& plant, const ModuleArray<ModuleCommand>& commands, double scale, double period) {
+    const int n = plant.modules();
+    const VehicleModel<double>& truth = plant.model();
+    state_.head(StateIndex::prefix_size(n)) = plant.state().head(StateIndex::prefix_size(n));
+    for (int i = 0; i < n; ++i) {
+      const int first = StateIndex::prefix_size(n);
+      const int wheel = truth.wheel_speed_index(i), rate = truth.steering_rate_index(i);
+      if (model_.wheel_speed_states() > 0) state_[first + i] = wheel >= 0 ? plant.state()[wheel] : commands[i].wheel_speed;
+      if (model_.steering_rate_states() > 0) {
+        state_[first + model_.wheel_speed_states() + i] = rate >= 0 ? plant.state()[rate] : commands[i].steering_rate;
+      }
+      inputs_[InputIndex::steering_rate(i)] = commands[i].steering_rate;
+      inputs_[InputIndex::wheel_speed(i)] = commands[i].wheel_speed;
+    }
+    std::fill(scales_.begin(), scales_.end(), scale);
+    wear_before_ = total_wear(plant);
+    predicted_ = model_.step(*data_, state_, inputs_, period, next_, &predicted_wear_);
+  }
+  // After it advanced: the errors into `record` (left NaN when the prediction failed).
+  void judge(const Simulator& plant, StepRecord* record) const {
+    if (!predicted_) return;
+    record->prediction_position_error_m = (next_.head<2>() - plant.state().head<2>()).norm();
+    record->prediction_wear_error = predicted_wear_ - (total_wear(plant) - wear_before_);
+  }
+
+ private:
+  static double total_wear(const Simulator& plant) {
+    double sum = 0.0;
+    for (double w : plant.module_wear()) sum += w;
+    return sum;
+  }
+  VehiclePredictionModel model_;
+  std::unique_ptr<PredictionData> data_;
+  std::vector<double> scales_;
+  Eigen::VectorXd state_, next_, inputs_;
+  double predicted_wear_ = 0.0, wear_before_ = 0.0;
+  bool predicted_ = false;
+};
 
 }  // namespace
 
@@ -84,6 +140,8 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
   const int steps = scenario.steps();
   const int n = plant.modules();
   run.log.reserve(static_cast<std::size_t>(steps));
+  std::optional<PredictionAudit> audit;
+  if (mpc) audit.emplace(scenario.vehicle, controller.config.mpc.prediction);
   for (int k = 0; k < steps; ++k) {
     const double t = k * period;
     // A fault the vehicle's own diagnostics report reaches the controller as it begins.
@@ -92,6 +150,8 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
         tracker->set_module_fault(fault.module, fault.kind);
       }
     }
+    // A map of the floor tells the controller the grip under the vehicle.
+    if (scenario.simulator.announce_friction) tracker->set_friction_scale(plant.mean_friction_scale());
     // The measurement carries its timestamp, so a delayed one is known to be old.
     const ControlOutput& output = tracker->step(plant.measurement(), t, t - plant.measurement_age());
     StepRecord record;
@@ -113,11 +173,15 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     record.solve_late_s = output.solve.status == SolveStatus::kNotRun ? 0.0 : output.solve.late_s;
     record.work_budget_cut = output.work_budget_cut;
     record.known_faults = fault_mask(tracker->module_faults());
+    record.friction_scale = plant.mean_friction_scale();
+    record.friction_scale_used = output.friction_scale;
     run.log.push_back(std::move(record));
     // While the commands act, the next step's preparation (rti; a no-op for the other backends),
     // outside that step's time, as a vehicle's loop would run it after sending its commands.
     tracker->prepare(t + period);
+    if (audit) audit->predict(plant, output.modules, output.friction_scale, period);
     const bool advanced = plant.advance(output.modules);
+    if (audit && advanced) audit->judge(plant, &run.log.back());
     // The faults the plant had over this period (one starting at t acts from t on).
     run.log.back().plant_faults = fault_mask(plant.active_faults());
     if (!advanced) {

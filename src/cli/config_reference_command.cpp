@@ -85,6 +85,9 @@ std::string reference() {
   write_table(out, "controller.fault_detection",
               "The stuck-steering detector (either controller type; a module found stuck rolls along its angle).",
               FaultDetectionOptions::fields(), FaultDetectionOptions{});
+  write_table(out, "controller.friction_estimation",
+              "The floor's grip estimated online and given to the prediction (the wear-aware controller).",
+              FrictionEstimationOptions::fields(), FrictionEstimationOptions{});
   write_table(out, "controller.work_budget",
               "The solve's budget counted in work at the target's rates (the step's clock then guards).",
               WorkBudgetOptions::fields(), WorkBudgetOptions{});

@@ -161,6 +161,7 @@ void ControllerOptions::validate() const {
   }
   measurement_filter.validate();
   fault_detection.validate();
+  friction_estimation.validate();
   stale_measurement.validate();
   work_budget.validate();
   tracking_tolerance.validate();
@@ -222,6 +223,20 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   size_module_faults(modules_);
   model_->observe_module_faults(&module_faults());
   baseline_.follow_module_faults(&module_faults());
+  friction_scales_ = std::make_unique<std::array<double, kMaxModules>>();
+  friction_scales_->fill(1.0);
+  model_->observe_friction_scales(friction_scales_->data());
+  if (options_.friction_estimation.enabled) {
+    friction_ = std::make_unique<FrictionEstimator>(vehicle, options_.prediction, options_.period(),
+                                                    options_.friction_estimation);
+    friction_->observe_module_faults(&module_faults());
+  }
+}
+
+void Controller::set_friction_scale(double scale) {
+  TrackingController::set_friction_scale(scale);  // the common checks
+  if (friction_) friction_->set_scale(scale);
+  friction_scales_->fill(scale);
 }
 
 void Controller::module_faults_changed() noexcept {
@@ -249,6 +264,7 @@ void Controller::reset() noexcept {
   monitor_.reset();
   latency_.reset();
   detector_.reset();  // the faults found stay: they are the hardware's
+  if (friction_) friction_->reset();  // the grip estimated stays: the floor did not change
   motion_commanded_since_ = std::numeric_limits<double>::infinity();
   reference_hold_.reset();
   output_.reference_delay_s = 0.0;
@@ -482,6 +498,8 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
 const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   latency_.record(output_.modules);
   detector_.commanded(output_.modules, step_t_);
+  if (friction_) friction_->commanded(output_.modules, step_t_);
+  output_.friction_scale = friction_scale();
   // The frozen-measurement check asks since when motion has been commanded without a break.
   if (!motion_commanded()) {
     motion_commanded_since_ = std::numeric_limits<double>::infinity();
@@ -647,6 +665,8 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     return finish(step_start);
   }
   output_.module_fault_found = find_stuck_steering(detector_, measured, measured_at);
+  // The grip from the last period's measured motion against its prediction, for this step's plans.
+  if (friction_ && friction_->observe(measured, measured_at)) friction_scales_->fill(friction_->scale());
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
     // No trajectory, or only a stale one: nothing to follow that the planner still stands by.

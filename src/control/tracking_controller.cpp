@@ -1,5 +1,7 @@
 #include "swerve/control/tracking_controller.hpp"
 
+#include <cmath>
+
 #include "swerve/core/config_error.hpp"
 
 namespace swerve {
@@ -16,6 +18,12 @@ void TrackingController::set_module_fault(int module, ModuleFault fault) {
   }
   (*faults_)[module] = fault;
   module_faults_changed();
+}
+
+void TrackingController::set_friction_scale(double scale) {
+  if (!std::isfinite(scale) || scale <= 0.0 || scale > 10.0) {
+    throw_invalid_field(name(), "set_friction_scale.scale", scale, "must be finite and in (0, 10]");
+  }
 }
 
 bool TrackingController::find_stuck_steering(SteeringFaultDetector& detector,

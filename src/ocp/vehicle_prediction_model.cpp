@@ -21,6 +21,11 @@ VehiclePredictionModel::VehiclePredictionModel(const VehicleParams& params, Pred
   twist_jacobian_chunks_ = SemiImplicitStepJacobian::chunks(state_size_ + 3);
 }
 
+void VehiclePredictionModel::observe_friction_scales(const double* scales) noexcept {
+  values_->observe_friction_scales(scales);
+  jacobian_->observe_friction_scales(scales);
+}
+
 void VehiclePredictionModel::observe_module_faults(const ModuleFaults* faults) noexcept {
   values_->observe_module_faults(faults);
   jacobian_->observe_module_faults(faults);

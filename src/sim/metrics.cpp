@@ -40,6 +40,38 @@ void add_fault_metrics(const std::vector<StepRecord>& log, RunMetrics* m) {
   m->tracking_rmse_after_fault_known_m = std::sqrt(position_sq / static_cast<double>(log.size() - static_cast<std::size_t>(known)));
 }
 
+// RunMetrics' friction fields from the first change of the floor's grip in the log: the vehicle
+// first touches it at k0, stands wholly on it at k1 (where the grip under it departs furthest
+// from the start's), and it holds until k2; the grip used has settled from the first period after
+// which it stays within 10 % of the floor's until k2.
+void add_friction_metrics(const std::vector<StepRecord>& log, RunMetrics* m) {
+  constexpr double kSame = 1e-9;
+  constexpr double kSettled = 0.10;
+  if (log.empty()) return;
+  const double start = log.front().friction_scale;
+  std::size_t k0 = 0, k1 = 0;
+  double furthest = 0.0;
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    const double departure = std::abs(log[k].friction_scale - start);
+    if (departure > kSame && k0 == 0) k0 = k;
+    if (departure > furthest + kSame) furthest = departure, k1 = k;
+  }
+  if (furthest <= kSame) return;
+  std::size_t k2 = k1;
+  while (k2 < log.size() && std::abs(log[k2].friction_scale - log[k1].friction_scale) <= kSame) ++k2;
+  const auto error = [&](std::size_t k) { return std::abs(log[k].friction_scale_used / log[k].friction_scale - 1.0); };
+  std::size_t settled = k2;
+  while (settled > k0 && error(settled - 1) <= kSettled) --settled;
+  m->friction_change_s = log[k0].t;
+  m->friction_change_complete_s = log[k1].t;
+  if (settled == k2) return;
+  m->friction_settle_after_change_s = log[settled].t - log[k0].t;
+  m->friction_settle_after_complete_s = std::max(0.0, log[settled].t - log[k1].t);
+  double worst = 0.0;
+  for (std::size_t k = std::max(settled, k1); k < k2; ++k) worst = std::max(worst, error(k));
+  m->friction_error_after_settle_max_pct = 100.0 * worst;
+}
+
 }  // namespace
 
 RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector<double>& wear_per_module,
@@ -113,6 +145,7 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
     m.step_time_max_ms = *std::max_element(step_ms.begin(), step_ms.end());
   }
   add_fault_metrics(log, &m);
+  add_friction_metrics(log, &m);
   return m;
 }
 

@@ -1,5 +1,6 @@
 #include "swerve/sim/simulator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -11,6 +12,12 @@ namespace {
 
 // The owner every rule of this file names (throw_invalid_field: "<owner>.<field> = <value>: <rule>").
 constexpr const char* kOwner = "SimulatorOptions";
+
+std::string corner_text(const Eigen::Vector2d& corner) {
+  std::ostringstream text;
+  text << '[' << corner.x() << ", " << corner.y() << ']';
+  return text.str();
+}
 
 }  // namespace
 
@@ -48,6 +55,29 @@ void SimulatorOptions::validate() const {
       throw_invalid_field(kOwner, field + ".kind", to_string(faults[f].kind), "must be stuck_steering");
     }
   }
+  for (std::size_t p = 0; p < friction_patches.size(); ++p) {
+    const std::string field = "friction_patches[" + std::to_string(p) + "]";
+    const FrictionPatch& patch = friction_patches[p];
+    if (!std::isfinite(patch.mu) || patch.mu <= 0.0) throw_invalid_field(kOwner, field + ".mu", patch.mu, "must be finite and > 0");
+    for (int axis = 0; axis < 2; ++axis) {
+      const char* name = axis == 0 ? "x" : "y";
+      if (!std::isfinite(patch.min_world[axis]) || !std::isfinite(patch.max_world[axis]) ||
+          !(patch.min_world[axis] < patch.max_world[axis])) {
+        throw_invalid_field(kOwner, field + ".max", corner_text(patch.max_world),
+                            "must be finite and greater than min = " + corner_text(patch.min_world) + " in " + name +
+                                " (m)");
+      }
+    }
+    for (std::size_t q = 0; q < p; ++q) {
+      const FrictionPatch& other = friction_patches[q];
+      const bool apart = (patch.min_world.array() >= other.max_world.array()).any() ||
+                         (other.min_world.array() >= patch.max_world.array()).any();
+      if (!apart) {
+        throw_invalid_field(kOwner, field, corner_text(patch.min_world) + " to " + corner_text(patch.max_world),
+                            "overlaps friction_patches[" + std::to_string(q) + "] (patches may touch, not overlap)");
+      }
+    }
+  }
   check_fields("SimulatorOptions", *this, fields());
   check_fields("SimulatorOptions.noise", noise, MeasurementNoise::fields());
 }
@@ -57,6 +87,11 @@ Simulator::Simulator(const VehicleParams& vehicle, SimulatorOptions options)
       dynamics_data_(dynamics_) {
   options_.validate();
   substeps_ = options_.substeps > 0 ? options_.substeps : model_.recommended_substeps(options_.control_period, 0.0);
+  // A patch that grips more than the tire's mu stiffens the slip dynamics in proportion (the slip
+  // stiffness B C D grows with D = mu Fz): the automatic substeps grow with it.
+  double grip = 1.0;
+  for (const FrictionPatch& patch : options_.friction_patches) grip = std::max(grip, patch.mu / vehicle.tire.mu);
+  if (options_.substeps == 0) substeps_ = static_cast<int>(std::ceil(substeps_ * grip));
   const int n = model_.modules();
   state_ = next_state_ = state_dot_ = Eigen::VectorXd::Zero(model_.state_size());
   input_ = Eigen::VectorXd::Zero(model_.input_size());
@@ -67,6 +102,8 @@ Simulator::Simulator(const VehicleParams& vehicle, SimulatorOptions options)
   period_module_wear_.assign(static_cast<std::size_t>(n), 0.0);
   samples_.resize(static_cast<std::size_t>(n));
   active_faults_ = ModuleFaults(n, ModuleFault::kNone);
+  friction_scales_.assign(static_cast<std::size_t>(n), 1.0);
+  if (!options_.friction_patches.empty()) model_.observe_friction_scales(friction_scales_.data());
   for (std::size_t f = 0; f < options_.faults.size(); ++f) {
     if (options_.faults[f].module >= n) {
       throw_invalid_field(kOwner, "faults[" + std::to_string(f) + "].module", options_.faults[f].module,
@@ -86,6 +123,32 @@ void Simulator::apply_faults() noexcept {
   for (int i = 0; i < model_.modules(); ++i) {
     if (steering_stuck(&active_faults_, i)) input_[InputIndex::steering_rate(i)] = 0.0;
   }
+}
+
+void Simulator::update_friction(const Eigen::VectorXd& state) noexcept {
+  if (options_.friction_patches.empty()) return;
+  const double c = std::cos(state[StateIndex::kPsi]), s = std::sin(state[StateIndex::kPsi]);
+  const Eigen::Vector2d origin_world(state[StateIndex::kX], state[StateIndex::kY]);
+  const double tire_mu = model_.params().tire.mu;
+  for (int i = 0; i < model_.modules(); ++i) {
+    const Eigen::Vector2d& p = model_.params().layout.position_body(i);
+    const Eigen::Vector2d contact_world = origin_world + Eigen::Vector2d(c * p.x() - s * p.y(), s * p.x() + c * p.y());
+    double scale = 1.0;
+    for (const FrictionPatch& patch : options_.friction_patches) {
+      if (patch.contains(contact_world)) scale = patch.mu / tire_mu;
+    }
+    friction_scales_[static_cast<std::size_t>(i)] = scale;
+  }
+}
+
+double Simulator::mean_friction_scale() const noexcept {
+  const std::vector<double>& loads = model_.static_normal_loads();
+  double total = 0.0, scaled = 0.0;
+  for (int i = 0; i < model_.modules(); ++i) {
+    total += loads[static_cast<std::size_t>(i)];
+    scaled += loads[static_cast<std::size_t>(i)] * friction_scales_[static_cast<std::size_t>(i)];
+  }
+  return total > 0.0 ? scaled / total : 1.0;
 }
 
 void Simulator::reset(const Eigen::VectorXd& initial_prefix) {
@@ -108,6 +171,7 @@ void Simulator::reset(const Eigen::VectorXd& initial_prefix) {
     if (index >= 0) input_[InputIndex::wheel_speed(i)] = state_[index];
   }
   rng_state_ = options_.seed;
+  update_friction(state_);
   delayed_.clear();
   update_measurement();
   refresh_samples();
@@ -169,6 +233,7 @@ bool Simulator::advance(const ModuleArray<ModuleCommand>& commands) noexcept {
   std::fill(period_module_wear_.begin(), period_module_wear_.end(), 0.0);
   next_state_ = state_;
   for (int s = 0; s < substeps_; ++s) {
+    update_friction(next_state_);  // the grip under each contact at the substep's start
     // Frictional energy by the rectangle rule on the substep grid (it is a report, not a state).
     model_.derivative(next_state_, input_, state_dot_, diagnostics_.data());
     for (int i = 0; i < n; ++i) energy += h * diagnostics_[static_cast<std::size_t>(i)].frictional_power;
@@ -185,6 +250,7 @@ bool Simulator::advance(const ModuleArray<ModuleCommand>& commands) noexcept {
   }
   for (int i = 0; i < n; ++i) module_wear_[static_cast<std::size_t>(i)] += period_module_wear_[static_cast<std::size_t>(i)];
   state_ = next_state_;
+  update_friction(state_);
   frictional_energy_ += energy;
   time_ += options_.control_period;
   update_measurement();

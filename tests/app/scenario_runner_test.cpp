@@ -355,6 +355,10 @@ TEST(ScenarioConfig, BadFilesNameTheFileTheKeyPathAndTheValue) {
   expect_config_error("fault_after_the_run.yaml", "scenario.simulator.faults[0].at = 4");
   expect_config_error("fault_twice_on_a_module.yaml", "scenario.simulator.faults[1].module = 1");
   expect_config_error("fault_in_no_period.yaml", "scenario.simulator.faults[0].at = 3.99: no control period starts");
+  expect_config_error("friction_patch_no_grip.yaml", "scenario.simulator.friction_patches[0].mu = 0");
+  expect_config_error("friction_patch_reversed.yaml", "scenario.simulator.friction_patches[0].max = [-2, 1]: must be greater");
+  expect_config_error("friction_patch_overlap.yaml", "scenario.simulator.friction_patches[1]: overlaps friction_patches[0]");
+  expect_config_error("friction_estimation_on_baseline.yaml", "only a wear_mpc controller has one");
 }
 
 TEST(ScenarioConfig, AScenarioWideMeasurementFilterReachesEveryController) {

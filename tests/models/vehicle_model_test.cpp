@@ -553,5 +553,36 @@ TEST(VehicleModel, WithTransientSlipTheWearIsTheTransientForceTimesTheSlidingItS
   }
 }
 
+TEST(VehicleModel, AFrictionScaleGivesAModuleTheForcesOfATireWithThatMuAndLeavesItsLoad) {
+  // Independent truth: the same vehicle with the tire's mu halved. Module 2 alone stands on the
+  // half grip; every other module keeps the tire's forces.
+  const VehicleParams params = testing::make_params(4);
+  VehicleParams slippery = params;
+  slippery.tire.mu = 0.5 * params.tire.mu;
+  VehicleModel<double> model(params, Fidelity::kIdeal);
+  const VehicleModel<double> dry(params, Fidelity::kIdeal), wet(slippery, Fidelity::kIdeal);
+  const double scales[4] = {1.0, 1.0, 0.5, 1.0};
+  model.observe_friction_scales(scales);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(10), u = Eigen::VectorXd::Zero(8), x_dot(10);
+  x[StateIndex::kVx] = 1.0;
+  x[StateIndex::kVy] = 0.03;
+  x[StateIndex::kYawRate] = 0.2;
+  for (int i = 0; i < 4; ++i) u[InputIndex::wheel_speed(i)] = 1.1 / params.layout.wheel_radius();
+  std::vector<ModuleDiagnostics<double>> scaled(4), dry_diagnostics(4), wet_diagnostics(4);
+  ASSERT_EQ(model.derivative(x, u, x_dot, scaled.data()), ModelStatus::kOk);
+  ASSERT_EQ(dry.derivative(x, u, x_dot, dry_diagnostics.data()), ModelStatus::kOk);
+  ASSERT_EQ(wet.derivative(x, u, x_dot, wet_diagnostics.data()), ModelStatus::kOk);
+  for (int i = 0; i < 4; ++i) {
+    const ModuleDiagnostics<double>& truth = i == 2 ? wet_diagnostics[static_cast<std::size_t>(i)]
+                                                    : dry_diagnostics[static_cast<std::size_t>(i)];
+    const ModuleDiagnostics<double>& d = scaled[static_cast<std::size_t>(i)];
+    EXPECT_NEAR(d.fx_wheel, truth.fx_wheel, 1e-9 * std::abs(truth.fx_wheel) + 1e-12) << "module " << i;
+    EXPECT_NEAR(d.fy_wheel, truth.fy_wheel, 1e-9 * std::abs(truth.fy_wheel) + 1e-12) << "module " << i;
+    EXPECT_NEAR(d.wear_rate, truth.wear_rate, 1e-9 * truth.wear_rate + 1e-15) << "module " << i;
+    EXPECT_DOUBLE_EQ(d.normal_load, dry_diagnostics[static_cast<std::size_t>(i)].normal_load) << "module " << i;
+  }
+  EXPECT_NE(scaled[2].fy_wheel, dry_diagnostics[2].fy_wheel);  // the case is not vacuous
+}
+
 }  // namespace
 }  // namespace swerve

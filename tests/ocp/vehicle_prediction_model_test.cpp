@@ -522,5 +522,44 @@ TEST(VehiclePredictionModel, SteadyMotionWearsNothingInPredictionAndPlant) {
   EXPECT_NEAR(w.plant, 0.0, 1e-9);
 }
 
+TEST(VehiclePredictionModel, AFrictionScaleOnEveryModulePredictsAsAVehicleWithThatMuSteppingAndLinearising) {
+  // Independent truth: a model built with the tire's mu scaled. The scale reaches every model the
+  // step evaluates: the twist solve in Jets and in double, the linearisation behind the Jacobians,
+  // and the tyres' slip stiffness in the lagged wear share.
+  const VehicleParams params = testing::make_params(4);
+  VehicleParams slippery = params;
+  slippery.tire.mu = 0.6 * params.tire.mu;
+  PredictionOptions options;
+  options.drive_lag = true;
+  options.steering_lag = true;
+  VehiclePredictionModel scaled(params, options);
+  const VehiclePredictionModel truth(slippery, options), dry(params, options);
+  const double scales[4] = {0.6, 0.6, 0.6, 0.6};
+  scaled.observe_friction_scales(scales);
+  const int nx = truth.state_size(), nu = truth.input_size();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(nx), u = Eigen::VectorXd::Zero(nu);
+  x[StateIndex::kVx] = 0.8;
+  x[StateIndex::kYawRate] = 0.3;
+  for (int i = 0; i < 4; ++i) {
+    x[StateIndex::steering(i)] = 0.1 * (i + 1);
+    u[InputIndex::steering_rate(i)] = 0.4;
+    u[InputIndex::wheel_speed(i)] = 1.2 / params.layout.wheel_radius();
+  }
+  x.tail(nx - 10).setConstant(0.5);
+  auto data = scaled.create_data(), truth_data = truth.create_data(), dry_data = dry.create_data();
+  Eigen::VectorXd next(nx), truth_next(nx), dry_next(nx), gradient(nx + nu), truth_gradient(nx + nu);
+  Eigen::MatrixXd a(nx, nx), b(nx, nu), truth_a(nx, nx), truth_b(nx, nu);
+  double wear = 0.0, truth_wear = 0.0, dry_wear = 0.0;
+  ASSERT_TRUE(scaled.step_jacobians(*data, x, u, 0.05, next, a, b, &wear, gradient));
+  ASSERT_TRUE(truth.step_jacobians(*truth_data, x, u, 0.05, truth_next, truth_a, truth_b, &truth_wear, truth_gradient));
+  ASSERT_TRUE(dry.step(*dry_data, x, u, 0.05, dry_next, &dry_wear));
+  EXPECT_LT((next - truth_next).norm(), 1e-9);
+  EXPECT_NEAR(wear, truth_wear, 1e-9 * truth_wear);
+  EXPECT_LT((a - truth_a).norm(), 1e-6 * truth_a.norm());
+  EXPECT_LT((b - truth_b).norm(), 1e-6 * truth_b.norm());
+  EXPECT_LT((gradient - truth_gradient).norm(), 1e-6 * truth_gradient.norm());
+  EXPECT_GT(std::abs(wear - dry_wear), 1e-3 * dry_wear);  // the grip matters here
+}
+
 }  // namespace
 }  // namespace swerve

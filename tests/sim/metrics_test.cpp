@@ -72,6 +72,30 @@ TEST(Metrics, SolveTimesPercentilesDeadlineMissesLateSolvesAndFallbacks) {
   EXPECT_DOUBLE_EQ(m.wear_imbalance, 0.0);  // no wear: no imbalance rather than 0/0
 }
 
+TEST(Metrics, TheGripUsedSettlesWhenItStaysWithinTenPercentOfTheFloorsUntilTheFloorChanges) {
+  // A floor of scale 1, then 0.75 under part of the vehicle at 1 s, all of it at 2 s, dry again at
+  // 5 s. The grip used comes within 10 % at 2.5 s, strays at 3 s, and stays within from 3.1 s.
+  std::vector<StepRecord> log;
+  for (int k = 0; k < 60; ++k) {
+    StepRecord r = record(0.1 * k, 0.0, 0.0, 0.001, CommandSource::kOptimizer);
+    r.friction_scale = k < 10 ? 1.0 : k < 20 ? 0.75 + 0.25 * (20 - k) / 11.0 : k < 50 ? 0.75 : 1.0;
+    r.friction_scale_used = k < 25 ? 1.0 : k == 30 ? 0.9 : k < 35 ? 0.78 : 0.76;
+    if (k == 25) r.friction_scale_used = 0.82;
+    log.push_back(r);
+  }
+  const RunMetrics m = compute_metrics(log, {}, 0.0, 0.1, 0.05);
+  EXPECT_NEAR(m.friction_change_s, 1.0, 1e-12);
+  EXPECT_NEAR(m.friction_change_complete_s, 2.0, 1e-12);
+  EXPECT_NEAR(m.friction_settle_after_change_s, 2.1, 1e-12);    // from 3.1 s (3.0 s was 20 % off)
+  EXPECT_NEAR(m.friction_settle_after_complete_s, 1.1, 1e-12);
+  EXPECT_NEAR(m.friction_error_after_settle_max_pct, 100.0 * (0.78 / 0.75 - 1.0), 1e-9);
+  // A run on one floor has no change to settle on.
+  const RunMetrics dry = compute_metrics(std::vector<StepRecord>(3, record(0.0, 0.0, 0.0, 0.001, CommandSource::kOptimizer)),
+                                         {}, 0.0, 0.1, 0.05);
+  EXPECT_LT(dry.friction_change_s, 0.0);
+  EXPECT_LT(dry.friction_settle_after_change_s, 0.0);
+}
+
 TEST(Metrics, PercentileIsNearestRank) {
   EXPECT_DOUBLE_EQ(percentile({}, 99.0), 0.0);
   EXPECT_DOUBLE_EQ(percentile({3.0, 1.0, 2.0}, 50.0), 2.0);

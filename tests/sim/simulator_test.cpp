@@ -230,5 +230,52 @@ TEST(Simulator, AFaultOnAModuleTheVehicleDoesNotHaveIsRefusedNamingIt) {
   EXPECT_NE(testing::config_error_of([&] { options.validate(); }).find("faults[0].kind = none"), std::string::npos);
 }
 
+TEST(Simulator, AModuleOnAFrictionPatchGetsThePatchsGripAndTheOthersKeepTheTires) {
+  // A 4-module vehicle at rest at the origin: the patch covers x >= 0, so the front modules
+  // (x > 0) stand on mu 0.4 and the rear ones on the tire's 0.8.
+  const VehicleParams params = testing::make_params(4);
+  SimulatorOptions options;
+  options.friction_patches.push_back({Eigen::Vector2d(0.0, -5.0), Eigen::Vector2d(5.0, 5.0), 0.4});
+  Simulator simulator(params, options);
+  simulator.reset(Eigen::VectorXd::Zero(10));
+  double expected_mean = 0.0, total = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    const bool front = params.layout.position_body(i).x() > 0.0;
+    EXPECT_DOUBLE_EQ(simulator.friction_scales()[static_cast<std::size_t>(i)], front ? 0.5 : 1.0) << "module " << i;
+    expected_mean += simulator.model().static_normal_loads()[static_cast<std::size_t>(i)] * (front ? 0.5 : 1.0);
+    total += simulator.model().static_normal_loads()[static_cast<std::size_t>(i)];
+  }
+  EXPECT_NEAR(simulator.mean_friction_scale(), expected_mean / total, 1e-12);
+  // The same sideways push: a module on the patch slips further under its half grip, so the plant
+  // that drives over it moves differently from one on the dry floor.
+  Simulator dry(params, SimulatorOptions{});
+  Eigen::VectorXd sliding = Eigen::VectorXd::Zero(10);
+  sliding[StateIndex::kVx] = 1.0;
+  sliding[StateIndex::kVy] = 0.05;
+  simulator.reset(sliding);
+  dry.reset(sliding);
+  for (int i = 0; i < 4; ++i) {
+    const double ratio = simulator.module_samples()[static_cast<std::size_t>(i)].fy_wheel /
+                         dry.module_samples()[static_cast<std::size_t>(i)].fy_wheel;
+    EXPECT_NEAR(ratio, params.layout.position_body(i).x() > 0.0 ? 0.5 : 1.0, 1e-12) << "module " << i;
+  }
+}
+
+TEST(SimulatorOptions, FrictionPatchesWithNoGripReversedCornersOrOverlapsAreRefusedNamingThem) {
+  SimulatorOptions options;
+  options.friction_patches.push_back({Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(10.0, 10.0), 0.0});
+  EXPECT_NE(testing::config_error_of([&] { options.validate(); }).find("friction_patches[0].mu = 0"), std::string::npos);
+  options.friction_patches[0] = {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(10.0, -1.0), 0.4};
+  const std::string corners = testing::config_error_of([&] { options.validate(); });
+  EXPECT_NE(corners.find("friction_patches[0].max = [10, -1]"), std::string::npos) << corners;
+  options.friction_patches[0] = {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(10.0, 10.0), 0.4};
+  options.friction_patches.push_back({Eigen::Vector2d(10.0, 0.0), Eigen::Vector2d(20.0, 10.0), 0.6});
+  EXPECT_NO_THROW(options.validate());  // touching is not overlapping
+  options.friction_patches.push_back({Eigen::Vector2d(19.0, 9.0), Eigen::Vector2d(30.0, 30.0), 0.6});
+  const std::string overlap = testing::config_error_of([&] { options.validate(); });
+  EXPECT_NE(overlap.find("friction_patches[2] = [19, 9] to [30, 30]: overlaps friction_patches[1]"), std::string::npos)
+      << overlap;
+}
+
 }  // namespace
 }  // namespace swerve

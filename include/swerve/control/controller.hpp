@@ -19,6 +19,7 @@
 #include "swerve/models/vehicle_params.hpp"
 #include "swerve/control/actuator_estimator.hpp"
 #include "swerve/control/fallback_ladder.hpp"
+#include "swerve/control/friction_estimator.hpp"
 #include "swerve/control/kinematic_baseline.hpp"
 #include "swerve/control/latency_compensator.hpp"
 #include "swerve/control/measurement_monitor.hpp"
@@ -122,6 +123,9 @@ struct ControllerOptions {
   // The stuck-steering detector (SteeringFaultDetector); a module it finds is taken as
   // set_module_fault(i, kStuckSteering) would.
   FaultDetectionOptions fault_detection;
+  // The floor's grip estimated online (FrictionEstimator) and given to the prediction; off by
+  // default (docs/decisions/friction-estimation.md).
+  FrictionEstimationOptions friction_estimation;
   // The rules of the fields, read by the YAML loader too: the sampling (horizon, dt; shared with the
   // baseline), the timing and replanning fields, and the cost weights (their YAML keys under
   // `weights:`). The nested options have tables of their own.
@@ -161,6 +165,13 @@ class Controller final : public TrackingController {
   // t_next drops the preparation. Leaves problem() holding the predicted problem until then.
   bool prepare(double t_next) noexcept override;
   void set_reference(std::shared_ptr<const Reference> reference) override;
+
+  // The grip known (TrackingController::set_friction_scale): the prediction takes it from the next
+  // step on, and with friction_estimation on the estimate continues from it (then it must also be
+  // within the estimate's bounds). Between steps, like set_module_fault.
+  void set_friction_scale(double scale) override;
+  // The grip the prediction uses now: set above, or estimated (1 until either).
+  double friction_scale() const noexcept { return (*friction_scales_)[0]; }
 
   const OcpProblem& problem() const noexcept { return *problem_; }
   const Solution& plan() const noexcept { return plan_; }
@@ -247,6 +258,10 @@ class Controller final : public TrackingController {
   std::optional<TrackingTube> tube_;  // tracking_tolerance's (made with the problem)
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
   SteeringFaultDetector detector_;   // commands sent against the steering angles measured
+  std::unique_ptr<FrictionEstimator> friction_;  // with options_.friction_estimation enabled
+  // The grip each module's tires see in the prediction (observed by model_; on the heap, so a
+  // moved controller's model keeps reading it).
+  std::unique_ptr<std::array<double, kMaxModules>> friction_scales_;
   double wear_weight_ = 0.0;         // the cost's wear weight without faults (with one: 0, tracking first)
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
   Eigen::VectorXd prediction_state_;  // nx: now_, then the estimated wheel speeds and steering rates

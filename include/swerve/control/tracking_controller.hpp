@@ -62,6 +62,9 @@ struct ControlOutput {
   bool work_budget_cut = false;
   // This step's detector found a module fault (TrackingController::module_faults() says which).
   bool module_fault_found = false;
+  // The floor's grip the controller's prediction used, as a multiple of the tire's mu (1: the
+  // tire's own; controllers without a tire model report 1).
+  double friction_scale = 1.0;
 };
 
 class TrackingController {
@@ -110,6 +113,11 @@ class TrackingController {
   // module (or the fault is not a ModuleFault). Between steps, on the thread that calls step() and
   // prepare(): not from the real-time path, and not concurrently with it.
   void set_module_fault(int module, ModuleFault fault);
+  // The floor's grip as a multiple of the vehicle's tire mu, known (a map of the floor): a
+  // controller whose prediction has tires takes it (Controller::set_friction_scale); one without
+  // (the kinematic baseline) has nothing to take it into, and only checks it. Throws ConfigError
+  // unless finite and within (0, 10].
+  virtual void set_friction_scale(double scale);
   // Every module's fault: those set above and those the controller's own detector found.
   const ModuleFaults& module_faults() const noexcept { return *faults_; }
 

@@ -56,6 +56,8 @@ class ModelLinearisation {
                  const Eigen::Ref<const Eigen::VectorXd>& inputs, Point* point) const noexcept;
 
   const VehicleModel<ModuleJet>& model() const noexcept { return model_; }
+  // VehicleModel::observe_friction_scales for the model it linearises.
+  void observe_friction_scales(const double* scales) noexcept { model_.observe_friction_scales(scales); }
 
  private:
   VehicleModel<ModuleJet> model_;

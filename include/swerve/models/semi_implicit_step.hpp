@@ -108,6 +108,12 @@ class BodyTwistSolver {
       : model_(params, Fidelity::kIdeal), value_model_(params, Fidelity::kIdeal), max_iterations_(max_iterations),
         state_size_(model_.state_size()), input_size_(model_.input_size()), modules_(model_.modules()) {}
 
+  // VehicleModel::observe_friction_scales, for both of its models.
+  void observe_friction_scales(const double* scales) noexcept {
+    model_.observe_friction_scales(scales);
+    value_model_.observe_friction_scales(scales);
+  }
+
   // v+ for the state `trial_state` (steering already advanced; its twist entries are ignored) under
   // `inputs`, from v0 over h, started at `guess`. Step halving keeps each iterate's residual below
   // the last. True only when the residual has converged: a tyre past its force peak makes the
@@ -252,7 +258,7 @@ class SemiImplicitStep {
         0.5 * (params.tire.mu_longitudinal() * params.tire.longitudinal.b * params.tire.longitudinal.c +
                params.tire.mu_lateral() * params.tire.lateral.b * params.tire.lateral.c);
     for (int i = 0; i < modules_; ++i) {
-      slip_stiffness_sum_ += stiffness_per_newton * model_.static_normal_loads()[static_cast<std::size_t>(i)];
+      nominal_slip_stiffness_sum_ += stiffness_per_newton * model_.static_normal_loads()[static_cast<std::size_t>(i)];
     }
   }
 
@@ -346,6 +352,13 @@ class SemiImplicitStep {
   // steering rate, and the twist map rolls its wheel along its angle (ModuleCommandRule::faults).
   // Wiring like charge_work_to, not part of an evaluation: `faults` must outlive the step.
   void observe_module_faults(const ModuleFaults* faults) noexcept { faults_ = faults; }
+  // The floor's grip under each module from now on (VehicleModel::observe_friction_scales; null:
+  // the tire's own mu everywhere), for every model the step evaluates. Wiring as above.
+  void observe_friction_scales(const double* scales) noexcept {
+    model_.observe_friction_scales(scales);
+    twist_solver_.observe_friction_scales(scales);
+    linearisation_.observe_friction_scales(scales);
+  }
 
   // x_next = F(x, u) over dt with module inputs u (steering rate, wheel speed per module) and the
   // stage wear. Sizes and finiteness are the caller's to check. No allocation.
@@ -562,7 +575,7 @@ class SemiImplicitStep {
   Eigen::Vector3d quasi_steady_twist(Data& d, const Eigen::Ref<const Eigen::VectorXd>& state,
                                      const Eigen::Ref<const Eigen::VectorXd>& inputs, const Eigen::Vector3d& v0,
                                      double h) const noexcept {
-    if (slip_stiffness_sum_ <= 0.0) return v0;
+    if (nominal_slip_stiffness_sum_ <= 0.0) return v0;
     for (int i = 0; i < modules_; ++i) {
       d.wheel_states[i] = ModuleState{wheel_radius_ * inputs[InputIndex::wheel_speed(i)], state[StateIndex::steering(i)]};
     }
@@ -682,18 +695,32 @@ class SemiImplicitStep {
   // share for a change spread over the step, tau_t / (tau_t + h / 2), was measured against the
   // plant over 0.3 s of small corrections at cruise: 1.2-4.3x its wear, against 0.9-3.4x.)
   T lagged_wear(const T& steady, const T& balance, const Vector3& v0) const noexcept {
-    if (drive_lag_ <= 0.0 || slip_stiffness_sum_ <= 0.0) return balance;
+    if (drive_lag_ <= 0.0 || nominal_slip_stiffness_sum_ <= 0.0) return balance;
     const T tire_time = tire_time_constant<T>(v0.x(), v0.y());
     const T share = tire_time / (tire_time + drive_lag_);
     return steady + share * (balance - steady);
   }
 
   // tau_t = m / c of the tyres acting on the body as one damper c = stiffness / |v| (|v| regularised
-  // by the slip-speed epsilon), for a body moving at (vx, vy). Needs slip_stiffness_sum_ > 0.
+  // by the slip-speed epsilon), for a body moving at (vx, vy). Needs nominal_slip_stiffness_sum_ > 0.
   template <typename S>
   S tire_time_constant(const S& vx, const S& vy) const noexcept {
     using std::sqrt;
-    return mass_ * sqrt(vx * vx + vy * vy + slip_speed_epsilon_ * slip_speed_epsilon_) / slip_stiffness_sum_;
+    return mass_ * sqrt(vx * vx + vy * vy + slip_speed_epsilon_ * slip_speed_epsilon_) / slip_stiffness_sum();
+  }
+
+  // The tyres' summed slip stiffness on the floor under them: each tyre's share of the nominal sum
+  // (its static load's) times its friction scale, since the stiffness B C D grows with D = mu Fz.
+  double slip_stiffness_sum() const noexcept {
+    const double* scales = model_.friction_scales();
+    if (scales == nullptr) return nominal_slip_stiffness_sum_;
+    const std::vector<double>& loads = model_.static_normal_loads();
+    double total_load = 0.0, scaled_load = 0.0;
+    for (int i = 0; i < modules_; ++i) {
+      total_load += loads[static_cast<std::size_t>(i)];
+      scaled_load += loads[static_cast<std::size_t>(i)] * scales[i];
+    }
+    return nominal_slip_stiffness_sum_ * scaled_load / total_load;
   }
 
   PredictionOptions options_;
@@ -707,7 +734,8 @@ class SemiImplicitStep {
   const ModuleFaults* faults_ = nullptr;  // observe_module_faults (not owned)
   bool energy_wear_ = false;
   double wheel_radius_ = 0.0, wear_coefficient_ = 0.0;
-  double drive_lag_ = 0.0, mass_ = 0.0, slip_speed_epsilon_ = 0.0, slip_stiffness_sum_ = 0.0;
+  double drive_lag_ = 0.0, mass_ = 0.0, slip_speed_epsilon_ = 0.0;
+  double nominal_slip_stiffness_sum_ = 0.0;  // at the tire's own mu (slip_stiffness_sum())
   int lag_states_ = 0;  // n with PredictionOptions::drive_lag on a plant with drive lag, else 0
   int steering_lag_states_ = 0;  // n with PredictionOptions::steering_lag on a plant with steering lag
   DriveLag drive_response_;

@@ -47,6 +47,8 @@ class SemiImplicitStepJacobian {
 
   // The modules' faults from now on (SemiImplicitStep::observe_module_faults; null: none).
   void observe_module_faults(const ModuleFaults* faults) noexcept;
+  // The floor's grip under each module (SemiImplicitStep::observe_friction_scales; null: none).
+  void observe_friction_scales(const double* scales) noexcept;
 
   // The work the Jacobians on `data` did so far: the vehicle model's evaluations in their twist
   // solves (as SemiImplicitStep::model_evaluations counts a double step's) and its linearisations.

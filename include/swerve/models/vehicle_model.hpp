@@ -87,6 +87,15 @@ class VehicleModel {
   int transient_slip_ratio_index(int module) const;
   int transient_slip_angle_index(int module) const;
 
+  // The floor's grip under each module from now on: `scales` holds modules() entries, module i's
+  // peak friction as a multiple of params().tire's (a wet patch of mu 0.4 on a tire of mu 0.8:
+  // 0.5); null: 1 everywhere. Each tire's forces scale with it (D = mu Fz, Pacejka 2012, eq. 4.49:
+  // the same curve at a scaled peak), its normal load and the Archard wear's load do not. Wiring
+  // like SemiImplicitStep::observe_module_faults: `scales` must outlive the model, and may change
+  // between evaluations, never during one.
+  void observe_friction_scales(const double* scales) noexcept { friction_scales_ = scales; }
+  const double* friction_scales() const noexcept { return friction_scales_; }
+
   // Static normal loads (N), modules then casters (see VehicleParams::static_normal_loads).
   const std::vector<double>& static_normal_loads() const { return static_loads_; }
 
@@ -154,6 +163,7 @@ class VehicleModel {
   std::vector<double> transfer_per_ax_;     // dFz/d(a_x) (N per m/s^2), modules then casters
   std::vector<double> transfer_per_ay_;     // dFz/d(a_y)
   double slip_rate_per_speed_ = 1.0;        // lambda (1/m), see slip_time_constant
+  const double* friction_scales_ = nullptr;  // observe_friction_scales (not owned)
 };
 
 }  // namespace swerve

@@ -57,6 +57,10 @@ class PredictionModel {
   // null: none. Wiring like charge_work_to: `faults` must outlive the model, and may change
   // between solves, never during one. Models without module steering ignore it (the default).
   virtual void observe_module_faults(const ModuleFaults* faults) noexcept { (void)faults; }
+  // The floor's grip under each module from now on: one entry per module, its peak friction as a
+  // multiple of the vehicle's tire mu (VehicleModel::observe_friction_scales); null: the tire's
+  // own. Wiring as observe_module_faults. Models without tires ignore it (the default).
+  virtual void observe_friction_scales(const double* scales) noexcept { (void)scales; }
 
   // Whether step_jacobians() gives exact derivatives (gradient-based backends need them).
   virtual bool has_jacobians() const noexcept { return false; }

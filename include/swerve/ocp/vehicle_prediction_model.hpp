@@ -54,6 +54,7 @@ class VehiclePredictionModel final : public PredictionModel {
   // per substep linearised and module_evaluations_per_jet_chunk() per Jet chunk.
   void charge_work_to(const Clock* clock) noexcept override { work_clock_ = clock; }
   void observe_module_faults(const ModuleFaults* faults) noexcept override;
+  void observe_friction_scales(const double* scales) noexcept override;
   // What one module's share of the model's linearisation at a substep, and of one Jet chunk of a
   // step (kModelJetSize directions chained through it), cost in double evaluations of one module,
   // as BM_Models_PredictionStep measures a step and its Jacobian on the reference machine.

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "swerve/control/tracking_controller.hpp"
@@ -32,6 +33,14 @@ struct StepRecord {
   // Module faults as bit masks (bit i: module i): the plant's over the period from t, and those
   // the controller knew of (set or found) after its step at t.
   std::uint32_t plant_faults = 0, known_faults = 0;
+  // The floor's grip under the vehicle at t (Simulator::mean_friction_scale) and the one the
+  // controller's prediction used (ControlOutput::friction_scale), as multiples of the tire's mu.
+  double friction_scale = 1.0, friction_scale_used = 1.0;
+  // A wear-aware controller's prediction model at the grip it used, one period on from the plant's
+  // true state under the commands sent, against the plant: the position missed (m) and the wear
+  // predicted less the wear that happened (wear units). NaN where no model predicted.
+  double prediction_position_error_m = std::numeric_limits<double>::quiet_NaN();
+  double prediction_wear_error = std::numeric_limits<double>::quiet_NaN();
   // The optimiser's own view of the step: the predicted cost of the plan it returned, by part, and
   // of the best initial guess it started from (< 0 when no solve ran or the solver reports none).
   CostBreakdown plan_cost;
@@ -79,6 +88,13 @@ struct RunMetrics {
   int fault_detection_cycles = -1;
   double tracking_rmse_after_fault_known_m = -1.0;
   int false_fault_alarms = 0;
+  // Runs whose floor changes grip (StepRecord::friction_scale): when the vehicle first touched a
+  // new grip and when all of it stood on it (s, -1: no change), and how long after each the grip
+  // the controller used came within 10 % of the floor's and stayed there while the floor held
+  // (s, -1: never). The worst error once settled (%, -1: never settled).
+  double friction_change_s = -1.0, friction_change_complete_s = -1.0;
+  double friction_settle_after_change_s = -1.0, friction_settle_after_complete_s = -1.0;
+  double friction_error_after_settle_max_pct = -1.0;
 };
 
 // Nearest-rank percentile (q in [0, 100]) of `values`; 0 for an empty list.

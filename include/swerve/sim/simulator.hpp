@@ -43,6 +43,18 @@ struct PlantFault {
   bool due_by(double period_start) const noexcept { return at <= period_start + 1e-6; }
 };
 
+// A stretch of floor with its own grip (a wet or dusty patch): an axis-aligned rectangle in the
+// world frame where the tires' peak friction is `mu` instead of the vehicle's tire mu. A module
+// whose contact point is inside it has it (VehicleModel::observe_friction_scales).
+struct FrictionPatch {
+  Eigen::Vector2d min_world = Eigen::Vector2d::Zero();  // m, the corner of least x and y
+  Eigen::Vector2d max_world = Eigen::Vector2d::Zero();  // m, the corner of greatest x and y
+  double mu = 0.4;
+  bool contains(const Eigen::Vector2d& point_world) const noexcept {
+    return (point_world.array() >= min_world.array()).all() && (point_world.array() <= max_world.array()).all();
+  }
+};
+
 struct SimulatorOptions {
   double control_period = 0.05;  // s between controller calls
   // Plant RK4 substeps per control period; 0 picks them from the tire-slip time constant of a wheel
@@ -52,11 +64,18 @@ struct SimulatorOptions {
   int measurement_delay_steps = 0;  // the controller sees the state this many periods old
   std::uint64_t seed = 1;
   std::vector<PlantFault> faults;   // none by default
+  std::vector<FrictionPatch> friction_patches;  // none by default: the tire's mu everywhere
+  // Whether the controllers are told the grip under the vehicle each period (TrackingController::
+  // set_friction_scale with mean_friction_scale()), as a map of the floor would; false: a
+  // controller that uses the grip must estimate it.
+  bool announce_friction = false;
   // The rules of the fields a scenario's `simulator:` block sets (substeps, measurement_delay_steps),
   // one table for validate() and the loader. control_period is the controllers' (checked by
   // validate() alone), the seed any unsigned integer, the noise MeasurementNoise::fields().
   static const OptionFields<SimulatorOptions>& fields();
-  void validate() const;            // throws ConfigError naming the field and value
+  // Throws ConfigError naming the field and value: also a patch with mu <= 0, corners not in
+  // order, or two patches that overlap (which grip would hold there is not said).
+  void validate() const;
 };
 
 // Per-module quantities of the plant at the start of a control period (for logs).
@@ -102,12 +121,20 @@ class Simulator {
   const std::vector<PlantModuleSample>& module_samples() const noexcept { return samples_; }
   // The faults the plant has now (PlantFault): every module kNone before its fault's onset.
   const ModuleFaults& active_faults() const noexcept { return active_faults_; }
+  // The floor's grip under each module now, as a multiple of the vehicle's tire mu (1 off every
+  // friction patch).
+  const std::vector<double>& friction_scales() const noexcept { return friction_scales_; }
+  // The same, averaged over the modules with the static loads as weights: the single scale a
+  // controller's prediction would take for the whole vehicle.
+  double mean_friction_scale() const noexcept;
 
  private:
   void refresh_samples() noexcept;
   // Starts the faults due by the period starting now, and holds a stuck steering's rate at zero.
   void apply_faults() noexcept;
   void update_measurement() noexcept;
+  // friction_scales_ for the contact points of `state`'s pose.
+  void update_friction(const Eigen::VectorXd& state) noexcept;
   double gaussian() noexcept;
 
   SimulatorOptions options_;
@@ -122,6 +149,7 @@ class Simulator {
   double frictional_energy_ = 0.0;
   std::vector<PlantModuleSample> samples_;
   ModuleFaults active_faults_;
+  std::vector<double> friction_scales_;  // observed by model_ (VehicleModel::observe_friction_scales)
   std::deque<Eigen::VectorXd> delayed_;  // true prefixes awaiting their delay
   std::uint64_t rng_state_ = 0;
 };
