@@ -224,6 +224,11 @@ void VehicleModel<T>::module_forces(const T* x, const T* u, int i, const T& fz, 
     // without relaxation wore 0.003 J, with the body speed ringing past its command.
     sliding = transient_sliding(slip, x[ki], x[ki + 1]);
   }
+  if (drive_dead(faults_, i)) {
+    // A free wheel spins at its contact's speed along the wheel: no longitudinal slip, no Fx.
+    sliding.slip_ratio = T(0.0);
+    sliding.slip_velocity_x_wheel = T(0.0);
+  }
   const T& kappa = sliding.slip_ratio;
   const T& alpha = sliding.slip_angle;
   // The floor's grip scales the peak D = mu Fz, so the curve keeps its shape (observe_friction_scales).

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 # Plots one or more scenario runs (summary.json + per-controller CSV logs, optional sweep.json) into PNGs
-# next to the data: path, tracking error, wear, slip angles, solve time and, with a sweep, the Pareto front.
+# next to the data: path, tracking error, wear, slip angles, solve time, where the floor's grip changes the
+# grip the controllers' predictions used, and with a sweep the Pareto front.
 # Usage: python3 scripts/plot_scenario.py RUN_DIR [RUN_DIR ...]   (needs python3-matplotlib)
 import csv, json, math, os, re, sys
 
@@ -142,6 +143,36 @@ def plot_tracking(run_dir, title, logs):
     save(fig, run_dir, "tracking_error.png")
 
 
+def plot_friction(run_dir, title, logs):
+    """Where the floor's grip changes: the grip each controller's prediction used against the floor's,
+    and its one-period prediction error of position and wear (1 s means)."""
+    if not any("friction_scale" in c and np.nanmax(np.abs(c["friction_scale"] - 1.0)) > 1e-9 for c in logs.values()):
+        return
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(9, 8.5), sharex=True)
+    first = next(c for c in logs.values() if "friction_scale" in c)
+    a1.plot(first["t"], first["friction_scale"], "k--", lw=1.4, label="floor (mean under the vehicle)")
+    a1.fill_between(first["t"], 0.9 * first["friction_scale"], 1.1 * first["friction_scale"], color="0.85",
+                    label="within 10 %")
+    for k, (name, c) in enumerate(logs.items()):
+        if "prediction_position_error_m" not in c or np.all(np.isnan(c["prediction_position_error_m"])):
+            continue
+        col = "C%d" % k
+        a1.plot(c["t"], c["friction_scale_used"], color=col, label=name)
+        dt = np.nanmedian(np.diff(c["t"]))
+        window = max(1, int(round(1.0 / dt)))
+        kernel = np.ones(window) / window
+        a2.plot(c["t"], np.convolve(c["prediction_position_error_m"] * 1e6, kernel, "same"), color=col, label=name)
+        a3.plot(c["t"], np.convolve(np.abs(c["prediction_wear_error"]) * 1e3, kernel, "same"), color=col, label=name)
+    a1.set(ylabel="grip / tire mu", title="%s: the grip the prediction used" % title)
+    a2.set(ylabel="position error [um]\n(one period, 1 s mean)")
+    a3.set(xlabel="t [s]", ylabel="|wear error| [mJ]\n(one period, 1 s mean)")
+    for a in (a1, a2, a3):
+        a.grid(alpha=0.3)
+        a.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    save(fig, run_dir, "friction.png")
+
+
 def plot_wear(run_dir, title, summary, logs):
     ctrls = summary["controllers"]
     units = next((ctrls[n].get("wear_units") for n in logs if ctrls[n].get("wear_units")), "wear units")
@@ -239,6 +270,7 @@ def main(argv):
             plot_wear(run_dir, title, summary, logs)
             plot_slip(run_dir, title, logs)
             plot_solve_time(run_dir, title, summary, logs)
+            plot_friction(run_dir, title, logs)
             if sweep:
                 plot_pareto(run_dir, title, summary, sweep)
         except (RunError, KeyError, TypeError, ValueError, OSError) as e:

@@ -20,7 +20,7 @@ std::vector<PlantFault> load_plant_faults(const config::ConfigNode& node, int mo
     PlantFault fault;
     fault.module = entry.get_int("module", 0, modules - 1);
     fault.at = entry.get_double("at", Bound::non_negative());
-    fault.kind = module_fault_from_string(entry.get_choice("kind", {"stuck_steering"}), entry.path() + ".kind");
+    fault.kind = module_fault_from_string(entry.get_choice("kind", {"stuck_steering", "dead_drive"}), entry.path() + ".kind");
     fault.announced = entry.get_bool_or("announced", false);
     for (const PlantFault& other : faults) {
       if (other.module == fault.module) {

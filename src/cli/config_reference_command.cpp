@@ -120,7 +120,10 @@ std::string reference() {
               KinematicsOptions::fields(), KinematicsOptions{});
   write_table(out, "scenario.simulator",
               "The simulated plant of a scenario (the seed: any unsigned integer; `faults`: a list of "
-              "`{module, at, kind: stuck_steering, announced: false}`, each module once, each time inside the run).",
+              "`{module, at, kind: stuck_steering or dead_drive, announced: false}`, each module once, each time inside "
+              "the run; `friction_patches`: a list of `{min: [x, y], max: [x, y], mu}`, world-frame rectangles of "
+              "mu > 0 that may touch but not overlap; `announce_friction: false`: true tells the controllers the grip "
+              "under the vehicle each period).",
               SimulatorOptions::fields(), SimulatorOptions{});
   write_table(out, "scenario.simulator.noise", "Measurement noise, standard deviations.", MeasurementNoise::fields(),
               MeasurementNoise{});

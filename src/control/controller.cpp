@@ -248,7 +248,11 @@ void Controller::module_faults_changed() noexcept {
   // angle, and with the wear priced the plan bought its relief by leaving the path (on a 1 m lane
   // change, a vehicle that rolled on along the stuck angle and ended 1.3 m off it). The path is
   // the aisle; that tire's wear is the fault's cost. See docs/decisions/module-faults.md.
-  problem_->set_wear_weight(any_fault(module_faults()) ? 0.0 : wear_weight_);
+  // A dead drive drags nothing (its module still steers its free wheel along its contact velocity):
+  // the wear stays priced.
+  bool stuck = false;
+  for (int i = 0; i < modules_; ++i) stuck = stuck || steering_stuck(&module_faults(), i);
+  problem_->set_wear_weight(stuck ? 0.0 : wear_weight_);
 }
 
 void Controller::reset() noexcept {

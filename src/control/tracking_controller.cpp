@@ -13,7 +13,7 @@ void TrackingController::set_module_fault(int module, ModuleFault fault) {
     throw_invalid_field(name(), "set_module_fault.module", module,
                         "must name a module of the vehicle, 0 to " + std::to_string(faults_->size() - 1));
   }
-  if (fault != ModuleFault::kNone && fault != ModuleFault::kStuckSteering) {
+  if (fault != ModuleFault::kNone && fault != ModuleFault::kStuckSteering && fault != ModuleFault::kDeadDrive) {
     throw_invalid_field(name(), "set_module_fault.fault", static_cast<int>(fault), "is not a ModuleFault");
   }
   (*faults_)[module] = fault;

@@ -13,21 +13,28 @@ const char* to_string(ModuleFault fault) noexcept {
       return "none";
     case ModuleFault::kStuckSteering:
       return "stuck_steering";
+    case ModuleFault::kDeadDrive:
+      return "dead_drive";
   }
   return "unknown";
 }
 
 ModuleFault module_fault_from_string(const std::string& word, const std::string& field) {
-  for (ModuleFault fault : {ModuleFault::kNone, ModuleFault::kStuckSteering}) {
+  for (ModuleFault fault : {ModuleFault::kNone, ModuleFault::kStuckSteering, ModuleFault::kDeadDrive}) {
     if (word == to_string(fault)) return fault;
   }
-  throw_invalid_field("", field, word, "must be one of none, stuck_steering");
+  throw_invalid_field("", field, word, "must be one of none, stuck_steering, dead_drive");
 }
 
 std::string describe_lost_motions(const ModuleLayout& layout, const ModuleFaults& faults,
                                   const ModuleArray<double>& angles) {
   std::ostringstream text;
   for (int i = 0; i < faults.size() && i < layout.size(); ++i) {
+    if (faults[i] == ModuleFault::kDeadDrive) {
+      if (text.tellp() > 0) text << "; ";
+      text << "module " << i << " has a dead drive: it steers and rolls free, the other modules carry its traction";
+      continue;
+    }
     if (faults[i] != ModuleFault::kStuckSteering) continue;
     const double angle = i < angles.size() ? angles[i] : 0.0;
     if (text.tellp() > 0) text << "; ";

@@ -51,8 +51,8 @@ void SimulatorOptions::validate() const {
       throw_invalid_field(kOwner, field + ".module", faults[f].module, "must name a module of the vehicle");
     }
     if (!std::isfinite(faults[f].at) || faults[f].at < 0.0) throw_invalid_field(kOwner, field + ".at", faults[f].at, "must be >= 0 (s)");
-    if (faults[f].kind != ModuleFault::kStuckSteering) {
-      throw_invalid_field(kOwner, field + ".kind", to_string(faults[f].kind), "must be stuck_steering");
+    if (faults[f].kind != ModuleFault::kStuckSteering && faults[f].kind != ModuleFault::kDeadDrive) {
+      throw_invalid_field(kOwner, field + ".kind", to_string(faults[f].kind), "must be stuck_steering or dead_drive");
     }
   }
   for (std::size_t p = 0; p < friction_patches.size(); ++p) {
@@ -103,6 +103,7 @@ Simulator::Simulator(const VehicleParams& vehicle, SimulatorOptions options)
   samples_.resize(static_cast<std::size_t>(n));
   active_faults_ = ModuleFaults(n, ModuleFault::kNone);
   friction_scales_.assign(static_cast<std::size_t>(n), 1.0);
+  model_.observe_module_faults(&active_faults_);  // a dead drive's wheel rolls free
   if (!options_.friction_patches.empty()) model_.observe_friction_scales(friction_scales_.data());
   for (std::size_t f = 0; f < options_.faults.size(); ++f) {
     if (options_.faults[f].module >= n) {

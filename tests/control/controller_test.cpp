@@ -18,6 +18,7 @@
 
 #include "control/closed_loop.hpp"
 #include "support/allocation_counter.hpp"  // the one .cpp of control_tests that includes it
+#include "support/config_errors.hpp"
 #include "support/fake_clocks.hpp"
 #include "swerve/core/config_error.hpp"
 #include "swerve/solvers/rti_solver.hpp"
@@ -1925,6 +1926,40 @@ TEST(Controller, AModuleFaultOnAModuleTheVehicleDoesNotHaveIsRefusedNamingIt) {
   EXPECT_THROW(controller.set_module_fault(-1, ModuleFault::kStuckSteering), ConfigError);
   EXPECT_THROW(controller.set_module_fault(0, static_cast<ModuleFault>(7)), ConfigError);
   EXPECT_EQ(controller.module_faults()[0], ModuleFault::kNone);
+}
+
+TEST(Controller, AKnownGripReachesThePredictionAndTheOutputAndABadOneIsRefusedNamingIt) {
+  FakeScript script;
+  Controller controller = make_fake_controller(&script);
+  Controller dry = make_fake_controller(&script);
+  for (const double bad : {std::nan(""), 0.0, 11.0}) {
+    const std::string message = testing::config_error_of([&] { controller.set_friction_scale(bad); });
+    EXPECT_NE(message.find("set_friction_scale.scale = "), std::string::npos) << bad << ": " << message;
+  }
+  EXPECT_EQ(controller.friction_scale(), 1.0);
+  controller.set_friction_scale(0.5);
+  EXPECT_EQ(controller.friction_scale(), 0.5);
+  EXPECT_EQ(controller.step(at_rest(), 0.0).friction_scale, 0.5);
+  // The prediction sees it: the same sliding state and input step differently on half the grip.
+  const PredictionModel& wet_model = controller.problem().model();
+  const PredictionModel& dry_model = dry.problem().model();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(wet_model.state_size()), u = Eigen::VectorXd::Zero(wet_model.input_size());
+  x[StateIndex::kVx] = 0.5;
+  x[StateIndex::kVy] = 0.05;
+  u[0] = 0.5;
+  auto wet_data = wet_model.create_data(), dry_data = dry_model.create_data();
+  Eigen::VectorXd wet_next(x.size()), dry_next(x.size());
+  double wet_wear = 0.0, dry_wear = 0.0;
+  ASSERT_TRUE(wet_model.step(*wet_data, x, u, 0.05, wet_next, &wet_wear));
+  ASSERT_TRUE(dry_model.step(*dry_data, x, u, 0.05, dry_next, &dry_wear));
+  EXPECT_GT(std::abs(wet_wear - dry_wear), 1e-3 * dry_wear);
+  // Estimating, a known grip must also lie within the estimate's bounds.
+  ControllerOptions estimating = fast_options();
+  estimating.friction_estimation.enabled = true;
+  Controller estimator = make_fake_controller(&script, estimating);
+  EXPECT_NE(testing::config_error_of([&] { estimator.set_friction_scale(0.1); }).find("scale = 0.1"), std::string::npos);
+  estimator.set_friction_scale(0.6);
+  EXPECT_EQ(estimator.friction_scale(), 0.6);
 }
 
 TEST(Controller, AStuckModuleIsNeverCommandedASteeringRateByThePlanOrByTheBaselineFallback) {

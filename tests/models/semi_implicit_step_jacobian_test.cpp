@@ -169,6 +169,25 @@ TEST_F(SemiImplicitStepJacobianTest, WithAStuckSteeringTheAngleHoldsAndTheJacobi
   expect_twist_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, Eigen::Vector3d(0.85, 0.05, 0.25));
 }
 
+TEST_F(SemiImplicitStepJacobianTest, WithADeadDriveItsWheelSpeedMovesNothingAndTheJacobiansStillMatchTheStep) {
+  ModuleFaults faults(4, ModuleFault::kNone);
+  faults[2] = ModuleFault::kDeadDrive;
+  step_.observe_module_faults(&faults);
+  jacobian_.observe_module_faults(&faults);
+  Eigen::VectorXd u(jacobian_.input_size());
+  step_.module_inputs(x_, Eigen::Vector3d(0.85, 0.05, 0.25), kDt, u);
+  Eigen::VectorXd x_next(step_.state_size()), x_spun(step_.state_size());
+  double wear = 0.0, wear_spun = 0.0;
+  ASSERT_TRUE(step_.step(step_data_, x_, u, kDt, x_next, &wear));
+  Eigen::VectorXd spun = u;
+  spun[InputIndex::wheel_speed(2)] *= 3.0;  // a free wheel: what its drive is told does not reach the body
+  ASSERT_TRUE(step_.step(step_data_, x_, spun, kDt, x_spun, &wear_spun));
+  EXPECT_LT((x_spun.head(6) - x_next.head(6)).norm(), 1e-12);
+  EXPECT_NEAR(wear_spun, wear, 1e-9 * wear);
+  expect_module_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, u, 1e-5);
+  expect_twist_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, Eigen::Vector3d(0.85, 0.05, 0.25));
+}
+
 TEST(SemiImplicitStepJacobian, ASplitSubstepIsDifferentiatedAsTheDoubleStepTakesIt) {
   // From rest, wheels told to spin up while their modules still turn slip past the tyres' force
   // peak, and Newton finds no root over the whole substep: the step splits it. The Jacobian's first

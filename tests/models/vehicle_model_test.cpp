@@ -553,6 +553,27 @@ TEST(VehicleModel, WithTransientSlipTheWearIsTheTransientForceTimesTheSlidingItS
   }
 }
 
+TEST(VehicleModel, ADeadDrivesTireGivesNoLongitudinalForceAndOnlyItsPureLateralOne) {
+  // Independent truth: the tire alone at no slip ratio and the module's slip angle.
+  const VehicleParams params = testing::make_params(4);
+  VehicleModel<double> model(params, Fidelity::kIdeal);
+  ModuleFaults faults(4, ModuleFault::kNone);
+  faults[1] = ModuleFault::kDeadDrive;
+  model.observe_module_faults(&faults);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(10), u = Eigen::VectorXd::Zero(8), x_dot(10);
+  x[StateIndex::kVx] = 1.0;
+  x[StateIndex::kVy] = 0.04;
+  for (int i = 0; i < 4; ++i) u[InputIndex::wheel_speed(i)] = 1.3 / params.layout.wheel_radius();  // driving hard
+  std::vector<ModuleDiagnostics<double>> d(4);
+  ASSERT_EQ(model.derivative(x, u, x_dot, d.data()), ModelStatus::kOk);
+  EXPECT_EQ(d[1].fx_wheel, 0.0);
+  EXPECT_EQ(d[1].slip_ratio, 0.0);
+  const MagicFormulaTire<double> tire(params.tire);
+  EXPECT_NEAR(d[1].fy_wheel, tire.forces(0.0, d[1].slip_angle, d[1].normal_load).fy_wheel, 1e-12);
+  EXPECT_NEAR(d[1].wear_rate, std::abs(d[1].fy_wheel * d[1].slip_velocity_y_wheel), 1e-12);
+  EXPECT_GT(d[0].fx_wheel, 1.0);  // the healthy drives still drive
+}
+
 TEST(VehicleModel, AFrictionScaleGivesAModuleTheForcesOfATireWithThatMuAndLeavesItsLoad) {
   // Independent truth: the same vehicle with the tire's mu halved. Module 2 alone stands on the
   // half grip; every other module keeps the tire's forces.

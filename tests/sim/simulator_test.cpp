@@ -219,6 +219,26 @@ TEST(Simulator, AStuckSteeringHoldsItsAngleFromItsOnsetWhileTheOthersTurn) {
   EXPECT_EQ(simulator.active_faults()[1], ModuleFault::kNone);
 }
 
+TEST(Simulator, AVehicleWhoseDrivesAreAllDeadCoastsWhateverItsWheelsAreToldAndOneDeadDriveOnlySlowsIt) {
+  const auto speed_after = [](int dead_drives) {
+    SimulatorOptions options;
+    for (int i = 0; i < dead_drives; ++i) options.faults.push_back({i, 0.0, ModuleFault::kDeadDrive, false});
+    Simulator simulator(testing::make_params(4), options);
+    Eigen::VectorXd start = Eigen::VectorXd::Zero(10);
+    start[StateIndex::kVx] = 1.0;
+    simulator.reset(start);
+    ModuleArray<ModuleCommand> commands(4);
+    for (int i = 0; i < 4; ++i) commands[i].wheel_speed = 2.0 / simulator.model().params().layout.wheel_radius();
+    for (int k = 0; k < 10; ++k) EXPECT_TRUE(simulator.advance(commands));
+    return simulator.state()[StateIndex::kVx];
+  };
+  EXPECT_NEAR(speed_after(4), 1.0, 1e-9);  // no drive, no rolling resistance: momentum alone
+  const double healthy = speed_after(0), one_dead = speed_after(1);
+  EXPECT_GT(healthy, 1.3);
+  EXPECT_GT(one_dead, 1.2);
+  EXPECT_LT(one_dead, healthy);
+}
+
 TEST(Simulator, AFaultOnAModuleTheVehicleDoesNotHaveIsRefusedNamingIt) {
   SimulatorOptions options;
   options.faults.push_back({4, 1.0, ModuleFault::kStuckSteering, false});

@@ -109,7 +109,8 @@ class TrackingController {
 
   // A module fault taken from the next step on (ModuleFault::kNone clears it): a stuck steering
   // gets no steering rate and its wheel rolls along its angle; the wear-aware controller's plans
-  // and prediction take it too. Throws ConfigError naming the module when the vehicle has no such
+  // and prediction take it too, and a dead drive's free wheel in the prediction (its commands are
+  // unchanged: its steering still keeps it rolling without drag). Throws ConfigError naming the module when the vehicle has no such
   // module (or the fault is not a ModuleFault). Between steps, on the thread that calls step() and
   // prepare(): not from the real-time path, and not concurrently with it.
   void set_module_fault(int module, ModuleFault fault);

@@ -58,6 +58,7 @@ class ModelLinearisation {
   const VehicleModel<ModuleJet>& model() const noexcept { return model_; }
   // VehicleModel::observe_friction_scales for the model it linearises.
   void observe_friction_scales(const double* scales) noexcept { model_.observe_friction_scales(scales); }
+  void observe_module_faults(const ModuleFaults* faults) noexcept { model_.observe_module_faults(faults); }
 
  private:
   VehicleModel<ModuleJet> model_;

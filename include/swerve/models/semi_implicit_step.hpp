@@ -113,6 +113,11 @@ class BodyTwistSolver {
     model_.observe_friction_scales(scales);
     value_model_.observe_friction_scales(scales);
   }
+  // VehicleModel::observe_module_faults, for both of its models.
+  void observe_module_faults(const ModuleFaults* faults) noexcept {
+    model_.observe_module_faults(faults);
+    value_model_.observe_module_faults(faults);
+  }
 
   // v+ for the state `trial_state` (steering already advanced; its twist entries are ignored) under
   // `inputs`, from v0 over h, started at `guess`. Step halving keeps each iterate's residual below
@@ -351,7 +356,13 @@ class SemiImplicitStep {
   // The modules' faults from now on (null: none): a module whose steering is stuck gets no
   // steering rate, and the twist map rolls its wheel along its angle (ModuleCommandRule::faults).
   // Wiring like charge_work_to, not part of an evaluation: `faults` must outlive the step.
-  void observe_module_faults(const ModuleFaults* faults) noexcept { faults_ = faults; }
+  // A dead drive reaches every model the step evaluates (VehicleModel::observe_module_faults).
+  void observe_module_faults(const ModuleFaults* faults) noexcept {
+    faults_ = faults;
+    model_.observe_module_faults(faults);
+    twist_solver_.observe_module_faults(faults);
+    linearisation_.observe_module_faults(faults);
+  }
   // The floor's grip under each module from now on (VehicleModel::observe_friction_scales; null:
   // the tire's own mu everywhere), for every model the step evaluates. Wiring as above.
   void observe_friction_scales(const double* scales) noexcept {

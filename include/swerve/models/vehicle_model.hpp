@@ -8,6 +8,7 @@
 
 #include <vector>
 
+#include "swerve/kinematics/module_faults.hpp"
 #include "swerve/models/magic_formula_tire.hpp"
 #include "swerve/models/tire_wear.hpp"
 #include "swerve/models/vehicle_params.hpp"
@@ -95,6 +96,11 @@ class VehicleModel {
   // between evaluations, never during one.
   void observe_friction_scales(const double* scales) noexcept { friction_scales_ = scales; }
   const double* friction_scales() const noexcept { return friction_scales_; }
+  // The modules' faults from now on (null: none). A dead drive's wheel rolls free: its tire takes
+  // no longitudinal slip (the wheel spins at its contact's speed), so it gives no Fx and wears
+  // only by its lateral slip. A stuck steering is its caller's to hold (the steering-rate input
+  // and state), as the plant and the prediction step do. Wiring as observe_friction_scales.
+  void observe_module_faults(const ModuleFaults* faults) noexcept { faults_ = faults; }
 
   // Static normal loads (N), modules then casters (see VehicleParams::static_normal_loads).
   const std::vector<double>& static_normal_loads() const { return static_loads_; }
@@ -164,6 +170,7 @@ class VehicleModel {
   std::vector<double> transfer_per_ay_;     // dFz/d(a_y)
   double slip_rate_per_speed_ = 1.0;        // lambda (1/m), see slip_time_constant
   const double* friction_scales_ = nullptr;  // observe_friction_scales (not owned)
+  const ModuleFaults* faults_ = nullptr;     // observe_module_faults (not owned)
 };
 
 }  // namespace swerve

@@ -30,7 +30,8 @@ struct MeasurementNoise {
 };
 
 // A fault the plant develops during a run: from the first control period that starts at or after
-// `at` (s), module `module` has `kind` (a stuck steering stops turning where it is).
+// `at` (s), module `module` has `kind` (a stuck steering stops turning where it is; a dead drive's
+// wheel rolls free, VehicleModel::observe_module_faults).
 struct PlantFault {
   int module = 0;
   double at = 0.0;
