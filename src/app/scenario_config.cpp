@@ -44,16 +44,15 @@ std::vector<FrictionPatch> load_friction_patches(const config::ConfigNode& node)
     const std::vector<double> upper = entry.get_doubles("max", 2, Bound::any());
     patch.min_world = Eigen::Vector2d(lower[0], lower[1]);
     patch.max_world = Eigen::Vector2d(upper[0], upper[1]);
-    if (!(patch.max_world.array() > patch.min_world.array()).all()) {
+    if (!patch.corners_in_order()) {
       entry.fail_at("max", "= " + entry.child("max").to_yaml() + ": must be greater than min = " +
                                 entry.child("min").to_yaml() + " in both x and y (m)");
     }
     patch.mu = entry.get_double("mu", Bound::positive());
     for (std::size_t q = 0; q < patches.size(); ++q) {
-      const FrictionPatch& other = patches[q];
-      const bool apart = (patch.min_world.array() >= other.max_world.array()).any() ||
-                         (other.min_world.array() >= patch.max_world.array()).any();
-      if (!apart) entry.fail("overlaps friction_patches[" + std::to_string(q) + "] (patches may touch, not overlap)");
+      if (patch.overlaps(patches[q])) {
+        entry.fail("overlaps friction_patches[" + std::to_string(q) + "] (patches may touch, not overlap)");
+      }
     }
     patches.push_back(patch);
   }

@@ -59,20 +59,12 @@ void SimulatorOptions::validate() const {
     const std::string field = "friction_patches[" + std::to_string(p) + "]";
     const FrictionPatch& patch = friction_patches[p];
     if (!std::isfinite(patch.mu) || patch.mu <= 0.0) throw_invalid_field(kOwner, field + ".mu", patch.mu, "must be finite and > 0");
-    for (int axis = 0; axis < 2; ++axis) {
-      const char* name = axis == 0 ? "x" : "y";
-      if (!std::isfinite(patch.min_world[axis]) || !std::isfinite(patch.max_world[axis]) ||
-          !(patch.min_world[axis] < patch.max_world[axis])) {
-        throw_invalid_field(kOwner, field + ".max", corner_text(patch.max_world),
-                            "must be finite and greater than min = " + corner_text(patch.min_world) + " in " + name +
-                                " (m)");
-      }
+    if (!patch.min_world.allFinite() || !patch.max_world.allFinite() || !patch.corners_in_order()) {
+      throw_invalid_field(kOwner, field + ".max", corner_text(patch.max_world),
+                          "must be finite and greater than min = " + corner_text(patch.min_world) + " in x and y (m)");
     }
     for (std::size_t q = 0; q < p; ++q) {
-      const FrictionPatch& other = friction_patches[q];
-      const bool apart = (patch.min_world.array() >= other.max_world.array()).any() ||
-                         (other.min_world.array() >= patch.max_world.array()).any();
-      if (!apart) {
+      if (patch.overlaps(friction_patches[q])) {
         throw_invalid_field(kOwner, field, corner_text(patch.min_world) + " to " + corner_text(patch.max_world),
                             "overlaps friction_patches[" + std::to_string(q) + "] (patches may touch, not overlap)");
       }
@@ -140,16 +132,6 @@ void Simulator::update_friction(const Eigen::VectorXd& state) noexcept {
     }
     friction_scales_[static_cast<std::size_t>(i)] = scale;
   }
-}
-
-double Simulator::mean_friction_scale() const noexcept {
-  const std::vector<double>& loads = model_.static_normal_loads();
-  double total = 0.0, scaled = 0.0;
-  for (int i = 0; i < model_.modules(); ++i) {
-    total += loads[static_cast<std::size_t>(i)];
-    scaled += loads[static_cast<std::size_t>(i)] * friction_scales_[static_cast<std::size_t>(i)];
-  }
-  return total > 0.0 ? scaled / total : 1.0;
 }
 
 void Simulator::reset(const Eigen::VectorXd& initial_prefix) {

@@ -723,15 +723,7 @@ class SemiImplicitStep {
   // The tyres' summed slip stiffness on the floor under them: each tyre's share of the nominal sum
   // (its static load's) times its friction scale, since the stiffness B C D grows with D = mu Fz.
   double slip_stiffness_sum() const noexcept {
-    const double* scales = model_.friction_scales();
-    if (scales == nullptr) return nominal_slip_stiffness_sum_;
-    const std::vector<double>& loads = model_.static_normal_loads();
-    double total_load = 0.0, scaled_load = 0.0;
-    for (int i = 0; i < modules_; ++i) {
-      total_load += loads[static_cast<std::size_t>(i)];
-      scaled_load += loads[static_cast<std::size_t>(i)] * scales[i];
-    }
-    return nominal_slip_stiffness_sum_ * scaled_load / total_load;
+    return nominal_slip_stiffness_sum_ * model_.load_weighted_friction_scale();
   }
 
   PredictionOptions options_;

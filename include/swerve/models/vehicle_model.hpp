@@ -96,6 +96,17 @@ class VehicleModel {
   // between evaluations, never during one.
   void observe_friction_scales(const double* scales) noexcept { friction_scales_ = scales; }
   const double* friction_scales() const noexcept { return friction_scales_; }
+  // The modules' friction scales averaged with their static loads as weights: the one scale of the
+  // vehicle as a whole (1 without scales).
+  double load_weighted_friction_scale() const noexcept {
+    if (friction_scales_ == nullptr) return 1.0;
+    double total = 0.0, scaled = 0.0;
+    for (int i = 0; i < modules_; ++i) {
+      total += static_loads_[static_cast<std::size_t>(i)];
+      scaled += static_loads_[static_cast<std::size_t>(i)] * friction_scales_[i];
+    }
+    return total > 0.0 ? scaled / total : 1.0;
+  }
   // The modules' faults from now on (null: none). A dead drive's wheel rolls free: its tire takes
   // no longitudinal slip (the wheel spins at its contact's speed), so it gives no Fx and wears
   // only by its lateral slip. A stuck steering is its caller's to hold (the steering-rate input

@@ -54,6 +54,12 @@ struct FrictionPatch {
   bool contains(const Eigen::Vector2d& point_world) const noexcept {
     return (point_world.array() >= min_world.array()).all() && (point_world.array() <= max_world.array()).all();
   }
+  // Whether max_world lies beyond min_world in both x and y (the patch has an area).
+  bool corners_in_order() const noexcept { return (max_world.array() > min_world.array()).all(); }
+  // Whether the two share an area (touching along an edge is not overlapping).
+  bool overlaps(const FrictionPatch& other) const noexcept {
+    return (min_world.array() < other.max_world.array()).all() && (other.min_world.array() < max_world.array()).all();
+  }
 };
 
 struct SimulatorOptions {
@@ -127,7 +133,7 @@ class Simulator {
   const std::vector<double>& friction_scales() const noexcept { return friction_scales_; }
   // The same, averaged over the modules with the static loads as weights: the single scale a
   // controller's prediction would take for the whole vehicle.
-  double mean_friction_scale() const noexcept;
+  double mean_friction_scale() const noexcept { return model_.load_weighted_friction_scale(); }
 
  private:
   void refresh_samples() noexcept;
