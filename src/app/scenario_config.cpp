@@ -20,7 +20,7 @@ std::vector<PlantFault> load_plant_faults(const config::ConfigNode& node, int mo
     PlantFault fault;
     fault.module = entry.get_int("module", 0, modules - 1);
     fault.at = entry.get_double("at", Bound::non_negative());
-    fault.kind = module_fault_from_string(entry.get_choice("kind", {"stuck_steering", "dead_drive"}), entry.path() + ".kind");
+    fault.kind = module_fault_from_string(entry.get_choice("kind", {"stuck_steering", "dead_drive", "steering_sensor_lost"}), entry.path() + ".kind");
     fault.announced = entry.get_bool_or("announced", false);
     for (const PlantFault& other : faults) {
       if (other.module == fault.module) {
@@ -193,6 +193,25 @@ void read_initial_state(const ConfigNode& initial, int n, Eigen::VectorXd* state
 
 // One entry of `controllers:`: its name (a plain word, none of the `earlier` entries'), its config
 // file beside the scenario's, and the overrides a wear_mpc entry may carry (wear_weight, backend).
+// With announce_friction, each patch's grip is told to the controllers each period: it must be one
+// an estimating controller accepts (Controller::set_friction_scale), or the run would stop there.
+void check_announced_grips(const ConfigNode& node, const ScenarioConfig& s) {
+  if (!s.simulator.announce_friction) return;
+  for (std::size_t p = 0; p < s.simulator.friction_patches.size(); ++p) {
+    const double scale = s.simulator.friction_patches[p].mu / s.vehicle.tire.mu;
+    for (const ScenarioController& c : s.controllers) {
+      const FrictionEstimationOptions& estimation = c.config.mpc.friction_estimation;
+      if (c.config.kind == ControllerKind::kWearMpc && estimation.enabled &&
+          (scale < estimation.min_scale || scale > estimation.max_scale)) {
+        node.child("simulator").child("friction_patches").at(p).fail_at(
+            "mu", "= " + format(s.simulator.friction_patches[p].mu) + ": announced, it is " + format(scale) +
+                      "x the tire's mu, outside controller '" + c.name + "''s friction_estimation bounds [" +
+                      format(estimation.min_scale) + ", " + format(estimation.max_scale) + "]");
+      }
+    }
+  }
+}
+
 ScenarioController load_scenario_controller(const ConfigNode& entry, const std::string& scenario_file,
                                             const std::vector<ScenarioController>& earlier) {
   ScenarioController c;
@@ -316,6 +335,7 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
               format(last_start) + " s)");
     }
   }
+  check_announced_grips(node, s);
   if (const auto paper = node.optional_child("paper")) {
     s.paper_wear_reduction_pct = paper->get_double("wear_reduction_pct");
   }

@@ -17,15 +17,17 @@ std::uint32_t fault_mask(const ModuleFaults& faults) {
   return mask;
 }
 
-// How far a wear-aware controller's prediction model, at the grip it used, misses the plant over
+// How far a wear-aware controller's prediction model, at the grip and with the faults it used, misses the plant over
 // one period: from the plant's true state (its actuator states included) under the commands sent,
 // the position and the wear one period on against the plant's. What a wrong grip costs shows here
 // before it shows in the tracking.
 class PredictionAudit {
  public:
-  PredictionAudit(const VehicleParams& vehicle, const PredictionOptions& options)
+  // `faults`: the module faults the controller knows (its prediction's), observed; must outlive this.
+  PredictionAudit(const VehicleParams& vehicle, const PredictionOptions& options, const ModuleFaults* faults)
       : model_(vehicle, options), data_(model_.create_data()), scales_(static_cast<std::size_t>(kMaxModules), 1.0) {
     model_.observe_friction_scales(scales_.data());
+    model_.observe_module_faults(faults);
     state_ = Eigen::VectorXd::Zero(model_.state_size());
     next_ = state_;
     inputs_ = Eigen::VectorXd::Zero(model_.input_size());
@@ -141,7 +143,7 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
   const int n = plant.modules();
   run.log.reserve(static_cast<std::size_t>(steps));
   std::optional<PredictionAudit> audit;
-  if (mpc) audit.emplace(scenario.vehicle, controller.config.mpc.prediction);
+  if (mpc) audit.emplace(scenario.vehicle, controller.config.mpc.prediction, &tracker->module_faults());
   for (int k = 0; k < steps; ++k) {
     const double t = k * period;
     // A fault the vehicle's own diagnostics report reaches the controller as it begins.

@@ -120,7 +120,7 @@ std::string reference() {
               KinematicsOptions::fields(), KinematicsOptions{});
   write_table(out, "scenario.simulator",
               "The simulated plant of a scenario (the seed: any unsigned integer; `faults`: a list of "
-              "`{module, at, kind: stuck_steering or dead_drive, announced: false}`, each module once, each time inside "
+              "`{module, at, kind: stuck_steering, dead_drive or steering_sensor_lost, announced: false}`, each module once, each time inside "
               "the run; `friction_patches`: a list of `{min: [x, y], max: [x, y], mu}`, world-frame rectangles of "
               "mu > 0 that may touch but not overlap; `announce_friction: false`: true tells the controllers the grip "
               "under the vehicle each period).",

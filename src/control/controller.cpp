@@ -175,7 +175,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
       baseline_(vehicle.layout, reference_, aligned(baseline_options, options_)), modules_(vehicle.layout.size()),
       monitor_(6 + vehicle.layout.size(), options_.stale_measurement, options_.period()), latency_(vehicle.layout, options_.period(), options_.measurement_filter,
                ActuatorLags::of(vehicle)),
-      detector_(vehicle.layout, options_.period(), ActuatorLags::of(vehicle).steering, options_.fault_detection) {
+      detector_(vehicle.layout, options_.period(), ActuatorLags::of(vehicle).steering, options_.fault_detection),
+      lost_angles_(vehicle.layout, options_.period()) {
   if (!reference_) throw ConfigError("Controller.reference: must not be null");
   if (!make_solver) throw ConfigError("Controller.solver: no solver factory given");
   const bool twist = options_.parameterization == InputParameterization::kBodyTwist;
@@ -236,6 +237,17 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
 void Controller::set_friction_scale(double scale) {
   TrackingController::set_friction_scale(scale);  // the common checks
   if (friction_) friction_->set_scale(scale);
+  use_friction_scale(scale);
+}
+
+void Controller::use_friction_scale(double scale) noexcept {
+  // A preparation linearised the model at the old grip: a step of the estimate within a few
+  // percent is left to the feedback's own Gauss-Newton step, a larger change is prepared anew.
+  constexpr double kPreparedGripTolerance = 0.05;
+  if (std::abs(scale - friction_scale()) > kPreparedGripTolerance * friction_scale()) {
+    solver_->forget_preparation();
+    prepared_t_ = std::numeric_limits<double>::quiet_NaN();
+  }
   friction_scales_->fill(scale);
 }
 
@@ -268,6 +280,7 @@ void Controller::reset() noexcept {
   monitor_.reset();
   latency_.reset();
   detector_.reset();  // the faults found stay: they are the hardware's
+  lost_angles_.reset();
   if (friction_) friction_->reset();  // the grip estimated stays: the floor did not change
   motion_commanded_since_ = std::numeric_limits<double>::infinity();
   reference_hold_.reset();
@@ -502,6 +515,7 @@ void Controller::safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) no
 const ControlOutput& Controller::finish(TimePoint step_start) noexcept {
   latency_.record(output_.modules);
   detector_.commanded(output_.modules, step_t_);
+  lost_angles_.commanded(output_.modules, step_t_);
   if (friction_) friction_->commanded(output_.modules, step_t_);
   output_.friction_scale = friction_scale();
   // The frozen-measurement check asks since when motion has been commanded without a break.
@@ -628,7 +642,20 @@ bool Controller::prepare(double t_next) noexcept {
   return true;
 }
 
-const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t_measured,
+void Controller::begin_step() noexcept {
+  solved_ = false;
+  actuators_->begin_step();
+  output_.solve = SolveSummary{};
+  output_.measurement_stale = false;
+  output_.module_fault_found = false;
+  // The previous plan moves on by one cycle whatever happens now (period / dt of its steps).
+  if (plan_.valid) {
+    plan_.shift(options_.period() / options_.dt);
+    ++plan_age_;
+  }
+}
+
+const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& raw_measured, double t_measured,
                                       double measured_at) noexcept {
   // The time prepared for, when t is it but for rounding (k period against (k - 1) period + period),
   // so the reference window sampled now is the prepared one bit for bit.
@@ -644,16 +671,12 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
   // since the last step): a work clock or a work budget then prices a proposal by the modules and
   // substeps it evaluates.
   model_->charge_work_to(&deadline.clock());
-  solved_ = false;
-  actuators_->begin_step();
-  output_.solve = SolveSummary{};
-  output_.measurement_stale = false;
-  output_.module_fault_found = false;
-  // The previous plan moves on by one cycle whatever happens now (period / dt of its steps).
-  if (plan_.valid) {
-    plan_.shift(options_.period() / options_.dt);
-    ++plan_age_;
-  }
+  begin_step();
+  // An encoder that stopped reporting: its module's angle by the rates sent since its last reading.
+  bool sensor_lost = false;
+  const Eigen::Ref<const Eigen::VectorXd> measured =
+      stand_in_for_lost_angles(lost_angles_, raw_measured, measured_at, &sensor_lost);
+  output_.module_fault_found = sensor_lost;
   if (!is_plausible_state(measured, layout_) || !std::isfinite(t)) {
     monitor_.reset();
     output_.solve.status = SolveStatus::kInvalidInput;
@@ -668,9 +691,9 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& m
     refuse(measured, stale);
     return finish(step_start);
   }
-  output_.module_fault_found = find_stuck_steering(detector_, measured, measured_at);
+  output_.module_fault_found = find_stuck_steering(detector_, measured, measured_at) || sensor_lost;
   // The grip from the last period's measured motion against its prediction, for this step's plans.
-  if (friction_ && friction_->observe(measured, measured_at)) friction_scales_->fill(friction_->scale());
+  if (friction_ && friction_->observe(measured, measured_at)) use_friction_scale(friction_->scale());
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
     // No trajectory, or only a stale one: nothing to follow that the planner still stands by.

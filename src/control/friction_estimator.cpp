@@ -18,6 +18,8 @@ constexpr double kSensitivityStep = 0.05;
 // substeps read it within 2 % (tests/control/friction_estimator_test.cpp), at 2 x 5 substeps per
 // period, a small share of a solve's hundreds.
 constexpr double kMaxSubstep = 0.01;
+// Share of a period within which a command's time counts as a measurement's (rounding only).
+constexpr double kAlignment = 0.01;
 
 PredictionOptions with_fine_substeps(PredictionOptions prediction, double period) {
   if (std::isfinite(period) && period > 0.0) {
@@ -73,7 +75,7 @@ FrictionEstimator& FrictionEstimator::operator=(FrictionEstimator&&) noexcept = 
 
 void FrictionEstimator::reset() noexcept {
   information_ = min_information_;
-  have_last_ = chained_ = false;
+  have_last_ = chained_ = have_updated_ = false;
   sent_count_ = 0;
   sent_newest_ = -1;
 }
@@ -102,7 +104,9 @@ void FrictionEstimator::commanded(const ModuleArray<ModuleCommand>& commands, do
 int FrictionEstimator::find_command(double t) const noexcept {
   for (int k = 0; k < sent_count_; ++k) {
     const int index = (sent_newest_ - k + kHistory) % kHistory;
-    if (std::abs(sent_[static_cast<std::size_t>(index)].t - t) < 0.5 * period_) return index;
+    // Sent at the period's start, but for rounding: a command sent mid-period (a delay that is not a
+    // whole number of periods) ran only over part of it, and the rest would be blamed on the grip.
+    if (std::abs(sent_[static_cast<std::size_t>(index)].t - t) < kAlignment * period_) return index;
   }
   return -1;
 }
@@ -120,7 +124,8 @@ bool FrictionEstimator::predict(double scale, Eigen::VectorXd* next) noexcept {
   return model_->step(*data_, state_, inputs_, period_, *next, nullptr) && next->allFinite();
 }
 
-void FrictionEstimator::update(const Eigen::Vector3d& residual, const Eigen::Vector3d& sensitivity) noexcept {
+void FrictionEstimator::update(const Eigen::Vector3d& residual, const Eigen::Vector3d& sensitivity,
+                               double measured_at) noexcept {
   // Recursive least squares on one parameter with exponential forgetting and a floor under the
   // information (a bounded covariance, so an unexcited stretch cannot wind the gain up): with the
   // residuals weighted by their noise, I_k = max(lambda I_k-1, I_min) + j'j and
@@ -128,7 +133,13 @@ void FrictionEstimator::update(const Eigen::Vector3d& residual, const Eigen::Vec
   const Eigen::Vector3d sigma(options_.velocity_noise, options_.velocity_noise, options_.yaw_rate_noise);
   const Eigen::Vector3d weighted_residual = residual.cwiseQuotient(sigma);
   const Eigen::Vector3d weighted_sensitivity = sensitivity.cwiseQuotient(sigma);
-  information_ = std::max(forgetting_ * information_, min_information_) + weighted_sensitivity.squaredNorm();
+  // Forgotten by the time since the last update, not per update: evidence a stretch of skipped
+  // periods (slow, unaligned) left behind is as old as the stretch.
+  const double periods = have_updated_ ? std::max(1.0, (measured_at - last_update_at_) / period_) : 1.0;
+  information_ = std::max(std::pow(forgetting_, periods) * information_, min_information_) +
+                 weighted_sensitivity.squaredNorm();
+  have_updated_ = true;
+  last_update_at_ = measured_at;
   const double step = weighted_sensitivity.dot(weighted_residual) / information_;
   scale_ = std::clamp(scale_ + step, options_.min_scale, options_.max_scale);
 }
@@ -151,7 +162,7 @@ bool FrictionEstimator::observe(const Eigen::Ref<const Eigen::VectorXd>& measure
       if (chained_ && speed >= options_.min_speed) {
         const Eigen::Vector3d twist = next_.segment<3>(StateIndex::kVx);
         update(measured.segment<3>(StateIndex::kVx) - twist,
-               (next_above_.segment<3>(StateIndex::kVx) - twist) / (above - scale_));
+               (next_above_.segment<3>(StateIndex::kVx) - twist) / (above - scale_), measured_at);
         updated = true;
       }
       state_.tail(state_.size() - prefix) = next_.tail(next_.size() - prefix);

@@ -67,7 +67,8 @@ KinematicBaseline::KinematicBaseline(const ModuleLayout& layout, std::shared_ptr
     : options_(validated(options)), kinematics_(layout), reference_(std::move(reference)), modules_(layout.size()),
       horizon_(options_.horizon), heading_memory_(layout.size()), planned_memory_(layout.size()),
       latency_(layout, options_.dt, options_.measurement_filter, lags),
-      detector_(layout, options_.dt, lags.steering, options_.fault_detection) {
+      detector_(layout, options_.dt, lags.steering, options_.fault_detection),
+      lost_angles_(layout, options_.dt) {
   if (!reference_) throw ConfigError("KinematicBaseline.reference: must not be null");
   pre_aligns_ = options_.pre_align &&
                 (!options_.pre_align_only_with_end_stops || layout.limits().has_steering_end_stops());
@@ -107,6 +108,7 @@ void KinematicBaseline::reset() noexcept {
   reference_hold_.reset();
   latency_.reset();
   detector_.reset();  // the faults found stay: they are the hardware's
+  lost_angles_.reset();
 }
 
 bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
@@ -435,21 +437,26 @@ const ControlOutput& KinematicBaseline::stop_safely(const Eigen::Ref<const Eigen
   twist_committed_ = false;
   latency_.record(output_.modules);
   detector_.commanded(output_.modules, step_t_);
+  lost_angles_.commanded(output_.modules, step_t_);
   return output_;
 }
 
-const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::VectorXd>& measured, double t,
+const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::VectorXd>& raw_measured, double t,
                                              double measured_at) noexcept {
   output_.solve = SolveSummary{};
   output_.module_fault_found = false;
   step_t_ = t;
   const TimePoint start = clock().now();
+  // An encoder that stopped reporting: its module's angle by the rates sent since its last reading.
+  bool sensor_lost = false;
+  const Eigen::Ref<const Eigen::VectorXd> measured =
+      stand_in_for_lost_angles(lost_angles_, raw_measured, measured_at, &sensor_lost);
   if (measured.size() != 6 + modules_ || !measured.allFinite() || !std::isfinite(t) ||
       !is_plausible_state(measured, kinematics_.layout())) {
     return stop_safely(measured, "measured state rejected (wrong size, NaN/inf or implausible)");
   }
   // A steering that stopped following its commands is taken as a fault from this step on.
-  output_.module_fault_found = find_stuck_steering(detector_, measured, measured_at);
+  output_.module_fault_found = find_stuck_steering(detector_, measured, measured_at) || sensor_lost;
   reference_->begin_cycle();
   if (const char* unusable = reference_->unusable(t)) {
     return stop_safely(measured, unusable);
@@ -489,6 +496,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
   }
   latency_.record(output_.modules);
   detector_.commanded(output_.modules, t);
+  lost_angles_.commanded(output_.modules, t);
   output_.source = CommandSource::kOptimizer;
   output_.reason = pre_aligning ? "kinematic plan; the wheels wait while the modules pre-align" : "kinematic plan";
   output_.reference_delay_s = reference_hold_.delay_s();

@@ -13,7 +13,8 @@ void TrackingController::set_module_fault(int module, ModuleFault fault) {
     throw_invalid_field(name(), "set_module_fault.module", module,
                         "must name a module of the vehicle, 0 to " + std::to_string(faults_->size() - 1));
   }
-  if (fault != ModuleFault::kNone && fault != ModuleFault::kStuckSteering && fault != ModuleFault::kDeadDrive) {
+  if (fault != ModuleFault::kNone && fault != ModuleFault::kStuckSteering && fault != ModuleFault::kDeadDrive &&
+      fault != ModuleFault::kSteeringSensorLost) {
     throw_invalid_field(name(), "set_module_fault.fault", static_cast<int>(fault), "is not a ModuleFault");
   }
   (*faults_)[module] = fault;
@@ -24,6 +25,21 @@ void TrackingController::set_friction_scale(double scale) {
   if (!std::isfinite(scale) || scale <= 0.0 || scale > 10.0) {
     throw_invalid_field(name(), "set_friction_scale.scale", scale, "must be finite and in (0, 10]");
   }
+}
+
+Eigen::Ref<const Eigen::VectorXd> TrackingController::stand_in_for_lost_angles(
+    LostSteeringAngles& angles, const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at,
+    bool* found) noexcept {
+  *found = false;
+  if (!angles.repair(measured, measured_at)) return measured;
+  for (int i = 0; i < faults_->size(); ++i) {
+    if (angles.lost(i) && (*faults_)[i] == ModuleFault::kNone) {
+      (*faults_)[i] = ModuleFault::kSteeringSensorLost;
+      *found = true;
+    }
+  }
+  if (*found) module_faults_changed();
+  return angles.repaired();
 }
 
 bool TrackingController::find_stuck_steering(SteeringFaultDetector& detector,

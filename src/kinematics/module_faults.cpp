@@ -15,15 +15,18 @@ const char* to_string(ModuleFault fault) noexcept {
       return "stuck_steering";
     case ModuleFault::kDeadDrive:
       return "dead_drive";
+    case ModuleFault::kSteeringSensorLost:
+      return "steering_sensor_lost";
   }
   return "unknown";
 }
 
 ModuleFault module_fault_from_string(const std::string& word, const std::string& field) {
-  for (ModuleFault fault : {ModuleFault::kNone, ModuleFault::kStuckSteering, ModuleFault::kDeadDrive}) {
+  for (ModuleFault fault :
+       {ModuleFault::kNone, ModuleFault::kStuckSteering, ModuleFault::kDeadDrive, ModuleFault::kSteeringSensorLost}) {
     if (word == to_string(fault)) return fault;
   }
-  throw_invalid_field("", field, word, "must be one of none, stuck_steering, dead_drive");
+  throw_invalid_field("", field, word, "must be one of none, stuck_steering, dead_drive, steering_sensor_lost");
 }
 
 std::string describe_lost_motions(const ModuleLayout& layout, const ModuleFaults& faults,
@@ -33,6 +36,11 @@ std::string describe_lost_motions(const ModuleLayout& layout, const ModuleFaults
     if (faults[i] == ModuleFault::kDeadDrive) {
       if (text.tellp() > 0) text << "; ";
       text << "module " << i << " has a dead drive: it steers and rolls free, the other modules carry its traction";
+      continue;
+    }
+    if (faults[i] == ModuleFault::kSteeringSensorLost) {
+      if (text.tellp() > 0) text << "; ";
+      text << "module " << i << "'s steering angle is not measured: it is followed by the rates sent";
       continue;
     }
     if (faults[i] != ModuleFault::kStuckSteering) continue;

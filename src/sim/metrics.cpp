@@ -40,23 +40,25 @@ void add_fault_metrics(const std::vector<StepRecord>& log, RunMetrics* m) {
   m->tracking_rmse_after_fault_known_m = std::sqrt(position_sq / static_cast<double>(log.size() - static_cast<std::size_t>(known)));
 }
 
-// RunMetrics' friction fields from the first change of the floor's grip in the log: the vehicle
-// first touches it at k0, stands wholly on it at k1 (where the grip under it departs furthest
-// from the start's), and it holds until k2; the grip used has settled from the first period after
-// which it stays within 10 % of the floor's until k2.
+// RunMetrics' friction fields from the first change of the floor's grip in the log (the first
+// excursion from the start's grip, until it is back): the vehicle first touches it at k0, stands
+// wholly on it at k1 (where the excursion departs furthest), and it holds until k2; the grip used
+// has settled from the first period after which it stays within 10 % of the floor's until k2.
 void add_friction_metrics(const std::vector<StepRecord>& log, RunMetrics* m) {
   constexpr double kSame = 1e-9;
   constexpr double kSettled = 0.10;
   if (log.empty()) return;
   const double start = log.front().friction_scale;
-  std::size_t k0 = 0, k1 = 0;
+  std::size_t k0 = 0;
+  while (k0 < log.size() && std::abs(log[k0].friction_scale - start) <= kSame) ++k0;
+  if (k0 == log.size()) return;
+  std::size_t k1 = k0;
   double furthest = 0.0;
-  for (std::size_t k = 0; k < log.size(); ++k) {
+  for (std::size_t k = k0; k < log.size(); ++k) {
     const double departure = std::abs(log[k].friction_scale - start);
-    if (departure > kSame && k0 == 0) k0 = k;
+    if (departure <= kSame) break;  // back on the start's grip: the excursion is over
     if (departure > furthest + kSame) furthest = departure, k1 = k;
   }
-  if (furthest <= kSame) return;
   std::size_t k2 = k1;
   while (k2 < log.size() && std::abs(log[k2].friction_scale - log[k1].friction_scale) <= kSame) ++k2;
   const auto error = [&](std::size_t k) { return std::abs(log[k].friction_scale_used / log[k].friction_scale - 1.0); };

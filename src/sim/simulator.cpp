@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "swerve/core/config_error.hpp"
@@ -51,8 +52,9 @@ void SimulatorOptions::validate() const {
       throw_invalid_field(kOwner, field + ".module", faults[f].module, "must name a module of the vehicle");
     }
     if (!std::isfinite(faults[f].at) || faults[f].at < 0.0) throw_invalid_field(kOwner, field + ".at", faults[f].at, "must be >= 0 (s)");
-    if (faults[f].kind != ModuleFault::kStuckSteering && faults[f].kind != ModuleFault::kDeadDrive) {
-      throw_invalid_field(kOwner, field + ".kind", to_string(faults[f].kind), "must be stuck_steering or dead_drive");
+    if (faults[f].kind == ModuleFault::kNone) {
+      throw_invalid_field(kOwner, field + ".kind", to_string(faults[f].kind),
+                          "must be stuck_steering, dead_drive or steering_sensor_lost");
     }
   }
   for (std::size_t p = 0; p < friction_patches.size(); ++p) {
@@ -82,7 +84,14 @@ Simulator::Simulator(const VehicleParams& vehicle, SimulatorOptions options)
   // A patch that grips more than the tire's mu stiffens the slip dynamics in proportion (the slip
   // stiffness B C D grows with D = mu Fz): the automatic substeps grow with it.
   double grip = 1.0;
-  for (const FrictionPatch& patch : options_.friction_patches) grip = std::max(grip, patch.mu / vehicle.tire.mu);
+  for (std::size_t p = 0; p < options_.friction_patches.size(); ++p) {
+    const double scale = options_.friction_patches[p].mu / vehicle.tire.mu;
+    if (scale > 10.0) {
+      throw_invalid_field(kOwner, "friction_patches[" + std::to_string(p) + "].mu", options_.friction_patches[p].mu,
+                          "must be at most 10x the tire's mu (" + std::to_string(vehicle.tire.mu) + ")");
+    }
+    grip = std::max(grip, scale);
+  }
   if (options_.substeps == 0) substeps_ = static_cast<int>(std::ceil(substeps_ * grip));
   const int n = model_.modules();
   state_ = next_state_ = state_dot_ = Eigen::VectorXd::Zero(model_.state_size());
@@ -181,6 +190,11 @@ void Simulator::update_measurement() noexcept {
   }
   if (noise.steering_angle > 0.0) {
     for (int i = 0; i < n; ++i) measurement_[StateIndex::steering(i)] += noise.steering_angle * gaussian();
+  }
+  for (int i = 0; i < n; ++i) {  // a lost encoder reports nothing a number could mean
+    if (active_faults_[i] == ModuleFault::kSteeringSensorLost) {
+      measurement_[StateIndex::steering(i)] = std::numeric_limits<double>::quiet_NaN();
+    }
   }
 }
 

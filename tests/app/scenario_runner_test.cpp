@@ -257,6 +257,38 @@ TEST(ScenarioRunner, TheGripOfAWetPatchIsEstimatedWithinTenPercentAndMendsThePre
   EXPECT_LT(mean_miss(runs[0]), 0.5 * mean_miss(runs[1]));
 }
 
+// The shipped lost-encoder scenario: module 1's steering angle is measured as NaN from 6.6 s in a
+// 1 m lane change at 1 m/s. Each controller stands in for it by the rates it sends and drives on:
+// no safe stop (a NaN angle used to reject the whole measurement), the module marked in the
+// period after its first NaN, the lane tracked as without the fault.
+TEST(ScenarioRunner, ALostSteeringEncoderIsStoodInForAndTheLaneStillTracked) {
+  const ScenarioConfig shipped = load_scenario_config_file(std::string(SWERVE_SOURCE_DIR) +
+                                                           "/configs/scenarios/faults/agv_lost_steering_sensor.yaml");
+  RunOverrides overrides;
+  overrides.controllers = {"wear_mpc", "kinematic_baseline"};
+  const ScenarioConfig faulty = apply_overrides(shipped, overrides);
+  ScenarioConfig healthy = faulty;
+  healthy.simulator.faults.clear();
+  const testing::WorkClock clock(10e-6);
+  const std::vector<ControllerRun> with_fault = run_scenario(faulty, {}, &clock);
+  const std::vector<ControllerRun> without = run_scenario(healthy, {}, &clock);
+  ASSERT_EQ(with_fault.size(), 2u);
+  for (std::size_t j = 0; j < with_fault.size(); ++j) {
+    SCOPED_TRACE(with_fault[j].name);
+    ASSERT_TRUE(with_fault[j].completed && without[j].completed);
+    const RunMetrics& m = with_fault[j].metrics;
+    std::printf("[          ] %s: known after %d periods, RMSE %.4f m (fault-free %.4f m), %d safe stops\n",
+                with_fault[j].name.c_str(), m.fault_detection_cycles, m.tracking_rmse_m,
+                without[j].metrics.tracking_rmse_m, m.safe_stops);
+    EXPECT_EQ(m.safe_stops, 0);
+    EXPECT_EQ(m.false_fault_alarms, 0);
+    EXPECT_GE(m.fault_detection_cycles, 0);
+    EXPECT_LE(m.fault_detection_cycles, 1);
+    EXPECT_LE(m.tracking_rmse_m, 1.5 * without[j].metrics.tracking_rmse_m);
+    EXPECT_EQ(with_fault[j].module_faults[1], ModuleFault::kSteeringSensorLost);
+  }
+}
+
 TEST(ScenarioRunner, IdenticalSeedsWriteIdenticalLogs) {
   // The controllers run on a clock that advances 10 us per read (SA reads it once per proposal),
   // so the deadline and SA's time-driven cooling are the same on any machine, under any load and
@@ -424,6 +456,8 @@ TEST(ScenarioConfig, BadFilesNameTheFileTheKeyPathAndTheValue) {
   expect_config_error("friction_patch_reversed.yaml", "scenario.simulator.friction_patches[0].max = [-2, 1]: must be greater");
   expect_config_error("friction_patch_overlap.yaml", "scenario.simulator.friction_patches[1]: overlaps friction_patches[0]");
   expect_config_error("friction_estimation_on_baseline.yaml", "only a wear_mpc controller has one");
+  expect_config_error("friction_announced_outside_bounds.yaml",
+                      "scenario.simulator.friction_patches[0].mu = 0.1: announced, it is 0.125x the tire's mu");
 }
 
 TEST(ScenarioConfig, AScenarioWideMeasurementFilterReachesEveryController) {

@@ -269,7 +269,7 @@ TEST(Controller, NeverCommandsNaNForANaNOrImplausibleMeasuredState) {
   Eigen::VectorXd nan_state = at_rest();
   nan_state[1] = kNaN;
   Eigen::VectorXd inf_state = at_rest();
-  inf_state[7] = std::numeric_limits<double>::infinity();
+  inf_state[4] = std::numeric_limits<double>::infinity();  // (an angle alone is stood in for: see below)
   Eigen::VectorXd too_fast = at_rest();
   too_fast[3] = 1000.0;  // 500 x the drive speed limit: a sensor fault
   const Eigen::VectorXd wrong_size = Eigen::VectorXd::Zero(7);
@@ -313,6 +313,37 @@ TEST(Controller, NeverCommandsNaNForANaNOrImplausibleMeasuredState) {
     EXPECT_TRUE(all_finite(recovered));
     expect_plan_column(recovered, 0, parameterization, script.plan_base);
   }
+}
+
+TEST(Controller, ALostSteeringAngleIsStoodInForByTheRatesSentAndTheModuleMarkedNotTheVehicleStopped) {
+  for (const InputParameterization parameterization : kParameterizations) {
+    SCOPED_TRACE(to_string(parameterization));
+    FakeScript script;
+    const ControllerOptions options = fast_options(parameterization);
+    Controller controller = make_fake_controller(&script, options);
+    Eigen::VectorXd state = at_rest();
+    state[StateIndex::steering(1)] = 0.2;
+    const ControlOutput& first = controller.step(state, 0.0);
+    ASSERT_EQ(first.source, CommandSource::kOptimizer);
+    const double rate_sent = first.modules[1].steering_rate;
+    Eigen::VectorXd lost = state;
+    lost[StateIndex::steering(1)] = kNaN;
+    const ControlOutput& out = controller.step(lost, options.dt);
+    EXPECT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+    EXPECT_TRUE(out.module_fault_found);
+    EXPECT_TRUE(all_finite(out));
+    EXPECT_EQ(controller.module_faults()[1], ModuleFault::kSteeringSensorLost);
+    EXPECT_EQ(controller.module_faults()[0], ModuleFault::kNone);
+    // The problem starts from the angle the rate sent turned the module to.
+    EXPECT_NEAR(controller.problem().initial_state()[StateIndex::steering(1)], 0.2 + rate_sent * options.dt, 1e-12);
+  }
+  // Never read, an angle has nothing to stand in with: the measurement is rejected as before.
+  FakeScript script;
+  Controller fresh = make_fake_controller(&script);
+  Eigen::VectorXd never_read = at_rest();
+  never_read[StateIndex::steering(2)] = kNaN;
+  EXPECT_EQ(fresh.step(never_read, 0.0).source, CommandSource::kSafeStop);
+  EXPECT_EQ(fresh.module_faults()[2], ModuleFault::kNone);
 }
 
 TEST(Controller, SafeStopsOnANaNStateBeforeAnyPlan) {

@@ -74,11 +74,12 @@ TEST(Metrics, SolveTimesPercentilesDeadlineMissesLateSolvesAndFallbacks) {
 
 TEST(Metrics, TheGripUsedSettlesWhenItStaysWithinTenPercentOfTheFloorsUntilTheFloorChanges) {
   // A floor of scale 1, then 0.75 under part of the vehicle at 1 s, all of it at 2 s, dry again at
-  // 5 s. The grip used comes within 10 % at 2.5 s, strays at 3 s, and stays within from 3.1 s.
+  // 5 s. The grip used comes within 10 % at 2.5 s, strays at 3 s, and stays within from 3.1 s. A
+  // second, deeper patch from 5.5 s is not the first change.
   std::vector<StepRecord> log;
-  for (int k = 0; k < 60; ++k) {
+  for (int k = 0; k < 70; ++k) {
     StepRecord r = record(0.1 * k, 0.0, 0.0, 0.001, CommandSource::kOptimizer);
-    r.friction_scale = k < 10 ? 1.0 : k < 20 ? 0.75 + 0.25 * (20 - k) / 11.0 : k < 50 ? 0.75 : 1.0;
+    r.friction_scale = k < 10 ? 1.0 : k < 20 ? 0.75 + 0.25 * (20 - k) / 11.0 : k < 50 ? 0.75 : k < 55 ? 1.0 : 0.3;
     r.friction_scale_used = k < 25 ? 1.0 : k == 30 ? 0.9 : k < 35 ? 0.78 : 0.76;
     if (k == 25) r.friction_scale_used = 0.82;
     log.push_back(r);

@@ -291,6 +291,10 @@ TEST(SimulatorOptions, FrictionPatchesWithNoGripReversedCornersOrOverlapsAreRefu
   options.friction_patches[0] = {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(10.0, 10.0), 0.4};
   options.friction_patches.push_back({Eigen::Vector2d(10.0, 0.0), Eigen::Vector2d(20.0, 10.0), 0.6});
   EXPECT_NO_THROW(options.validate());  // touching is not overlapping
+  SimulatorOptions too_grippy;
+  too_grippy.friction_patches.push_back({Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(1.0, 1.0), 9.0});
+  const std::string grippy = testing::config_error_of([&] { Simulator(testing::make_params(4), too_grippy); });
+  EXPECT_NE(grippy.find("friction_patches[0].mu = 9: must be at most 10x the tire's mu"), std::string::npos) << grippy;
   options.friction_patches.push_back({Eigen::Vector2d(19.0, 9.0), Eigen::Vector2d(30.0, 30.0), 0.6});
   const std::string overlap = testing::config_error_of([&] { options.validate(); });
   EXPECT_NE(overlap.find("friction_patches[2] = [19, 9] to [30, 30]: overlaps friction_patches[1]"), std::string::npos)

@@ -214,6 +214,12 @@ class Controller final : public TrackingController {
   }
   void safe_stop(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
   void module_faults_changed() noexcept override;
+  // What every step resets before it looks at the measurement (the output's flags, the solve's
+  // summary), and the previous plan moved on by one period.
+  void begin_step() noexcept;
+  // The prediction's grip from now on (every module); a change of more than 5 % drops an rti
+  // preparation, which was linearised at the old one.
+  void use_friction_scale(double scale) noexcept;
   // A stale measurement or an unusable reference: kInvalidInput with `reason`, the plan dropped, a
   // safe stop.
   void refuse(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
@@ -258,6 +264,7 @@ class Controller final : public TrackingController {
   std::optional<TrackingTube> tube_;  // tracking_tolerance's (made with the problem)
   LatencyCompensator latency_;       // rolls a delayed measurement forward to t
   SteeringFaultDetector detector_;   // commands sent against the steering angles measured
+  LostSteeringAngles lost_angles_;   // the stand-in for an encoder that stopped reporting
   std::unique_ptr<FrictionEstimator> friction_;  // with options_.friction_estimation enabled
   // The grip each module's tires see in the prediction (observed by model_; on the heap, so a
   // moved controller's model keeps reading it).

@@ -23,8 +23,8 @@ struct FrictionEstimationOptions {
   // Bounds of the estimate, as multiples of the vehicle's tire mu.
   double min_scale = 0.2;
   double max_scale = 1.5;
-  // s: the forgetting time constant. Evidence older than this weighs 1/e as much, so a change of
-  // floor is followed within a few of it.
+  // s: the forgetting time constant. Evidence older than this weighs 1/e as much (counted in time,
+  // updates or not), so a change of floor is followed within a few of it.
   double memory = 0.5;
   // The sensor's noise on the measured body velocity (m/s) and yaw rate (rad/s): the residuals'
   // weights. Smaller trusts each period more.
@@ -53,8 +53,9 @@ class FrictionEstimator {
   // The commands sent at `t` (s), acting over the next period.
   void commanded(const ModuleArray<ModuleCommand>& commands, double t) noexcept;
   // A measurement (pose, twist, steering angles: 6 + n) taken at `measured_at` (s). When the last
-  // one was a period before it and the commands sent then are known, the estimate is updated;
-  // returns true when it was. Non-finite input is ignored. noexcept, no allocation.
+  // one was a period before it and commands were sent at its time (so one command acted over the
+  // whole period: a delay of whole periods), the estimate is updated; returns true when it was.
+  // Non-finite input is ignored. noexcept, no allocation.
   bool observe(const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at) noexcept;
 
   // The estimate: the floor's peak friction as a multiple of the tire's mu.
@@ -84,8 +85,9 @@ class FrictionEstimator {
   // The lagged actuator states of state_ for a chain that starts at `measured`: wheels rolling
   // with the body, steering at rest.
   void start_chain(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept;
-  // One least-squares step on the residual z - h(scale_) with sensitivity dh/dscale (both 3).
-  void update(const Eigen::Vector3d& residual, const Eigen::Vector3d& sensitivity) noexcept;
+  // One least-squares step on the residual z - h(scale_) with sensitivity dh/dscale (both 3), of
+  // the measurement taken at `measured_at`.
+  void update(const Eigen::Vector3d& residual, const Eigen::Vector3d& sensitivity, double measured_at) noexcept;
 
   FrictionEstimationOptions options_;
   ModuleLayout layout_;
@@ -101,6 +103,8 @@ class FrictionEstimator {
   double last_measured_at_ = 0.0;
   bool have_last_ = false;
   bool chained_ = false;  // state_'s actuator states continue a prediction (else: just started)
+  bool have_updated_ = false;
+  double last_update_at_ = 0.0;  // s: the measurement of the last update
   std::array<SentCommand, kHistory> sent_{};
   int sent_count_ = 0, sent_newest_ = -1;
   double scale_ = 1.0;

@@ -188,6 +188,7 @@ class KinematicBaseline final : public TrackingController {
   ModuleStates module_states_;
   LatencyCompensator latency_;
   SteeringFaultDetector detector_;  // run by step() alone
+  LostSteeringAngles lost_angles_;  // step()'s stand-in for an encoder that stopped reporting
   double step_t_ = 0.0;             // this step's t
   Eigen::VectorXd now_;                               // 6 + n: the measurement rolled forward to t
   ControlOutput output_;

@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "swerve/core/option_fields.hpp"
+#include "swerve/control/lost_steering_angles.hpp"
 #include "swerve/control/steering_fault_detector.hpp"
 #include "swerve/kinematics/module_faults.hpp"
 #include "swerve/kinematics/module_state.hpp"
@@ -134,6 +135,12 @@ class TrackingController {
   // become kStuckSteering faults from this step on; true when one did.
   bool find_stuck_steering(SteeringFaultDetector& detector, const Eigen::Ref<const Eigen::VectorXd>& measured,
                            double measured_at) noexcept;
+  // `angles` on the measurement (6 + n) taken at `measured_at`: when it stands in for steering
+  // angles that were not finite, the repaired measurement, and each module it stood in for that was
+  // healthy becomes a kSteeringSensorLost fault (*found: whether one did); otherwise `measured`.
+  Eigen::Ref<const Eigen::VectorXd> stand_in_for_lost_angles(LostSteeringAngles& angles,
+                                                             const Eigen::Ref<const Eigen::VectorXd>& measured,
+                                                             double measured_at, bool* found) noexcept;
   // After the latency compensation rolled a measurement forward by the rates sent: a stuck module
   // did not turn, whatever was sent before its fault was known. `now` (6 + n) takes the measured
   // angles (6 + n) of the stuck modules.

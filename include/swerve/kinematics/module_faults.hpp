@@ -15,9 +15,12 @@ enum class ModuleFault : std::uint8_t {
   kNone,
   kStuckSteering,  // the steering holds its angle whatever it is commanded; the drive still works
   kDeadDrive,      // the drive gives no torque (free-rolling wheel); the steering still works
+  // The steering angle is no longer measured (its encoder reports NaN); the module itself works,
+  // and the controllers follow its angle by the rates they send (LostSteeringAngles).
+  kSteeringSensorLost,
 };
 
-// The YAML and log word ("none", "stuck_steering", "dead_drive").
+// The YAML and log word ("none", "stuck_steering", "dead_drive", "steering_sensor_lost").
 const char* to_string(ModuleFault fault) noexcept;
 // The fault a word names; throws ConfigError naming `field` and the word when it names none.
 ModuleFault module_fault_from_string(const std::string& word, const std::string& field);

@@ -31,7 +31,7 @@ struct MeasurementNoise {
 
 // A fault the plant develops during a run: from the first control period that starts at or after
 // `at` (s), module `module` has `kind` (a stuck steering stops turning where it is; a dead drive's
-// wheel rolls free, VehicleModel::observe_module_faults).
+// wheel rolls free, VehicleModel::observe_module_faults; a lost steering sensor measures NaN).
 struct PlantFault {
   int module = 0;
   double at = 0.0;
@@ -96,8 +96,13 @@ struct PlantModuleSample {
 
 class Simulator {
  public:
-  // Throws ConfigError for invalid params or options.
+  // Throws ConfigError for invalid params or options, also a friction patch gripping more than 10x
+  // the tire.
   Simulator(const VehicleParams& vehicle, SimulatorOptions options);
+  // Its model observes its own members (the faults, the grip) and its integrator refers to the
+  // model: built in place only.
+  Simulator(const Simulator&) = delete;
+  Simulator& operator=(const Simulator&) = delete;
 
   // Starts a new run from `initial_prefix` (pose, twist, steering angles; size 6 + n), wheels
   // rolling without slip, time 0, wear and energy 0, the noise generator reseeded.
