@@ -326,6 +326,7 @@ TEST(Controller, ALostSteeringAngleIsStoodInForByTheRatesSentAndTheModuleMarkedN
     const ControlOutput& first = controller.step(state, 0.0);
     ASSERT_EQ(first.source, CommandSource::kOptimizer);
     const double rate_sent = first.modules[1].steering_rate;
+    EXPECT_NE(rate_sent, 0.0);  // so that the stand-in below is more than the last reading
     Eigen::VectorXd lost = state;
     lost[StateIndex::steering(1)] = kNaN;
     const ControlOutput& out = controller.step(lost, options.dt);
