@@ -15,7 +15,7 @@ constexpr const char* kOwner = "FrictionEstimator";
 constexpr double kSensitivityStep = 0.05;
 // s: the longest substep of the estimator's own prediction. One implicit step per 50 ms period
 // read the grip 9-13 % high on a slalom (its twist lags the plant's within the step); 10 ms
-// substeps read it within 2 % (tests/control/friction_estimator_test.cpp), at 2 x 5 substeps per
+// substeps read it within 3 % (tests/control/friction_estimator_test.cpp), at 2 x 5 substeps per
 // period, a small share of a solve's hundreds.
 constexpr double kMaxSubstep = 0.01;
 // Share of a period within which a command's time counts as a measurement's (rounding only).
