@@ -31,6 +31,8 @@ ModelLinearisation::Point ModelLinearisation::make_point() const {
   point.wear_rate_per_twist.setZero();
   point.wear_rate_per_steering = Eigen::VectorXd::Zero(n);
   point.wear_rate_per_wheel_speed = Eigen::VectorXd::Zero(n);
+  point.module_wear_rate = Eigen::VectorXd::Zero(n);
+  point.module_wear_rate_per_twist = Eigen::Matrix3Xd::Zero(3, n);
   point.drive_force = Eigen::VectorXd::Zero(n);
   point.drive_force_partials = Eigen::Matrix<double, Eigen::Dynamic, 5>::Zero(n, 5);
   return point;
@@ -74,13 +76,16 @@ bool ModelLinearisation::linearise(Data& data, const Eigen::Ref<const Eigen::Vec
                                                  per_force_y_.col(i) * module.fy_body.v[kWheelSpeed];
     point->wear_rate_per_steering[i] = module.wear_rate.v[kSteering];
     point->wear_rate_per_wheel_speed[i] = module.wear_rate.v[kWheelSpeed];
+    point->module_wear_rate[i] = module.wear_rate.a;
+    point->module_wear_rate_per_twist.col(i) = module.wear_rate.v.segment<3>(kTwist);
     point->drive_force[i] = module.fx_wheel.a;
     point->drive_force_partials.row(i) = module.fx_wheel.v.transpose();
   }
   return point->acceleration_per_twist.allFinite() && point->acceleration_per_steering.allFinite() &&
          point->acceleration_per_wheel_speed.allFinite() && std::isfinite(point->wear_rate) &&
          point->wear_rate_per_twist.allFinite() && point->wear_rate_per_steering.allFinite() &&
-         point->wear_rate_per_wheel_speed.allFinite() && point->drive_force_partials.allFinite();
+         point->wear_rate_per_wheel_speed.allFinite() && point->module_wear_rate_per_twist.allFinite() &&
+         point->drive_force_partials.allFinite();
 }
 
 }  // namespace swerve

@@ -52,6 +52,10 @@ void SemiImplicitStepJacobian::observe_friction_scales(const double* scales) noe
   twin_->step.observe_friction_scales(scales);
 }
 
+void SemiImplicitStepJacobian::observe_wear_weights(const double* weights) noexcept {
+  twin_->step.observe_wear_weights(weights);
+}
+
 void SemiImplicitStepJacobian::observe_module_faults(const ModuleFaults* faults) noexcept {
   twin_->step.observe_module_faults(faults);
 }

@@ -187,10 +187,15 @@ def plot_wear(run_dir, title, summary, logs):
         finals[name] = list(per) if per else [float(c["wear_%d" % i][-1]) for i in ids]
     n_mod = max((len(v) for v in finals.values()), default=0)
     width = 0.8 / max(len(finals), 1)
+    # Tires worn before the run (initial_module_wear): each bar stands on that wear, drawn grey.
+    initial = summary.get("initial_module_wear") or []
     for k, (name, v) in enumerate(finals.items()):
-        a2.bar(np.arange(len(v)) + (k - (len(finals) - 1) / 2) * width, v, width, color="C%d" % k, label=name)
+        x = np.arange(len(v)) + (k - (len(finals) - 1) / 2) * width
+        if len(initial) == len(v):
+            a2.bar(x, initial, width, color="lightgrey", label="before the run" if k == 0 else None)
+        a2.bar(x, v, width, bottom=initial if len(initial) == len(v) else None, color="C%d" % k, label=name)
     a1.set(xlabel="t [s]", ylabel="cumulative total wear [%s]" % units, title="%s: total wear" % title)
-    a2.set(xlabel="module", ylabel="final wear [%s]" % units, title="%s: wear per module" % title,
+    a2.set(xlabel="module", ylabel="wear at the end [%s]" % units, title="%s: wear per module" % title,
            xticks=range(n_mod))
     for a in (a1, a2):
         a.grid(alpha=0.3)

@@ -96,6 +96,9 @@ ControllerConfig load_controller_config(const ConfigNode& node) {
     if (const auto friction = node.optional_child("friction_estimation")) {
       read_fields(*friction, FrictionEstimationOptions::fields(), &c.mpc.friction_estimation);
     }
+    if (const auto balancing = node.optional_child("wear_balancing")) {
+      read_fields(*balancing, WearBalancingOptions::fields(), &c.mpc.wear_balancing);
+    }
     if (const auto solver = node.optional_child("solver")) {
       c.solver.backend = solver->get_choice_or("backend", {"sa", "rti", "ipopt", "nlopt", "ceres"}, "sa");
       if (const auto sa = solver->optional_child("sa")) c.solver.sa = load_sa(*sa);

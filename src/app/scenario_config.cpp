@@ -93,10 +93,12 @@ std::shared_ptr<const Reference> load_reference_file(const ConfigNode& node, con
     choreo.modules = modules;
     choreo.max_speed = max_speed;
   }
+  const int laps = type == "csv" ? node.get_int_or("laps", 1, 1, 1000) : 1;
   *description = type + " " + file + (choreo.trajectory.empty() ? "" : " trajectory " + choreo.trajectory) +
-                 (choreo.split >= 0 ? " split " + std::to_string(choreo.split) : "");
+                 (choreo.split >= 0 ? " split " + std::to_string(choreo.split) : "") +
+                 (laps > 1 ? ", " + std::to_string(laps) + " laps" : "");
   try {
-    if (type == "csv") return load_reference_csv(file, max_speed);
+    if (type == "csv") return load_reference_csv(file, max_speed, laps);
     const Eigen::MatrixXd rows = type == "choreo" ? load_choreo_trajectory(file, choreo) : load_pose_list(file, max_speed);
     std::vector<std::vector<double>> samples(static_cast<std::size_t>(rows.rows()));
     for (Eigen::Index k = 0; k < rows.rows(); ++k) {
@@ -239,6 +241,10 @@ ScenarioController load_scenario_controller(const ConfigNode& entry, const std::
     if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("friction_estimation", "only a wear_mpc controller has one");
     config::read_fields(*friction, FrictionEstimationOptions::fields(), &c.config.mpc.friction_estimation);
   }
+  if (const auto balancing = entry.optional_child("wear_balancing")) {
+    if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("wear_balancing", "only a wear_mpc controller has one");
+    config::read_fields(*balancing, WearBalancingOptions::fields(), &c.config.mpc.wear_balancing);
+  }
   if (entry.has("backend")) {
     if (c.config.kind != ControllerKind::kWearMpc) entry.fail_at("backend", "only a wear_mpc controller has one");
     c.config.solver.backend = entry.get_string("backend");
@@ -298,6 +304,10 @@ ScenarioConfig load_scenario_config(const ConfigNode& node) {
       s.simulator.friction_patches = load_friction_patches(*patches);
     }
     s.simulator.announce_friction = sim->get_bool_or("announce_friction", false);
+    if (sim->has("initial_module_wear")) {
+      s.simulator.initial_module_wear =
+          sim->get_doubles("initial_module_wear", static_cast<std::size_t>(n), Bound::non_negative());
+    }
   }
 
   const ConfigNode controllers = node.child("controllers");

@@ -9,6 +9,16 @@
 namespace swerve {
 namespace {
 
+// Each tire's wear before the run plus the plant's so far.
+Eigen::VectorXd lifetime_wear(const SimulatorOptions& options, const Simulator& plant) {
+  Eigen::VectorXd wear = Eigen::Map<const Eigen::VectorXd>(plant.module_wear().data(),
+                                                           static_cast<Eigen::Index>(plant.module_wear().size()));
+  if (!options.initial_module_wear.empty()) {
+    wear += Eigen::Map<const Eigen::VectorXd>(options.initial_module_wear.data(), wear.size());
+  }
+  return wear;
+}
+
 std::uint32_t fault_mask(const ModuleFaults& faults) {
   std::uint32_t mask = 0;
   for (int i = 0; i < faults.size(); ++i) {
@@ -154,6 +164,8 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
     }
     // A map of the floor tells the controller the grip under the vehicle.
     if (scenario.simulator.announce_friction) tracker->set_friction_scale(plant.mean_friction_scale());
+    // Each tire's wear so far, as a fleet's maintenance log (or a tread sensor) would give it.
+    tracker->set_module_wear(lifetime_wear(scenario.simulator, plant));
     // The measurement carries its timestamp, so a delayed one is known to be old.
     const ControlOutput& output = tracker->step(plant.measurement(), t, t - plant.measurement_age());
     StepRecord record;
@@ -198,6 +210,7 @@ ControllerRun run_controller(const ScenarioConfig& scenario, const ScenarioContr
   run.lost_motions = describe_lost_motions(scenario.vehicle.layout, run.module_faults, angles);
   run.completed = run.failure.empty();
   run.metrics = compute_metrics(run.log, plant.module_wear(), plant.frictional_energy(), period, run.solve_budget);
+  run.metrics.lifetime_wear_imbalance = wear_imbalance(lifetime_wear(scenario.simulator, plant));
   return run;
 }
 

@@ -88,6 +88,9 @@ std::string reference() {
   write_table(out, "controller.friction_estimation",
               "The floor's grip estimated online and given to the prediction (the wear-aware controller).",
               FrictionEstimationOptions::fields(), FrictionEstimationOptions{});
+  write_table(out, "controller.wear_balancing",
+              "Each module's wear weighed by its accumulated wear, so the most worn tires are spared (the wear-aware controller).",
+              WearBalancingOptions::fields(), WearBalancingOptions{});
   write_table(out, "controller.work_budget",
               "The solve's budget counted in work at the target's rates (the step's clock then guards).",
               WorkBudgetOptions::fields(), WorkBudgetOptions{});
@@ -123,7 +126,8 @@ std::string reference() {
               "`{module, at, kind: stuck_steering, dead_drive or steering_sensor_lost, announced: false}`, each module once, each time inside "
               "the run; `friction_patches`: a list of `{min: [x, y], max: [x, y], mu}`, world-frame rectangles of "
               "mu > 0 that may touch but not overlap; `announce_friction: false`: true tells the controllers the grip "
-              "under the vehicle each period).",
+              "under the vehicle each period; `initial_module_wear`: each tire's wear before the run, one entry >= 0 "
+              "per module, told to the controllers with the run's each period).",
               SimulatorOptions::fields(), SimulatorOptions{});
   write_table(out, "scenario.simulator.noise", "Measurement noise, standard deviations.", MeasurementNoise::fields(),
               MeasurementNoise{});

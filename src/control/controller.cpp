@@ -1,7 +1,9 @@
 #include "swerve/control/controller.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <sstream>
 
 #include "swerve/core/config_error.hpp"
@@ -162,6 +164,11 @@ void ControllerOptions::validate() const {
   measurement_filter.validate();
   fault_detection.validate();
   friction_estimation.validate();
+  wear_balancing.validate();
+  if (wear_balancing.enabled && prediction.method != PredictionMethod::kSemiImplicit) {
+    throw ConfigError("ControllerOptions.wear_balancing.enabled = true: needs prediction.method semi_implicit "
+                      "(the RK4 prediction's stage wear is not split by module)");
+  }
   stale_measurement.validate();
   work_budget.validate();
   tracking_tolerance.validate();
@@ -227,6 +234,12 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   friction_scales_ = std::make_unique<std::array<double, kMaxModules>>();
   friction_scales_->fill(1.0);
   model_->observe_friction_scales(friction_scales_->data());
+  wear_weights_ = std::make_unique<std::array<double, kMaxModules>>();
+  wear_weights_->fill(1.0);
+  const std::vector<double> loads = vehicle.static_normal_loads();
+  const double total_load = std::accumulate(loads.begin(), loads.begin() + modules_, 0.0);
+  for (int i = 0; i < modules_; ++i) load_shares_[static_cast<std::size_t>(i)] = loads[static_cast<std::size_t>(i)] / total_load;
+  if (options_.wear_balancing.enabled) model_->observe_wear_weights(wear_weights_->data());
   if (options_.friction_estimation.enabled) {
     friction_ = std::make_unique<FrictionEstimator>(vehicle, options_.prediction, options_.period(),
                                                     options_.friction_estimation);
@@ -238,6 +251,25 @@ void Controller::set_friction_scale(double scale) {
   TrackingController::set_friction_scale(scale);  // the common checks
   if (friction_) friction_->set_scale(scale);
   use_friction_scale(scale);
+}
+
+void Controller::set_module_wear(const Eigen::Ref<const Eigen::VectorXd>& wear) {
+  TrackingController::set_module_wear(wear);  // the common checks
+  if (!options_.wear_balancing.enabled) return;
+  std::array<double, kMaxModules> weights{};
+  wear_balancing_weights(options_.wear_balancing, wear.data(), load_shares_.data(), modules_, weights.data());
+  // As a grip change: a preparation linearised the wear at the old weights; a few percent is left
+  // to the feedback's own step.
+  constexpr double kPreparedWeightTolerance = 0.05;
+  for (int i = 0; i < modules_; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    if (std::abs(weights[k] - (*wear_weights_)[k]) > kPreparedWeightTolerance * (*wear_weights_)[k]) {
+      solver_->forget_preparation();
+      prepared_t_ = std::numeric_limits<double>::quiet_NaN();
+      break;
+    }
+  }
+  std::copy(weights.begin(), weights.begin() + modules_, wear_weights_->begin());
 }
 
 void Controller::use_friction_scale(double scale) noexcept {

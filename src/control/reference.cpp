@@ -422,7 +422,35 @@ std::string reference_step_problem(const Eigen::Vector3d& previous_txy, const Ei
   return {};
 }
 
-std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path, double max_speed) {
+namespace {
+
+// `lap` (rows of t, x, y, psi[, twist in the body frame]) driven `laps` times, each lap moved
+// rigidly so that it starts at the previous lap's end pose and one sample interval after its end.
+std::vector<std::vector<double>> repeated_laps(const std::vector<std::vector<double>>& lap, int laps) {
+  std::vector<std::vector<double>> rows = lap;
+  const std::vector<double>& first = lap.front();
+  const double interval = lap[1][0] - lap[0][0];
+  const double lap_time = lap.back()[0] - first[0] + interval;
+  for (int l = 1; l < laps; ++l) {
+    const std::vector<double> end = rows.back();  // the last lap's end: t, x, y, psi
+    const double turn = end[3] - first[3];
+    const double c = std::cos(turn), s = std::sin(turn);
+    for (const std::vector<double>& sample : lap) {
+      std::vector<double> row = sample;
+      const double dx = sample[1] - first[1], dy = sample[2] - first[2];
+      row[0] = sample[0] + l * lap_time;
+      row[1] = end[1] + c * dx - s * dy;
+      row[2] = end[2] + s * dx + c * dy;
+      row[3] = sample[3] + turn;
+      rows.push_back(std::move(row));
+    }
+  }
+  return rows;
+}
+
+}  // namespace
+
+std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path, double max_speed, int laps) {
   // Read whole and bounded: a directory, /dev/zero or a pipe named as the CSV is refused before
   // reading (a getline on /dev/zero grew one line until the process ran out of memory).
   config::TextFileRules rules;
@@ -476,8 +504,9 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
   if (rows.size() < 2) {
     reject(shown + ": " + std::to_string(rows.size()) + " sample(s); a reference needs at least 2");
   }
+  if (laps < 1) reject(shown + ": laps = " + std::to_string(laps) + ": must be >= 1");
   try {
-    return std::make_unique<SampledReference>(rows);
+    return std::make_unique<SampledReference>(laps > 1 ? repeated_laps(rows, laps) : rows);
   } catch (const ConfigError& error) {
     reject(shown + ": " + error.what());
   }

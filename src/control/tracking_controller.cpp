@@ -27,6 +27,18 @@ void TrackingController::set_friction_scale(double scale) {
   }
 }
 
+void TrackingController::set_module_wear(const Eigen::Ref<const Eigen::VectorXd>& wear) {
+  if (wear.size() != faults_->size()) {
+    throw_invalid_field(name(), "set_module_wear.wear.size", static_cast<int>(wear.size()),
+                        "must be the vehicle's module count, " + std::to_string(faults_->size()));
+  }
+  for (Eigen::Index i = 0; i < wear.size(); ++i) {
+    if (!std::isfinite(wear[i]) || wear[i] < 0.0) {
+      throw_invalid_field(name(), "set_module_wear.wear[" + std::to_string(i) + "]", wear[i], "must be finite and >= 0");
+    }
+  }
+}
+
 Eigen::Ref<const Eigen::VectorXd> TrackingController::stand_in_for_lost_angles(
     LostSteeringAngles& angles, const Eigen::Ref<const Eigen::VectorXd>& measured, double measured_at,
     bool* found) noexcept {

@@ -26,6 +26,11 @@ void VehiclePredictionModel::observe_friction_scales(const double* scales) noexc
   jacobian_->observe_friction_scales(scales);
 }
 
+void VehiclePredictionModel::observe_wear_weights(const double* weights) noexcept {
+  values_->observe_wear_weights(weights);
+  jacobian_->observe_wear_weights(weights);
+}
+
 void VehiclePredictionModel::observe_module_faults(const ModuleFaults* faults) noexcept {
   values_->observe_module_faults(faults);
   jacobian_->observe_module_faults(faults);

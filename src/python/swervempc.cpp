@@ -155,6 +155,7 @@ py::dict metrics_dict(const RunMetrics& m) {
   d["wear_total"] = m.wear_total;
   d["wear_per_module"] = array_of(m.wear_per_module);
   d["wear_imbalance"] = m.wear_imbalance;
+  d["lifetime_wear_imbalance"] = m.lifetime_wear_imbalance;
   d["frictional_energy_J"] = m.frictional_energy_J;
   d["steering_effort"] = m.steering_effort;
   d["steering_command_jerk"] = m.steering_command_jerk;

@@ -76,6 +76,11 @@ void add_friction_metrics(const std::vector<StepRecord>& log, RunMetrics* m) {
 
 }  // namespace
 
+double wear_imbalance(const Eigen::Ref<const Eigen::VectorXd>& wear_per_module) noexcept {
+  if (wear_per_module.size() == 0 || !(wear_per_module.sum() > 0.0)) return 0.0;
+  return wear_per_module.maxCoeff() / wear_per_module.mean();
+}
+
 RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector<double>& wear_per_module,
                            double frictional_energy, double control_period, double solve_budget) {
   RunMetrics m;
@@ -130,10 +135,8 @@ RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector
   if (steering_changes > 0) m.steering_command_jerk = std::sqrt(steering_change_sq / static_cast<double>(steering_changes));
   m.wear_per_module = wear_per_module;
   m.wear_total = std::accumulate(wear_per_module.begin(), wear_per_module.end(), 0.0);
-  if (!wear_per_module.empty() && m.wear_total > 0.0) {
-    const double mean = m.wear_total / static_cast<double>(wear_per_module.size());
-    m.wear_imbalance = *std::max_element(wear_per_module.begin(), wear_per_module.end()) / mean;
-  }
+  m.wear_imbalance = wear_imbalance(Eigen::Map<const Eigen::VectorXd>(wear_per_module.data(),
+                                                                       static_cast<Eigen::Index>(wear_per_module.size())));
   m.frictional_energy_J = frictional_energy;
   if (!solve_ms.empty()) {
     m.solve_time_mean_ms = std::accumulate(solve_ms.begin(), solve_ms.end(), 0.0) / static_cast<double>(solve_ms.size());

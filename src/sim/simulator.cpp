@@ -72,6 +72,12 @@ void SimulatorOptions::validate() const {
       }
     }
   }
+  for (std::size_t i = 0; i < initial_module_wear.size(); ++i) {
+    if (!std::isfinite(initial_module_wear[i]) || initial_module_wear[i] < 0.0) {
+      throw_invalid_field(kOwner, "initial_module_wear[" + std::to_string(i) + "]", initial_module_wear[i],
+                          "must be finite and >= 0 (wear units)");
+    }
+  }
   check_fields("SimulatorOptions", *this, fields());
   check_fields("SimulatorOptions.noise", noise, MeasurementNoise::fields());
 }
@@ -94,6 +100,10 @@ Simulator::Simulator(const VehicleParams& vehicle, SimulatorOptions options)
   }
   if (options_.substeps == 0) substeps_ = static_cast<int>(std::ceil(substeps_ * grip));
   const int n = model_.modules();
+  if (!options_.initial_module_wear.empty() && static_cast<int>(options_.initial_module_wear.size()) != n) {
+    throw_invalid_field(kOwner, "initial_module_wear.size", static_cast<int>(options_.initial_module_wear.size()),
+                        "must be the vehicle's module count, " + std::to_string(n));
+  }
   state_ = next_state_ = state_dot_ = Eigen::VectorXd::Zero(model_.state_size());
   input_ = Eigen::VectorXd::Zero(model_.input_size());
   measurement_ = Eigen::VectorXd::Zero(StateIndex::prefix_size(n));

@@ -1994,6 +1994,57 @@ TEST(Controller, AKnownGripReachesThePredictionAndTheOutputAndABadOneIsRefusedNa
   EXPECT_EQ(estimator.friction_scale(), 0.6);
 }
 
+TEST(Controller, EachModulesAccumulatedWearWeighsItsWearOnlyWithBalancingAndBadWearIsRefusedNamingIt) {
+  FakeScript script;
+  ControllerOptions balancing = fast_options();
+  balancing.wear_balancing.enabled = true;
+  Controller balanced = make_fake_controller(&script, balancing);
+  Controller plain = make_fake_controller(&script);
+  Eigen::VectorXd wear(4);
+  wear << 0.0, 0.0, 0.0, 400.0;
+  // Equal static loads: the mean wear is 100, so (0, 0, 0, 4) before the bounds [0.25, 4].
+  balanced.set_module_wear(wear);
+  plain.set_module_wear(wear);
+  EXPECT_EQ(balanced.wear_weight_of(0), 0.25);
+  EXPECT_EQ(balanced.wear_weight_of(3), 4.0);
+  EXPECT_EQ(plain.wear_weight_of(3), 1.0);
+  // The prediction sees them: the same turning step costs differently.
+  const PredictionModel& weighted_model = balanced.problem().model();
+  const PredictionModel& plain_model = plain.problem().model();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(weighted_model.state_size());
+  x[StateIndex::kVx] = 0.5;
+  x[StateIndex::kYawRate] = 0.5;
+  const Eigen::Vector3d twist(0.6, 0.1, 0.8);
+  auto weighted_data = weighted_model.create_data(), plain_data = plain_model.create_data();
+  Eigen::VectorXd weighted_next(x.size()), plain_next(x.size());
+  double weighted_wear = 0.0, plain_wear = 0.0;
+  ASSERT_TRUE(weighted_model.step(*weighted_data, x, twist, 0.05, weighted_next, &weighted_wear));
+  ASSERT_TRUE(plain_model.step(*plain_data, x, twist, 0.05, plain_next, &plain_wear));
+  EXPECT_EQ(weighted_next, plain_next);  // the motion is the same; only its price differs
+  EXPECT_GT(std::abs(weighted_wear - plain_wear), 1e-3 * plain_wear);
+  // Refused, naming the entry, by either controller: a wrong size, a negative or non-finite entry.
+  for (Controller* controller : {&balanced, &plain}) {
+    EXPECT_NE(testing::config_error_of([&] { controller->set_module_wear(Eigen::VectorXd::Zero(3)); })
+                  .find("set_module_wear.wear.size = 3"),
+              std::string::npos);
+    Eigen::VectorXd bad = wear;
+    bad[2] = -1.0;
+    EXPECT_NE(testing::config_error_of([&] { controller->set_module_wear(bad); }).find("set_module_wear.wear[2] = -1"),
+              std::string::npos);
+    bad[2] = std::nan("");
+    EXPECT_NE(testing::config_error_of([&] { controller->set_module_wear(bad); }).find("set_module_wear.wear[2]"),
+              std::string::npos);
+  }
+  EXPECT_EQ(balanced.wear_weight_of(3), 4.0);  // a refused call changes nothing
+  // New tires (no wear yet) weigh alike.
+  balanced.set_module_wear(Eigen::VectorXd::Zero(4));
+  EXPECT_EQ(balanced.wear_weight_of(3), 1.0);
+  // The RK4 prediction's stage wear is not split by module: refused at construction.
+  balancing.prediction.method = PredictionMethod::kRk4;
+  EXPECT_NE(testing::config_error_of([&] { make_fake_controller(&script, balancing); }).find("wear_balancing"),
+            std::string::npos);
+}
+
 TEST(Controller, AStuckModuleIsNeverCommandedASteeringRateByThePlanOrByTheBaselineFallback) {
   // Module rates: the fake plan steers every module at 0.01 (k + 1) rad/s, so the plan path would
   // steer module 1; the failing solver then hands over to the baseline, which steers toward the

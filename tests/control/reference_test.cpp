@@ -10,6 +10,7 @@
 #include <limits>
 #include <string>
 
+#include "support/config_errors.hpp"
 #include "swerve/core/config_error.hpp"
 
 namespace swerve {
@@ -209,6 +210,35 @@ TEST(SampledReference, CsvLoaderNamesFileAndLine) {
     out << "t,x,y,psi\n0,0,0,0\n1,1,0,0\n2,2,0,0\n";
   }
   EXPECT_NEAR(load_reference_csv(path)->sample(1.5).pose_world.x(), 1.5, 1e-9);
+  std::remove(path.c_str());
+}
+
+TEST(SampledReference, LapsDriveTheFilesPathAgainFromWhereTheLastLapEnded) {
+  // One lap: from the origin heading +x, 1 m ahead while turning left by 90 deg, in 2 s. The
+  // second lap starts at (1, 0) heading +y, so its 1 m "ahead" is +y: it ends at (1, 1) heading
+  // 180 deg; the third ends at (0, 1) heading 270 deg. Each lap starts one sample interval (1 s)
+  // after the last one ended.
+  const std::string path = ::testing::TempDir() + "reference_laps_test.csv";
+  const double quarter = 0.5 * std::acos(-1.0);
+  {
+    std::ofstream out(path);
+    out.precision(17);
+    out << "t,x,y,psi\n0,0,0,0\n1,0.5,0," << 0.5 * quarter << "\n2,1,0," << quarter << "\n";
+  }
+  const auto laps = load_reference_csv(path, std::numeric_limits<double>::infinity(), 3);
+  EXPECT_NEAR(laps->duration(), 8.0, 1e-12);  // 3 laps of 2 s, 1 s between them
+  const Eigen::Vector3d second_start = laps->sample(3.0).pose_world, second_end = laps->sample(5.0).pose_world;
+  const Eigen::Vector3d third_end = laps->sample(8.0).pose_world;
+  const auto expect_pose = [&](const Eigen::Vector3d& pose, double x, double y, double psi) {
+    EXPECT_NEAR(pose.x(), x, 1e-9);
+    EXPECT_NEAR(pose.y(), y, 1e-9);
+    EXPECT_NEAR(std::remainder(pose.z() - psi, 4.0 * quarter), 0.0, 1e-9);
+  };
+  expect_pose(second_start, 1.0, 0.0, quarter);
+  expect_pose(second_end, 1.0, 1.0, 2.0 * quarter);
+  expect_pose(third_end, 0.0, 1.0, 3.0 * quarter);
+  EXPECT_NE(testing::config_error_of([&] { load_reference_csv(path, 1.0, 0); }).find("laps = 0: must be >= 1"),
+            std::string::npos);
   std::remove(path.c_str());
 }
 

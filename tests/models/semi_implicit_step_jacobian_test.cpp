@@ -188,6 +188,73 @@ TEST_F(SemiImplicitStepJacobianTest, WithADeadDriveItsWheelSpeedMovesNothingAndT
   expect_twist_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, Eigen::Vector3d(0.85, 0.05, 0.25));
 }
 
+// The stage wear of (x, u) on `step` with `weights` observed (null: none).
+double weighted_stage_wear(const SemiImplicitStep<double>& step, SemiImplicitStep<double>::Data& data,
+                           const double* weights, const Eigen::VectorXd& x, const Eigen::VectorXd& u) {
+  const_cast<SemiImplicitStep<double>&>(step).observe_wear_weights(weights);
+  Eigen::VectorXd next(x.size());
+  double wear = -1.0;
+  EXPECT_TRUE(step.step(data, x, u, kDt, next, &wear));
+  const_cast<SemiImplicitStep<double>&>(step).observe_wear_weights(nullptr);
+  return wear;
+}
+
+TEST_F(SemiImplicitStepJacobianTest, WearWeightsSplitTheStageWearByModuleAndWeightsOfOneChangeNothing) {
+  Eigen::VectorXd u(jacobian_.input_size());
+  step_.module_inputs(x_, Eigen::Vector3d(0.95, 0.15, 0.45), kDt, u);  // a change of twist: a transient too
+  const double plain = weighted_stage_wear(step_, step_data_, nullptr, x_, u);
+  ASSERT_GT(plain, 1e-4);
+  const double ones[4] = {1.0, 1.0, 1.0, 1.0};
+  EXPECT_NEAR(weighted_stage_wear(step_, step_data_, ones, x_, u), plain, 1e-12 * plain);
+  // Module by module (a weight of 1 on one module, 0 on the others): the four shares are each
+  // >= 0 and add up to the whole, and the wear is linear in the weights.
+  double shares[4], sum = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    double unit[4] = {0.0, 0.0, 0.0, 0.0};
+    unit[i] = 1.0;
+    shares[i] = weighted_stage_wear(step_, step_data_, unit, x_, u);
+    EXPECT_GE(shares[i], 0.0) << "module " << i;
+    sum += shares[i];
+  }
+  EXPECT_NEAR(sum, plain, 1e-12 * plain);
+  const double mixed[4] = {2.0, 0.5, 0.0, 3.0};
+  EXPECT_NEAR(weighted_stage_wear(step_, step_data_, mixed, x_, u),
+              2.0 * shares[0] + 0.5 * shares[1] + 3.0 * shares[3], 1e-12 * plain);
+  // In a turn the modules slide unequally, so the weights have something to weigh.
+  EXPECT_GT(*std::max_element(shares, shares + 4), 1.05 * *std::min_element(shares, shares + 4));
+}
+
+TEST(SemiImplicitStepJacobian, OnASymmetricVehicleDrivingStraightBothSidesCarryHalfTheWear) {
+  // Independent truth by symmetry: two modules mirrored about the body's x axis, accelerating
+  // straight ahead, wear alike; each one's share is half of the whole.
+  const VehicleParams params = testing::make_params(2);
+  ASSERT_NEAR(params.layout.position_body(0).y(), -params.layout.position_body(1).y(), 1e-12);
+  ASSERT_NEAR(params.layout.position_body(0).x(), params.layout.position_body(1).x(), 1e-12);
+  SemiImplicitStep<double> step(params, lagged());
+  SemiImplicitStep<double>::Data data(step);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(step.state_size());
+  x[StateIndex::kVx] = 0.5;
+  const int prefix = StateIndex::prefix_size(2);
+  for (int k = prefix; k < prefix + step.wheel_speed_states(); ++k) x[k] = 0.5 / params.layout.wheel_radius();
+  Eigen::VectorXd u(step.model().input_size());
+  step.module_inputs(x, Eigen::Vector3d(0.8, 0.0, 0.0), kDt, u);
+  const double whole = weighted_stage_wear(step, data, nullptr, x, u);
+  ASSERT_GT(whole, 1e-4);
+  const double left[2] = {1.0, 0.0}, right[2] = {0.0, 1.0};
+  EXPECT_NEAR(weighted_stage_wear(step, data, left, x, u), 0.5 * whole, 1e-9 * whole);
+  EXPECT_NEAR(weighted_stage_wear(step, data, right, x, u), 0.5 * whole, 1e-9 * whole);
+}
+
+TEST_F(SemiImplicitStepJacobianTest, WithWearWeightsTheJacobiansStillMatchTheStep) {
+  const double weights[4] = {0.25, 1.0, 2.5, 4.0};
+  step_.observe_wear_weights(weights);
+  jacobian_.observe_wear_weights(weights);
+  Eigen::VectorXd u(jacobian_.input_size());
+  step_.module_inputs(x_, Eigen::Vector3d(0.85, 0.05, 0.25), kDt, u);
+  expect_module_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, u, 1e-5);
+  expect_twist_jacobian_matches_the_step(step_, step_data_, jacobian_, data_, x_, Eigen::Vector3d(0.85, 0.05, 0.25));
+}
+
 TEST(SemiImplicitStepJacobian, ASplitSubstepIsDifferentiatedAsTheDoubleStepTakesIt) {
   // From rest, wheels told to spin up while their modules still turn slip past the tyres' force
   // peak, and Newton finds no root over the whole substep: the step splits it. The Jacobian's first

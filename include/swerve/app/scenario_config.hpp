@@ -53,12 +53,14 @@ struct ScenarioConfig {
 //   reference: {type: line | arc | sine | figure_eight | csv, speed [1], acceleration [0],
 //     stop_at_end [false], heading_offset [0]; line: start [[0,0]], direction [0], length;
 //     arc: start [[0,0]], direction [0], radius, sweep; sine: amplitude, wavelength, length;
-//     figure_eight: size, loops [1]; csv: file}
+//     figure_eight: size, loops [1]; csv: file, laps [1] (the path driven again from its end)}
 //   initial_state [the reference's start pose, at rest, steering 0]: {pose [ref start], twist [[0,0,0]],
 //     steering [0] (one angle for all modules, or one per module)}
 //   simulator: {substeps [0: automatic], seed [1], measurement_delay_steps [0],
-//     noise: {position, heading, velocity, yaw_rate, steering_angle} [0]}
-//   controllers: [{name, config (file), wear_weight [from file], backend [from file]}]  (>= 1)
+//     noise: {position, heading, velocity, yaw_rate, steering_angle} [0],
+//     initial_module_wear [none: new tires] (one entry per module, >= 0, wear units)}
+//   controllers: [{name, config (file), wear_weight [from file], backend [from file],
+//     friction_estimation, wear_balancing [from file]}]  (>= 1)
 //   measurement_filter [each controller's own]: {pose_gain [1], steering_gain [1]}, for every controller alike
 //   paper: {wear_reduction_pct}  [absent]
 // The plant's control period is the first controller's dt; every controller must share it.

@@ -29,6 +29,7 @@
 #include "swerve/control/steering_fault_detector.hpp"
 #include "swerve/control/tracking_controller.hpp"
 #include "swerve/control/tracking_tube.hpp"
+#include "swerve/control/wear_balancing.hpp"
 #include "swerve/ocp/twist_prediction_model.hpp"
 #include "swerve/ocp/vehicle_prediction_model.hpp"
 #include "swerve/ocp/work_budget.hpp"
@@ -126,6 +127,9 @@ struct ControllerOptions {
   // The floor's grip estimated online (FrictionEstimator) and given to the prediction; off by
   // default (docs/decisions/friction-estimation.md).
   FrictionEstimationOptions friction_estimation;
+  // Each module's wear weighed by its accumulated wear (set_module_wear); off by default. Needs the
+  // semi-implicit prediction.
+  WearBalancingOptions wear_balancing;
   // The rules of the fields, read by the YAML loader too: the sampling (horizon, dt; shared with the
   // baseline), the timing and replanning fields, and the cost weights (their YAML keys under
   // `weights:`). The nested options have tables of their own.
@@ -172,6 +176,11 @@ class Controller final : public TrackingController {
   void set_friction_scale(double scale) override;
   // The grip the prediction uses now: set above, or estimated (1 until either).
   double friction_scale() const noexcept { return (*friction_scales_)[0]; }
+  // With wear_balancing enabled, the prediction weighs module i's wear by wear_balancing_weights()
+  // of `wear` from the next step on; otherwise only checked (TrackingController::set_module_wear).
+  void set_module_wear(const Eigen::Ref<const Eigen::VectorXd>& wear) override;
+  // Module i's weight on its wear in the prediction now (1 until set_module_wear with balancing).
+  double wear_weight_of(int module) const noexcept { return (*wear_weights_)[static_cast<std::size_t>(module)]; }
 
   const OcpProblem& problem() const noexcept { return *problem_; }
   const Solution& plan() const noexcept { return plan_; }
@@ -269,6 +278,10 @@ class Controller final : public TrackingController {
   // The grip each module's tires see in the prediction (observed by model_; on the heap, so a
   // moved controller's model keeps reading it).
   std::unique_ptr<std::array<double, kMaxModules>> friction_scales_;
+  // Each module's weight on its own wear (observed by model_ with wear balancing; on the heap as
+  // friction_scales_), and its share of the static load (the weights' mean is load-weighted).
+  std::unique_ptr<std::array<double, kMaxModules>> wear_weights_;
+  std::array<double, kMaxModules> load_shares_{};
   double wear_weight_ = 0.0;         // the cost's wear weight without faults (with one: 0, tracking first)
   Eigen::VectorXd now_;              // 6 + n: the measurement rolled forward to t
   Eigen::VectorXd prediction_state_;  // nx: now_, then the estimated wheel speeds and steering rates

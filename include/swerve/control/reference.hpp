@@ -223,7 +223,11 @@ inline constexpr std::size_t kMaxReferenceCsvBytes = std::size_t{16} << 20;  // 
 // after the previous row's, fewer than two rows, and, with a finite `max_speed` (m/s: the
 // vehicle's drive speed), a row whose position is further from the previous row's than that speed
 // covers in their time step (1 % of slack for rounding): a jump no vehicle of that kind can follow.
+// With `laps` > 1 (a shift of one duty cycle, repeated) the file's path is driven that many times,
+// each lap from where the last one ended: its poses moved rigidly onto the last lap's end pose,
+// its times one sample interval after the last lap's end. Throws ConfigError for laps < 1.
 std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path,
-                                                     double max_speed = std::numeric_limits<double>::infinity());
+                                                     double max_speed = std::numeric_limits<double>::infinity(),
+                                                     int laps = 1);
 
 }  // namespace swerve

@@ -120,6 +120,11 @@ class TrackingController {
   // (the kinematic baseline) has nothing to take it into, and only checks it. Throws ConfigError
   // unless finite and within (0, 10].
   virtual void set_friction_scale(double scale);
+  // Each module's accumulated tire wear (wear units, e.g. from the tread each has left), for wear
+  // balancing (Controller with WearBalancingOptions::enabled); a controller without it only checks
+  // it. Throws ConfigError naming the entry unless there is one per module, each finite and >= 0.
+  // Between steps, like set_module_fault.
+  virtual void set_module_wear(const Eigen::Ref<const Eigen::VectorXd>& wear);
   // Every module's fault: those set above and those the controller's own detector found.
   const ModuleFaults& module_faults() const noexcept { return *faults_; }
 

@@ -35,6 +35,8 @@ class ModelLinearisation {
     Eigen::Vector3d wear_rate_per_twist;
     Eigen::VectorXd wear_rate_per_steering;  // entry i: d wear rate / d delta_i
     Eigen::VectorXd wear_rate_per_wheel_speed;
+    Eigen::VectorXd module_wear_rate;            // entry i: module i's share of wear_rate
+    Eigen::Matrix3Xd module_wear_rate_per_twist;  // column i: d module_wear_rate[i] / d v
     Eigen::VectorXd drive_force;                                    // each module's wheel-frame Fx (N)
     Eigen::Matrix<double, Eigen::Dynamic, 5> drive_force_partials;  // row i: over module i's directions
   };

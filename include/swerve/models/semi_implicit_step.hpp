@@ -188,6 +188,10 @@ class BodyTwistSolver {
   // At the twist the last solve() returned (when it converged): the wear rate and each module's
   // longitudinal wheel-frame force.
   static double wear_rate(const Data& d) noexcept { return d.final_in_double ? d.value_wear_rate : d.wear_rate.a; }
+  static double module_wear_rate(const Data& d, int module) noexcept {
+    const auto i = static_cast<std::size_t>(module);
+    return d.final_in_double ? d.value_diagnostics[i].wear_rate : d.diagnostics[i].wear_rate.a;
+  }
   static double drive_force(const Data& d, int module) noexcept {
     const auto i = static_cast<std::size_t>(module);
     return d.final_in_double ? d.value_diagnostics[i].fx_wheel : d.diagnostics[i].fx_wheel.a;
@@ -262,8 +266,13 @@ class SemiImplicitStep {
     const double stiffness_per_newton =
         0.5 * (params.tire.mu_longitudinal() * params.tire.longitudinal.b * params.tire.longitudinal.c +
                params.tire.mu_lateral() * params.tire.lateral.b * params.tire.lateral.c);
+    double total_load = 0.0;
     for (int i = 0; i < modules_; ++i) {
       nominal_slip_stiffness_sum_ += stiffness_per_newton * model_.static_normal_loads()[static_cast<std::size_t>(i)];
+      total_load += model_.static_normal_loads()[static_cast<std::size_t>(i)];
+    }
+    for (int i = 0; i < modules_; ++i) {
+      static_load_shares_.push_back(model_.static_normal_loads()[static_cast<std::size_t>(i)] / total_load);
     }
   }
 
@@ -370,6 +379,12 @@ class SemiImplicitStep {
     twist_solver_.observe_friction_scales(scales);
     linearisation_.observe_friction_scales(scales);
   }
+
+  // Each module's weight on its own wear from now on (n entries, all finite and >= 0; null: 1
+  // each), so that a worn tyre's wear may cost more than a new one's (wear balancing). Wiring as
+  // above. The semi-implicit step only: RK4's stage wear stays unweighted (PredictionOptions are
+  // checked against this by the controller).
+  void observe_wear_weights(const double* weights) noexcept { wear_weights_ = weights; }
 
   // x_next = F(x, u) over dt with module inputs u (steering rate, wheel speed per module) and the
   // stage wear. Sizes and finiteness are the caller's to check. No allocation.
@@ -680,6 +695,7 @@ class SemiImplicitStep {
       const T dissipated = drive_work - (kinetic_energy(v) - kinetic_energy(v0));
       step_wear = lagged_wear(step_wear, wear_coefficient_ * positive_part(dissipated), v0);
     }
+    if (wear_weights_ != nullptr) step_wear = weighted_wear(d, step_wear, v, slot, h);
     // Pose: the body moves with the constant twist v over h (exact on arcs).
     const Vector3 delta_body = h * v;
     const Vector3 pose = compose_pose_of<T>(x.template head<3>(), delta_body);
@@ -690,6 +706,33 @@ class SemiImplicitStep {
       if (!std::isfinite(scalar_value(x_next[k]))) return false;
     }
     return true;
+  }
+
+  // The step's wear `unweighted` with module i's own wear weighed by w_i. Its steady part is
+  // h sum_i rate_i at v+, module by module, so that part becomes h sum_i w_i rate_i. The rest (what
+  // the energy balance charges beyond it: the transient the implicit step steps over) the tyres
+  // dissipate as dampers in proportion to their stiffness, i.e. their static loads, so it takes
+  // their load-weighted mean weight w_bar: w_bar W + h sum_i (w_i - w_bar) rate_i, which is W
+  // itself when every weight is 1.
+  T weighted_wear(Data& d, const T& unweighted, const Vector3& v, std::size_t slot, double h) const noexcept {
+    double mean_weight = 0.0;
+    for (int i = 0; i < modules_; ++i) mean_weight += static_load_shares_[static_cast<std::size_t>(i)] * wear_weights_[i];
+    T excess(0.0);
+    for (int i = 0; i < modules_; ++i) {
+      const double excess_weight = wear_weights_[i] - mean_weight;
+      if (excess_weight == 0.0) continue;
+      if constexpr (std::is_same_v<T, double>) {
+        excess += excess_weight * BodyTwistSolver::module_wear_rate(d.twist, i);
+      } else {
+        const ModelLinearisation::Point& point = d.linear_points[slot];
+        T rate(point.module_wear_rate[i]);
+        for (int j = 0; j < 3; ++j) rate.v += point.module_wear_rate_per_twist(j, i) * v[j].v;
+        rate.v += point.wear_rate_per_steering[i] * steering_derivatives(d, i) +
+                  point.wear_rate_per_wheel_speed[i] * wheel_speed_derivatives(d, i);
+        excess += excess_weight * rate;
+      }
+    }
+    return mean_weight * unweighted + h * excess;
   }
 
   // The step's wear when the drives follow a command through their first-order lag tau_a, from
@@ -735,6 +778,8 @@ class SemiImplicitStep {
   Kinematics kinematics_;
   int modules_;
   const ModuleFaults* faults_ = nullptr;  // observe_module_faults (not owned)
+  const double* wear_weights_ = nullptr;  // observe_wear_weights (not owned)
+  std::vector<double> static_load_shares_;  // each module's share of the vehicle's static load
   bool energy_wear_ = false;
   double wheel_radius_ = 0.0, wear_coefficient_ = 0.0;
   double drive_lag_ = 0.0, mass_ = 0.0, slip_speed_epsilon_ = 0.0;

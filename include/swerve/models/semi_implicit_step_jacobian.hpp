@@ -49,6 +49,8 @@ class SemiImplicitStepJacobian {
   void observe_module_faults(const ModuleFaults* faults) noexcept;
   // The floor's grip under each module (SemiImplicitStep::observe_friction_scales; null: none).
   void observe_friction_scales(const double* scales) noexcept;
+  // Each module's weight on its wear (SemiImplicitStep::observe_wear_weights; null: 1 each).
+  void observe_wear_weights(const double* weights) noexcept;
 
   // The work the Jacobians on `data` did so far: the vehicle model's evaluations in their twist
   // solves (as SemiImplicitStep::model_evaluations counts a double step's) and its linearisations.

@@ -61,6 +61,10 @@ class PredictionModel {
   // multiple of the vehicle's tire mu (VehicleModel::observe_friction_scales); null: the tire's
   // own. Wiring as observe_module_faults. Models without tires ignore it (the default).
   virtual void observe_friction_scales(const double* scales) noexcept { (void)scales; }
+  // Each module's weight on its own tire wear in the stage wear from now on (one entry per module,
+  // finite and >= 0, e.g. from the tread each has left: wear balancing); null: 1 each. Wiring as
+  // observe_module_faults. Models without modules' wear ignore it (the default).
+  virtual void observe_wear_weights(const double* weights) noexcept { (void)weights; }
 
   // Whether step_jacobians() gives exact derivatives (gradient-based backends need them).
   virtual bool has_jacobians() const noexcept { return false; }

@@ -27,6 +27,7 @@ class TwistPredictionModel final : public PredictionModel {
   void charge_work_to(const Clock* clock) noexcept override { modules_.charge_work_to(clock); }
   void observe_module_faults(const ModuleFaults* faults) noexcept override { modules_.observe_module_faults(faults); }
   void observe_friction_scales(const double* scales) noexcept override { modules_.observe_friction_scales(scales); }
+  void observe_wear_weights(const double* weights) noexcept override { modules_.observe_wear_weights(weights); }
   bool has_jacobians() const noexcept override { return true; }
   bool step_jacobians(PredictionData& data, const Eigen::Ref<const Eigen::VectorXd>& x,
                       const Eigen::Ref<const Eigen::VectorXd>& twist_body, double dt, Eigen::Ref<Eigen::VectorXd> x_next,

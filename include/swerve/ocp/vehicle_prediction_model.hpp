@@ -55,6 +55,8 @@ class VehiclePredictionModel final : public PredictionModel {
   void charge_work_to(const Clock* clock) noexcept override { work_clock_ = clock; }
   void observe_module_faults(const ModuleFaults* faults) noexcept override;
   void observe_friction_scales(const double* scales) noexcept override;
+  // Semi-implicit steps only (PredictionMethod::kSemiImplicit): RK4's stage wear stays unweighted.
+  void observe_wear_weights(const double* weights) noexcept override;
   // What one module's share of the model's linearisation at a substep, and of one Jet chunk of a
   // step (kModelJetSize directions chained through it), cost in double evaluations of one module,
   // as BM_Models_PredictionStep measures a step and its Jacobian on the reference machine.

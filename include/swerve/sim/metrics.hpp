@@ -60,6 +60,9 @@ struct RunMetrics {
   std::vector<double> wear_per_module;
   double wear_total = 0.0;
   double wear_imbalance = 0.0;     // max / mean over modules (1: perfectly even)
+  // The same of each tire's wear before the run (SimulatorOptions::initial_module_wear) plus the
+  // run's: how evenly the tires are worn at its end (set by the scenario runner).
+  double lifetime_wear_imbalance = 0.0;
   double frictional_energy_J = 0.0;
   double steering_effort = 0.0;    // integral of sum_i steering_rate_i^2 dt (rad^2/s)
   // RMS over periods and modules of the commanded steering rate's change per second (rad/s^2):
@@ -101,6 +104,9 @@ struct RunMetrics {
 double percentile(std::vector<double> values, double q);
 
 // `control_period` weights the effort integral; `solve_budget` (s) decides a deadline miss.
+// max / mean of `wear_per_module` (1: perfectly even; 0 when there is no wear).
+double wear_imbalance(const Eigen::Ref<const Eigen::VectorXd>& wear_per_module) noexcept;
+
 // `wear_per_module` and `frictional_energy` are the simulator's integrals at the end of the run.
 RunMetrics compute_metrics(const std::vector<StepRecord>& log, const std::vector<double>& wear_per_module,
                            double frictional_energy, double control_period, double solve_budget);

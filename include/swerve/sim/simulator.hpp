@@ -76,12 +76,17 @@ struct SimulatorOptions {
   // set_friction_scale with mean_friction_scale()), as a map of the floor would; false: a
   // controller that uses the grip must estimate it.
   bool announce_friction = false;
+  // Each module's tire wear before the run (wear units; empty: new tires). The runner tells the
+  // controllers each module's accumulated wear, this plus the run's, every period
+  // (TrackingController::set_module_wear), and reports the spread of the sum.
+  std::vector<double> initial_module_wear;
   // The rules of the fields a scenario's `simulator:` block sets (substeps, measurement_delay_steps),
   // one table for validate() and the loader. control_period is the controllers' (checked by
   // validate() alone), the seed any unsigned integer, the noise MeasurementNoise::fields().
   static const OptionFields<SimulatorOptions>& fields();
   // Throws ConfigError naming the field and value: also a patch with mu <= 0, corners not in
-  // order, or two patches that overlap (which grip would hold there is not said).
+  // order, or two patches that overlap (which grip would hold there is not said), and an initial
+  // wear that is negative or not finite. (Its size is the vehicle's to check: Simulator.)
   void validate() const;
 };
 
