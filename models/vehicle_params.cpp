@@ -145,4 +145,13 @@ std::vector<double> VehicleParams::static_normal_loads() const {
   return {loads.data(), loads.data() + loads.size()};
 }
 
+std::vector<double> VehicleParams::static_load_shares() const {
+  std::vector<double> shares = static_normal_loads();
+  shares.resize(static_cast<std::size_t>(layout.size()));
+  double total = 0.0;
+  for (const double load : shares) total += load;
+  for (double& share : shares) share /= total;
+  return shares;
+}
+
 }  // namespace swerve

@@ -51,6 +51,7 @@ constexpr DoubleField kDoubles[] = {
     {"heading_max_rad", &RunMetrics::heading_max_rad},
     {"wear_total", &RunMetrics::wear_total},
     {"wear_imbalance", &RunMetrics::wear_imbalance},
+    {"lifetime_wear_imbalance", &RunMetrics::lifetime_wear_imbalance},
     {"frictional_energy_J", &RunMetrics::frictional_energy_J},
     {"steering_effort", &RunMetrics::steering_effort},
     {"steering_command_jerk", &RunMetrics::steering_command_jerk},

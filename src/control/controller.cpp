@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <sstream>
 
 #include "swerve/core/config_error.hpp"
@@ -236,9 +235,8 @@ Controller::Controller(const VehicleParams& vehicle, std::shared_ptr<const Refer
   model_->observe_friction_scales(friction_scales_->data());
   wear_weights_ = std::make_unique<std::array<double, kMaxModules>>();
   wear_weights_->fill(1.0);
-  const std::vector<double> loads = vehicle.static_normal_loads();
-  const double total_load = std::accumulate(loads.begin(), loads.begin() + modules_, 0.0);
-  for (int i = 0; i < modules_; ++i) load_shares_[static_cast<std::size_t>(i)] = loads[static_cast<std::size_t>(i)] / total_load;
+  const std::vector<double> shares = vehicle.static_load_shares();
+  std::copy(shares.begin(), shares.end(), load_shares_.begin());
   if (options_.wear_balancing.enabled) model_->observe_wear_weights(wear_weights_->data());
   if (options_.friction_estimation.enabled) {
     friction_ = std::make_unique<FrictionEstimator>(vehicle, options_.prediction, options_.period(),

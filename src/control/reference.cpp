@@ -425,17 +425,18 @@ std::string reference_step_problem(const Eigen::Vector3d& previous_txy, const Ei
 namespace {
 
 // `lap` (rows of t, x, y, psi[, twist in the body frame]) driven `laps` times, each lap moved
-// rigidly so that it starts at the previous lap's end pose and one sample interval after its end.
+// rigidly so that it starts where and when the previous one ended: its first sample is the
+// previous lap's last, so a path that ends at speed goes on at speed.
 std::vector<std::vector<double>> repeated_laps(const std::vector<std::vector<double>>& lap, int laps) {
   std::vector<std::vector<double>> rows = lap;
   const std::vector<double>& first = lap.front();
-  const double interval = lap[1][0] - lap[0][0];
-  const double lap_time = lap.back()[0] - first[0] + interval;
+  const double lap_time = lap.back()[0] - first[0];
   for (int l = 1; l < laps; ++l) {
     const std::vector<double> end = rows.back();  // the last lap's end: t, x, y, psi
     const double turn = end[3] - first[3];
     const double c = std::cos(turn), s = std::sin(turn);
-    for (const std::vector<double>& sample : lap) {
+    for (std::size_t k = 1; k < lap.size(); ++k) {
+      const std::vector<double>& sample = lap[k];
       std::vector<double> row = sample;
       const double dx = sample[1] - first[1], dy = sample[2] - first[2];
       row[0] = sample[0] + l * lap_time;
@@ -505,6 +506,10 @@ std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_pat
     reject(shown + ": " + std::to_string(rows.size()) + " sample(s); a reference needs at least 2");
   }
   if (laps < 1) reject(shown + ": laps = " + std::to_string(laps) + ": must be >= 1");
+  if (static_cast<double>(laps) * static_cast<double>(rows.size()) > static_cast<double>(kMaxReferenceSamples)) {
+    reject(shown + ": laps = " + std::to_string(laps) + ": " + std::to_string(rows.size()) +
+           " samples a lap would make more than " + std::to_string(kMaxReferenceSamples) + " in all");
+  }
   try {
     return std::make_unique<SampledReference>(laps > 1 ? repeated_laps(rows, laps) : rows);
   } catch (const ConfigError& error) {

@@ -454,10 +454,9 @@ TEST(ScenarioConfig, BadFilesNameTheFileTheKeyPathAndTheValue) {
   expect_config_error("friction_patch_overlap.yaml", "scenario.simulator.friction_patches[1]: overlaps friction_patches[0]");
   expect_config_error("friction_estimation_on_baseline.yaml", "only a wear_mpc controller has one");
   expect_config_error("wear_balancing_on_baseline.yaml", "wear_balancing: only a wear_mpc controller has one");
-  expect_config_error("initial_wear_wrong_size.yaml", "scenario.simulator.initial_module_wear");
-  expect_config_error("initial_wear_wrong_size.yaml", "4");
-  expect_config_error("initial_wear_negative.yaml", "scenario.simulator.initial_module_wear");
-  expect_config_error("initial_wear_negative.yaml", "-3");
+  expect_config_error("initial_wear_wrong_size.yaml",
+                      "scenario.simulator.initial_module_wear: expected a list of 4 numbers, got 3");
+  expect_config_error("initial_wear_negative.yaml", "scenario.simulator.initial_module_wear[2] = -3: must be >= 0");
   expect_config_error("friction_announced_outside_bounds.yaml",
                       "scenario.simulator.friction_patches[0].mu = 0.1: announced, it is 0.125x the tire's mu");
 }

@@ -216,8 +216,7 @@ TEST(SampledReference, CsvLoaderNamesFileAndLine) {
 TEST(SampledReference, LapsDriveTheFilesPathAgainFromWhereTheLastLapEnded) {
   // One lap: from the origin heading +x, 1 m ahead while turning left by 90 deg, in 2 s. The
   // second lap starts at (1, 0) heading +y, so its 1 m "ahead" is +y: it ends at (1, 1) heading
-  // 180 deg; the third ends at (0, 1) heading 270 deg. Each lap starts one sample interval (1 s)
-  // after the last one ended.
+  // 180 deg; the third ends at (0, 1) heading 270 deg. Each lap starts when the last one ended.
   const std::string path = ::testing::TempDir() + "reference_laps_test.csv";
   const double quarter = 0.5 * std::acos(-1.0);
   {
@@ -226,9 +225,12 @@ TEST(SampledReference, LapsDriveTheFilesPathAgainFromWhereTheLastLapEnded) {
     out << "t,x,y,psi\n0,0,0,0\n1,0.5,0," << 0.5 * quarter << "\n2,1,0," << quarter << "\n";
   }
   const auto laps = load_reference_csv(path, std::numeric_limits<double>::infinity(), 3);
-  EXPECT_NEAR(laps->duration(), 8.0, 1e-12);  // 3 laps of 2 s, 1 s between them
-  const Eigen::Vector3d second_start = laps->sample(3.0).pose_world, second_end = laps->sample(5.0).pose_world;
-  const Eigen::Vector3d third_end = laps->sample(8.0).pose_world;
+  EXPECT_NEAR(laps->duration(), 6.0, 1e-12);  // 3 laps of 2 s
+  const Eigen::Vector3d second_start = laps->sample(2.0).pose_world, second_end = laps->sample(4.0).pose_world;
+  const Eigen::Vector3d third_end = laps->sample(6.0).pose_world;
+  // Through the seam the path goes on: half-way into the second lap it is at (1, 0.5), having
+  // turned 135 deg.
+  const Eigen::Vector3d second_middle = laps->sample(3.0).pose_world;
   const auto expect_pose = [&](const Eigen::Vector3d& pose, double x, double y, double psi) {
     EXPECT_NEAR(pose.x(), x, 1e-9);
     EXPECT_NEAR(pose.y(), y, 1e-9);
@@ -237,6 +239,9 @@ TEST(SampledReference, LapsDriveTheFilesPathAgainFromWhereTheLastLapEnded) {
   expect_pose(second_start, 1.0, 0.0, quarter);
   expect_pose(second_end, 1.0, 1.0, 2.0 * quarter);
   expect_pose(third_end, 0.0, 1.0, 3.0 * quarter);
+  expect_pose(second_middle, 1.0, 0.5, 1.5 * quarter);
+  EXPECT_NE(testing::config_error_of([&] { load_reference_csv(path, 1.0, 1 << 20); }).find("samples a lap"),
+            std::string::npos);
   EXPECT_NE(testing::config_error_of([&] { load_reference_csv(path, 1.0, 0); }).find("laps = 0: must be >= 1"),
             std::string::npos);
   std::remove(path.c_str());

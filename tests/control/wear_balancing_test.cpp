@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "support/config_errors.hpp"
@@ -53,6 +54,30 @@ TEST(WearBalancingWeights, NewTiresAndEvenlyWornOnesWeighOneEach) {
   EXPECT_DOUBLE_EQ(weights[1], 1.0);
 }
 
+TEST(WearBalancingWeights, AnOffsetMakesTiresThatHaveWornLittleWeighNearlyAlike) {
+  // Offset 100 on (1, 3): ratios 101 / 102 and 103 / 102, scaled to mean 1 (their mean is 1).
+  const double wear[2] = {1.0, 3.0}, loads[2] = {0.5, 0.5};
+  double weights[2];
+  WearBalancingOptions options;
+  options.wear_offset = 100.0;
+  wear_balancing_weights(options, wear, loads, 2, weights);
+  EXPECT_DOUBLE_EQ(weights[0], 101.0 / 102.0);
+  EXPECT_DOUBLE_EQ(weights[1], 103.0 / 102.0);
+  options.wear_offset = 0.0;  // without it the same millijoules set a wide spread: (0.5, 1.5)
+  wear_balancing_weights(options, wear, loads, 2, weights);
+  EXPECT_DOUBLE_EQ(weights[0], 0.5);
+}
+
+TEST(WearBalancingWeights, WearNearTheLargestDoubleGivesFiniteWeights) {
+  const double huge = std::numeric_limits<double>::max();
+  const double wear[2] = {huge, 0.5 * huge}, loads[2] = {0.5, 0.5};
+  double weights[2];
+  wear_balancing_weights(WearBalancingOptions{}, wear, loads, 2, weights);
+  // Mean 0.75 huge: (4 / 3, 2 / 3).
+  EXPECT_DOUBLE_EQ(weights[0], 4.0 / 3.0);
+  EXPECT_DOUBLE_EQ(weights[1], 2.0 / 3.0);
+}
+
 TEST(WearBalancingOptions, RefusesBadValuesNamingTheField) {
   const auto refusal = [](void (*spoil)(WearBalancingOptions&)) {
     WearBalancingOptions options;
@@ -66,6 +91,8 @@ TEST(WearBalancingOptions, RefusesBadValuesNamingTheField) {
   EXPECT_NE(refusal([](WearBalancingOptions& o) { o.min_weight = 0.0; }).find("min_weight = 0"),
             std::string::npos);
   EXPECT_NE(refusal([](WearBalancingOptions& o) { o.max_weight = 0.5; }).find("max_weight = 0.5"),
+            std::string::npos);
+  EXPECT_NE(refusal([](WearBalancingOptions& o) { o.wear_offset = -1.0; }).find("wear_offset = -1"),
             std::string::npos);
   EXPECT_NO_THROW(WearBalancingOptions{}.validate());
 }

@@ -189,13 +189,14 @@ TEST_F(SemiImplicitStepJacobianTest, WithADeadDriveItsWheelSpeedMovesNothingAndT
 }
 
 // The stage wear of (x, u) on `step` with `weights` observed (null: none).
-double weighted_stage_wear(const SemiImplicitStep<double>& step, SemiImplicitStep<double>::Data& data,
-                           const double* weights, const Eigen::VectorXd& x, const Eigen::VectorXd& u) {
-  const_cast<SemiImplicitStep<double>&>(step).observe_wear_weights(weights);
+double weighted_stage_wear(SemiImplicitStep<double>& step, SemiImplicitStep<double>::Data& data, const double* weights,
+                           const Eigen::VectorXd& x, const Eigen::VectorXd& u, Eigen::VectorXd* x_next = nullptr) {
+  step.observe_wear_weights(weights);
   Eigen::VectorXd next(x.size());
   double wear = -1.0;
   EXPECT_TRUE(step.step(data, x, u, kDt, next, &wear));
-  const_cast<SemiImplicitStep<double>&>(step).observe_wear_weights(nullptr);
+  step.observe_wear_weights(nullptr);
+  if (x_next != nullptr) *x_next = next;
   return wear;
 }
 
@@ -243,6 +244,37 @@ TEST(SemiImplicitStepJacobian, OnASymmetricVehicleDrivingStraightBothSidesCarryH
   const double left[2] = {1.0, 0.0}, right[2] = {0.0, 1.0};
   EXPECT_NEAR(weighted_stage_wear(step, data, left, x, u), 0.5 * whole, 1e-9 * whole);
   EXPECT_NEAR(weighted_stage_wear(step, data, right, x, u), 0.5 * whole, 1e-9 * whole);
+}
+
+TEST(SemiImplicitStepJacobian, WithoutATransientAModulesWeightChargesItsOwnWearRateAtTheStepsEnd) {
+  // Independent truth: with Archard wear the stage wear is h times the wear rate at the step's end
+  // (no energy balance, so no transient share), and a unit weight on module i charges module i's
+  // own rate there: the vehicle model's diagnostics at the state the step ends in. A turning state
+  // makes every module's rate different, so a module mistaken for another shows.
+  VehicleParams params = testing::make_params(4);
+  params.wear.model = WearModelKind::kArchard;
+  SemiImplicitStep<double> step(params, PredictionOptions{});
+  SemiImplicitStep<double>::Data data(step);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(step.state_size());
+  x.segment<3>(StateIndex::kVx) << 0.8, 0.1, 0.3;
+  for (int i = 0; i < 4; ++i) x[StateIndex::steering(i)] = 0.05 * (i + 1);
+  Eigen::VectorXd u(step.model().input_size());
+  step.module_inputs(x, Eigen::Vector3d(0.9, 0.0, 0.5), kDt, u);
+  const VehicleModel<double> model(params, Fidelity::kIdeal);
+  std::vector<ModuleDiagnostics<double>> diagnostics(4);
+  Eigen::VectorXd rates(step.state_size());
+  double shares[4];
+  for (int i = 0; i < 4; ++i) {
+    double unit[4] = {0.0, 0.0, 0.0, 0.0};
+    unit[i] = 1.0;
+    Eigen::VectorXd x_next;
+    shares[i] = weighted_stage_wear(step, data, unit, x, u, &x_next);
+    double total_rate = 0.0;
+    ASSERT_EQ(model.derivative(x_next, u, rates, diagnostics.data(), &total_rate), ModelStatus::kOk);
+    EXPECT_NEAR(shares[i], kDt * diagnostics[static_cast<std::size_t>(i)].wear_rate, 1e-9 * kDt * total_rate)
+        << "module " << i;
+  }
+  EXPECT_GT(*std::max_element(shares, shares + 4), 1.05 * *std::min_element(shares, shares + 4));
 }
 
 TEST_F(SemiImplicitStepJacobianTest, WithWearWeightsTheJacobiansStillMatchTheStep) {

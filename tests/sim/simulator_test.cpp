@@ -148,6 +148,16 @@ TEST(SimulatorOptions, ValidateHoldsTheSameRulesTheScenarioLoaderReads) {
   options = SimulatorOptions{};
   options.substeps = -1;
   EXPECT_EQ(message(options), "SimulatorOptions.substeps = -1: must be in [0, 100000]");
+  options = SimulatorOptions{};
+  options.initial_module_wear = {1.0, -2.0};
+  EXPECT_EQ(message(options), "SimulatorOptions.initial_module_wear[1] = -2: must be finite and >= 0 (wear units)");
+  options.initial_module_wear = {1.0, std::nan("")};
+  EXPECT_NE(message(options).find("initial_module_wear[1] = "), std::string::npos);
+  // Its size is the vehicle's: the plant checks it.
+  options.initial_module_wear = {1.0, 2.0, 3.0};
+  EXPECT_EQ(message(options), "");
+  EXPECT_EQ(testing::config_error_of([&] { Simulator plant(ideal_plant_params(), options); }),
+            "SimulatorOptions.initial_module_wear.size = 3: must be the vehicle's module count, 4");
 }
 
 TEST(Simulator, MeasurementDelayShowsTheStateFromEarlierPeriods) {

@@ -216,6 +216,8 @@ std::string reference_step_problem(const Eigen::Vector3d& previous_txy, const Ei
 // Largest reference CSV accepted: about 250 000 rows of 7 full-precision columns (over 40 min at
 // 100 Hz), while the rows read stay a few hundred MB at most.
 inline constexpr std::size_t kMaxReferenceCsvBytes = std::size_t{16} << 20;  // 16 MiB
+// Samples a CSV reference may hold, laps included.
+inline constexpr std::size_t kMaxReferenceSamples = std::size_t{1} << 20;
 
 // Loads a CSV with a header line naming the columns t,x,y,psi[,vx,vy,r]; errors name file and line.
 // A missing file, one that is not a regular file (a directory, /dev/zero, a pipe) or one larger
@@ -224,8 +226,9 @@ inline constexpr std::size_t kMaxReferenceCsvBytes = std::size_t{16} << 20;  // 
 // vehicle's drive speed), a row whose position is further from the previous row's than that speed
 // covers in their time step (1 % of slack for rounding): a jump no vehicle of that kind can follow.
 // With `laps` > 1 (a shift of one duty cycle, repeated) the file's path is driven that many times,
-// each lap from where the last one ended: its poses moved rigidly onto the last lap's end pose,
-// its times one sample interval after the last lap's end. Throws ConfigError for laps < 1.
+// each lap from where and when the last one ended: its poses moved rigidly onto the last lap's end
+// pose, its first sample the last lap's last. Throws ConfigError for laps < 1, or when the laps
+// would hold more than kMaxReferenceSamples samples.
 std::unique_ptr<SampledReference> load_reference_csv(const std::string& file_path,
                                                      double max_speed = std::numeric_limits<double>::infinity(),
                                                      int laps = 1);

@@ -266,14 +266,10 @@ class SemiImplicitStep {
     const double stiffness_per_newton =
         0.5 * (params.tire.mu_longitudinal() * params.tire.longitudinal.b * params.tire.longitudinal.c +
                params.tire.mu_lateral() * params.tire.lateral.b * params.tire.lateral.c);
-    double total_load = 0.0;
     for (int i = 0; i < modules_; ++i) {
       nominal_slip_stiffness_sum_ += stiffness_per_newton * model_.static_normal_loads()[static_cast<std::size_t>(i)];
-      total_load += model_.static_normal_loads()[static_cast<std::size_t>(i)];
     }
-    for (int i = 0; i < modules_; ++i) {
-      static_load_shares_.push_back(model_.static_normal_loads()[static_cast<std::size_t>(i)] / total_load);
-    }
+    static_load_shares_ = params.static_load_shares();
   }
 
   // A lag's response over one step (end and mean) linearised in its start and command.
@@ -711,12 +707,18 @@ class SemiImplicitStep {
   // The step's wear `unweighted` with module i's own wear weighed by w_i. Its steady part is
   // h sum_i rate_i at v+, module by module, so that part becomes h sum_i w_i rate_i. The rest (what
   // the energy balance charges beyond it: the transient the implicit step steps over) the tyres
-  // dissipate as dampers in proportion to their stiffness, i.e. their static loads, so it takes
-  // their load-weighted mean weight w_bar: w_bar W + h sum_i (w_i - w_bar) rate_i, which is W
-  // itself when every weight is 1.
+  // dissipate as dampers in proportion to their stiffness, i.e. their static loads times the
+  // floor's grip under them (slip_stiffness_sum), so it takes their stiffness-weighted mean weight
+  // w_bar: w_bar W + h sum_i (w_i - w_bar) rate_i, which is W itself when every weight is 1.
   T weighted_wear(Data& d, const T& unweighted, const Vector3& v, std::size_t slot, double h) const noexcept {
-    double mean_weight = 0.0;
-    for (int i = 0; i < modules_; ++i) mean_weight += static_load_shares_[static_cast<std::size_t>(i)] * wear_weights_[i];
+    const double* grip = model_.friction_scales();
+    double mean_weight = 0.0, stiffness = 0.0;
+    for (int i = 0; i < modules_; ++i) {
+      const double share = static_load_shares_[static_cast<std::size_t>(i)] * (grip != nullptr ? grip[i] : 1.0);
+      mean_weight += share * wear_weights_[i];
+      stiffness += share;
+    }
+    mean_weight /= stiffness;
     T excess(0.0);
     for (int i = 0; i < modules_; ++i) {
       const double excess_weight = wear_weights_[i] - mean_weight;
@@ -779,7 +781,7 @@ class SemiImplicitStep {
   int modules_;
   const ModuleFaults* faults_ = nullptr;  // observe_module_faults (not owned)
   const double* wear_weights_ = nullptr;  // observe_wear_weights (not owned)
-  std::vector<double> static_load_shares_;  // each module's share of the vehicle's static load
+  std::vector<double> static_load_shares_;  // VehicleParams::static_load_shares
   bool energy_wear_ = false;
   double wheel_radius_ = 0.0, wear_coefficient_ = 0.0;
   double drive_lag_ = 0.0, mass_ = 0.0, slip_speed_epsilon_ = 0.0;

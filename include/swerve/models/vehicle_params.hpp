@@ -72,6 +72,9 @@ struct VehicleParams {
   // (3 contacts, or 2 with the CoM on their line) and m g / n for symmetric ones (docs/paper.md,
   // assumption 2). Throws ConfigError as validate() does.
   std::vector<double> static_normal_loads() const;
+  // Each module's share of the modules' static load (n entries summing to 1; casters left out).
+  // Throws as static_normal_loads().
+  std::vector<double> static_load_shares() const;
 };
 
 }  // namespace swerve
