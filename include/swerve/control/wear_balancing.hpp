@@ -30,7 +30,7 @@ struct WearBalancingOptions {
 // offset))^exponent scaled so their load-weighted mean is 1, then held within [min_weight,
 // max_weight] (so the mean may then differ from 1); all 1 while W_bar + offset is 0 (new tires),
 // and where a weight would not be finite. noexcept, no allocation.
-void wear_balancing_weights(const WearBalancingOptions& options, const double* wear, const double* load_shares, int n,
-                            double* weights) noexcept;
+void wear_balancing_weights(const WearBalancingOptions& options, const double* wear,
+                            const double* load_shares, int n, double* weights) noexcept;
 
 }  // namespace swerve
