@@ -24,6 +24,7 @@
 #include "swerve/app/trajectory_file.hpp"
 #include "swerve/app/vehicle_config.hpp"
 #include "swerve/control/reference.hpp"
+#include "swerve/kinematics/module_faults.hpp"
 #include "swerve/sim/simulator.hpp"
 #include "swerve/version.hpp"
 
@@ -137,6 +138,20 @@ class PyController {
   void reset() { controller_->reset(); }
   std::string name() const { return controller_->name(); }
   int modules() const { return modules_; }
+  // What the vehicle knows besides its measurements (TrackingController): a module's fault, the
+  // floor's grip, each tire's wear so far. A bad one raises ValueError naming it.
+  void set_module_fault(int module, const std::string& kind) {
+    controller_->set_module_fault(module, module_fault_from_string(kind, "set_module_fault.kind"));
+  }
+  std::vector<std::string> module_faults() const {
+    std::vector<std::string> words;
+    for (int i = 0; i < modules_; ++i) words.emplace_back(to_string(controller_->module_faults()[i]));
+    return words;
+  }
+  void set_friction_scale(double scale) { controller_->set_friction_scale(scale); }
+  void set_module_wear(const Array& wear) {
+    controller_->set_module_wear(vector_of(wear, modules_, "set_module_wear.wear"));
+  }
 
  private:
   std::unique_ptr<TrackingController> controller_;
@@ -612,6 +627,14 @@ void bind_controller(py::module_& m) {
            "preparation), so the step at t_next only runs the feedback. True when something was prepared")
       .def("set_reference", &PyController::set_reference, py::arg("reference"))
       .def("reset", &PyController::reset)
+      .def("set_module_fault", &PyController::set_module_fault, py::arg("module"), py::arg("kind"),
+           "A known fault from the next step on: none, stuck_steering, dead_drive or steering_sensor_lost")
+      .def_property_readonly("module_faults", &PyController::module_faults,
+                             "Each module's fault: those set and those the controller's detector found")
+      .def("set_friction_scale", &PyController::set_friction_scale, py::arg("scale"),
+           "The floor's grip as a multiple of the tire's mu, in (0, 10]")
+      .def("set_module_wear", &PyController::set_module_wear, py::arg("wear"),
+           "Each tire's wear so far (one entry >= 0 per module); weighs each module's wear with wear_balancing")
       .def_property_readonly("name", &PyController::name)
       .def_property_readonly("module_count", &PyController::modules);
   m.def(

@@ -237,6 +237,27 @@ class ClosedLoop(unittest.TestCase):
         self.assertLess(max(errors[20:]), 0.05)
         self.assertTrue(np.all(plant.module_wear >= 0.0))
 
+    def test_faults_grip_and_tire_wear_reach_the_controller_and_bad_ones_are_refused(self):
+        reference = sm.TrajectoryReference(128)
+        reference.publish(straight_line(0.0, 8.0))
+        controller = sm.make_controller(VEHICLE, BASELINE, reference)
+        self.assertEqual(controller.module_faults, ["none"] * 4)
+        controller.set_module_fault(1, "stuck_steering")
+        self.assertEqual(controller.module_faults, ["none", "stuck_steering", "none", "none"])
+        with self.assertRaisesRegex(ValueError, "set_module_fault.module = 4"):
+            controller.set_module_fault(4, "stuck_steering")
+        with self.assertRaisesRegex(ValueError, "set_module_fault.kind = flat_tire"):
+            controller.set_module_fault(0, "flat_tire")
+        controller.set_friction_scale(0.5)
+        with self.assertRaisesRegex(ValueError, "set_friction_scale.scale = 0"):
+            controller.set_friction_scale(0.0)
+        controller.set_module_wear(np.array([0.0, 1.0, 2.0, 3.0]))
+        with self.assertRaisesRegex(ValueError, r"set_module_wear.wear\[2\] = -1"):
+            controller.set_module_wear(np.array([0.0, 1.0, -1.0, 3.0]))
+        with self.assertRaisesRegex(ValueError, "set_module_wear.wear: expected a 1-D array of 4 values"):
+            controller.set_module_wear(np.zeros(3))
+        self.assertEqual(controller.module_faults[1], "stuck_steering")  # refusals change nothing
+
     def test_wear_aware_controller_steps_and_reports_its_solve(self):
         reference = sm.TrajectoryReference(128)
         reference.publish(straight_line(0.0, 8.0))
