@@ -256,14 +256,11 @@ void Controller::set_module_wear(const Eigen::Ref<const Eigen::VectorXd>& wear) 
   if (!options_.wear_balancing.enabled) return;
   std::array<double, kMaxModules> weights{};
   wear_balancing_weights(options_.wear_balancing, wear.data(), load_shares_.data(), modules_, weights.data());
-  // As a grip change: a preparation linearised the wear at the old weights; a few percent is left
-  // to the feedback's own step.
-  constexpr double kPreparedWeightTolerance = 0.05;
+  // A preparation linearised the wear at the old weights.
   for (int i = 0; i < modules_; ++i) {
     const auto k = static_cast<std::size_t>(i);
-    if (std::abs(weights[k] - (*wear_weights_)[k]) > kPreparedWeightTolerance * (*wear_weights_)[k]) {
-      solver_->forget_preparation();
-      prepared_t_ = std::numeric_limits<double>::quiet_NaN();
+    if (outdates_preparation((*wear_weights_)[k], weights[k])) {
+      drop_preparation();
       break;
     }
   }
@@ -271,21 +268,27 @@ void Controller::set_module_wear(const Eigen::Ref<const Eigen::VectorXd>& wear) 
 }
 
 void Controller::use_friction_scale(double scale) noexcept {
-  // A preparation linearised the model at the old grip: a step of the estimate within a few
-  // percent is left to the feedback's own Gauss-Newton step, a larger change is prepared anew.
-  constexpr double kPreparedGripTolerance = 0.05;
-  if (std::abs(scale - friction_scale()) > kPreparedGripTolerance * friction_scale()) {
-    solver_->forget_preparation();
-    prepared_t_ = std::numeric_limits<double>::quiet_NaN();
-  }
+  // A preparation linearised the model at the old grip.
+  if (outdates_preparation(friction_scale(), scale)) drop_preparation();
   friction_scales_->fill(scale);
+}
+
+bool Controller::outdates_preparation(double before, double after) noexcept {
+  // A change within a few percent is left to the feedback's own Gauss-Newton step; a larger one is
+  // prepared anew.
+  constexpr double kPreparedTolerance = 0.05;
+  return std::abs(after - before) > kPreparedTolerance * before;
+}
+
+void Controller::drop_preparation() noexcept {
+  solver_->forget_preparation();
+  prepared_t_ = std::numeric_limits<double>::quiet_NaN();
 }
 
 void Controller::module_faults_changed() noexcept {
   detector_.forget_healthy(module_faults());  // a fault cleared by hand may be found again
   // A preparation linearised the model without the change.
-  solver_->forget_preparation();
-  prepared_t_ = std::numeric_limits<double>::quiet_NaN();
+  drop_preparation();
   // Tracking first while a steering is stuck: the stuck tire is dragged by any motion off its
   // angle, and with the wear priced the plan bought its relief by leaving the path (on a 1 m lane
   // change, a vehicle that rolled on along the stuck angle and ended 1.3 m off it). The path is
@@ -298,8 +301,7 @@ void Controller::module_faults_changed() noexcept {
 }
 
 void Controller::reset() noexcept {
-  solver_->forget_preparation();
-  prepared_t_ = std::numeric_limits<double>::quiet_NaN();
+  drop_preparation();
   plan_.valid = false;
   plan_age_ = 0;
   applied_input_.setZero();

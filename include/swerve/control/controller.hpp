@@ -229,6 +229,11 @@ class Controller final : public TrackingController {
   // The prediction's grip from now on (every module); a change of more than 5 % drops an rti
   // preparation, which was linearised at the old one.
   void use_friction_scale(double scale) noexcept;
+  // Whether a value the prediction uses changing from `before` to `after` (a grip, a wear weight)
+  // makes an rti preparation linearised at `before` worth preparing anew: more than 5 %.
+  static bool outdates_preparation(double before, double after) noexcept;
+  // Forgets the solver's preparation and the step it was for.
+  void drop_preparation() noexcept;
   // A stale measurement or an unusable reference: kInvalidInput with `reason`, the plan dropped, a
   // safe stop.
   void refuse(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
