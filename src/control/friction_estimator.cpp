@@ -76,8 +76,7 @@ FrictionEstimator& FrictionEstimator::operator=(FrictionEstimator&&) noexcept = 
 void FrictionEstimator::reset() noexcept {
   information_ = min_information_;
   have_last_ = chained_ = have_updated_ = false;
-  sent_count_ = 0;
-  sent_newest_ = -1;
+  sent_.clear();
 }
 
 void FrictionEstimator::set_scale(double scale) {
@@ -91,24 +90,11 @@ void FrictionEstimator::set_scale(double scale) {
 
 void FrictionEstimator::commanded(const ModuleArray<ModuleCommand>& commands, double t) noexcept {
   if (commands.size() != modules_ || !std::isfinite(t)) return;
-  sent_newest_ = (sent_newest_ + 1) % kHistory;
-  sent_count_ = std::min(sent_count_ + 1, kHistory);
-  SentCommand& sent = sent_[static_cast<std::size_t>(sent_newest_)];
-  sent.t = t;
+  SentCommand& sent = sent_.push(t);
   for (int i = 0; i < modules_; ++i) {
     sent.inputs[static_cast<std::size_t>(InputIndex::steering_rate(i))] = commands[i].steering_rate;
     sent.inputs[static_cast<std::size_t>(InputIndex::wheel_speed(i))] = commands[i].wheel_speed;
   }
-}
-
-int FrictionEstimator::find_command(double t) const noexcept {
-  for (int k = 0; k < sent_count_; ++k) {
-    const int index = (sent_newest_ - k + kHistory) % kHistory;
-    // Sent at the period's start, but for rounding: a command sent mid-period (a delay that is not a
-    // whole number of periods) ran only over part of it, and the rest would be blamed on the grip.
-    if (std::abs(sent_[static_cast<std::size_t>(index)].t - t) < kAlignment * period_) return index;
-  }
-  return -1;
 }
 
 void FrictionEstimator::start_chain(const Eigen::Ref<const Eigen::VectorXd>& measured) noexcept {
@@ -149,11 +135,14 @@ bool FrictionEstimator::observe(const Eigen::Ref<const Eigen::VectorXd>& measure
   if (measured.size() != prefix || !measured.allFinite() || !std::isfinite(measured_at)) return false;
   bool updated = false;
   const bool one_period_on = have_last_ && std::abs(measured_at - last_measured_at_ - period_) < 0.25 * period_;
-  const int command = one_period_on ? find_command(last_measured_at_) : -1;
+  // The command sent with the last measurement: sent at the period's start, but for rounding. One
+  // sent mid-period (a delay that is not a whole number of periods) ran only over part of it, and
+  // the rest would be blamed on the grip.
+  const int command = one_period_on ? sent_.find(last_measured_at_, kAlignment * period_) : -1;
   if (command >= 0) {
     state_.head(prefix) = last_measured_;
     if (!chained_) start_chain(last_measured_);
-    const SentCommand& sent = sent_[static_cast<std::size_t>(command)];
+    const SentCommand& sent = sent_.back(command);
     for (int k = 0; k < inputs_.size(); ++k) inputs_[k] = sent.inputs[static_cast<std::size_t>(k)];
     const double above = scale_ * (1.0 + kSensitivityStep);
     if (predict(scale_, &next_) && predict(above, &next_above_)) {

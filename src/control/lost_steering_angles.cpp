@@ -16,29 +16,21 @@ LostSteeringAngles::LostSteeringAngles(const ModuleLayout& layout, double contro
 }
 
 void LostSteeringAngles::reset() noexcept {
-  rates_count_ = 0;
-  rates_newest_ = -1;
+  rates_.clear();
   known_.fill(false);
   lost_.fill(false);
 }
 
 void LostSteeringAngles::commanded(const ModuleArray<ModuleCommand>& commands, double t) noexcept {
-  if (commands.size() != modules_ || !std::isfinite(t)) return;
-  rates_newest_ = (rates_newest_ + 1) % kHistory;
-  rates_count_ = std::min(rates_count_ + 1, kHistory);
-  StampedModuleValues& sent = rates_[static_cast<std::size_t>(rates_newest_)];
-  sent.t = t;
-  for (int i = 0; i < modules_; ++i) {
-    sent.values[static_cast<std::size_t>(i)] = std::isfinite(commands[i].steering_rate) ? commands[i].steering_rate : 0.0;
-  }
+  record_steering_rates(commands, t, modules_, &rates_);
 }
 
 double LostSteeringAngles::turn_commanded(int module, double from, double to) const noexcept {
   // Each command acts from its time until the next one's (the newest until `to`); before the
   // oldest kept nothing is known, and nothing turned.
   double turn = 0.0, until = to;
-  for (int k = 0; k < rates_count_ && until > from; ++k) {
-    const StampedModuleValues& sent = rates_[static_cast<std::size_t>((rates_newest_ - k + kHistory) % kHistory)];
+  for (int k = 0; k < rates_.size() && until > from; ++k) {
+    const StampedModuleValues& sent = rates_.back(k);
     const double start = std::max(sent.t, from);
     if (until > start) turn += sent.values[static_cast<std::size_t>(module)] * (until - start);
     until = std::min(until, sent.t);

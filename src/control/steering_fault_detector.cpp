@@ -56,31 +56,14 @@ SteeringFaultDetector::SteeringFaultDetector(const ModuleLayout& layout, double 
 }
 
 void SteeringFaultDetector::reset() noexcept {
-  angle_count_ = rate_count_ = 0;
-  angle_newest_ = rate_newest_ = -1;
+  angles_.clear();
+  rates_.clear();
   agreeing_.fill(0);
   stuck_.fill(false);
 }
 
-int SteeringFaultDetector::find(const std::array<Sample, kHistory>& history, int count, int newest,
-                                double t) const noexcept {
-  for (int back = 0; back < count; ++back) {
-    const int index = (newest - back + kHistory) % kHistory;
-    if (std::abs(history[static_cast<std::size_t>(index)].t - t) <= 0.5 * period_) return index;
-  }
-  return -1;
-}
-
 void SteeringFaultDetector::commanded(const ModuleArray<ModuleCommand>& commands, double t) noexcept {
-  if (!std::isfinite(t) || commands.size() != modules_) return;
-  rate_newest_ = (rate_newest_ + 1) % kHistory;
-  rate_count_ = std::min(rate_count_ + 1, kHistory);
-  Sample& sample = rates_[static_cast<std::size_t>(rate_newest_)];
-  sample.t = t;
-  for (int i = 0; i < modules_; ++i) {
-    const double rate = commands[i].steering_rate;
-    sample.values[static_cast<std::size_t>(i)] = std::isfinite(rate) ? rate : 0.0;
-  }
+  record_steering_rates(commands, t, modules_, &rates_);
 }
 
 bool SteeringFaultDetector::observe(const Eigen::Ref<const Eigen::VectorXd>& steering_angles,
@@ -88,21 +71,15 @@ bool SteeringFaultDetector::observe(const Eigen::Ref<const Eigen::VectorXd>& ste
   if (steering_angles.size() != modules_ || !steering_angles.allFinite() || !std::isfinite(measured_at))
     return false;
   // A measurement no newer than the last (a frozen sensor) adds no window.
-  if (angle_newest_ >= 0 &&
-      measured_at <= angles_[static_cast<std::size_t>(angle_newest_)].t + 0.5 * period_) {
-    return false;
-  }
-  angle_newest_ = (angle_newest_ + 1) % kHistory;
-  angle_count_ = std::min(angle_count_ + 1, kHistory);
-  Sample& newest = angles_[static_cast<std::size_t>(angle_newest_)];
-  newest.t = measured_at;
+  if (!angles_.empty() && measured_at <= angles_.newest().t + 0.5 * period_) return false;
+  StampedModuleValues& newest = angles_.push(measured_at);
   for (int i = 0; i < modules_; ++i) newest.values[static_cast<std::size_t>(i)] = steering_angles[i];
   if (!options_.enabled) return false;
 
   // The window [start, measured_at]: the angles at both ends, and the commands sent in it (each
   // acts over the period after it; the rate lag's delay is what max_followed_share allows for).
   const double start = measured_at - window_ * period_;
-  const int first = find(angles_, angle_count_, angle_newest_, start);
+  const int first = angles_.find(start, 0.5 * period_);
   // A window with a gap is no window; the next whole one starts the agreement afresh.
   if (first < 0) {
     agreeing_.fill(0);
@@ -110,8 +87,8 @@ bool SteeringFaultDetector::observe(const Eigen::Ref<const Eigen::VectorXd>& ste
   }
   std::array<double, kMaxModules> asked{};
   int periods = 0;
-  for (int back = 0; back < rate_count_; ++back) {
-    const Sample& sample = rates_[static_cast<std::size_t>((rate_newest_ - back + kHistory) % kHistory)];
+  for (int back = 0; back < rates_.size(); ++back) {
+    const StampedModuleValues& sample = rates_.back(back);
     if (sample.t < start - 0.5 * period_ || sample.t >= measured_at - 0.5 * period_) continue;
     ++periods;
     for (int i = 0; i < modules_; ++i)
@@ -122,7 +99,7 @@ bool SteeringFaultDetector::observe(const Eigen::Ref<const Eigen::VectorXd>& ste
     agreeing_.fill(0);
     return false;
   }
-  const Sample& before = angles_[static_cast<std::size_t>(first)];
+  const StampedModuleValues& before = angles_.back(first);
   const bool end_stops = limits_.has_steering_end_stops();
   bool found = false;
   for (int i = 0; i < modules_; ++i) {

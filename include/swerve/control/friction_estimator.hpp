@@ -11,6 +11,7 @@
 #include <memory>
 
 #include "swerve/core/option_fields.hpp"
+#include "swerve/core/stamped_history.hpp"
 #include "swerve/kinematics/module_faults.hpp"
 #include "swerve/kinematics/module_state.hpp"
 #include "swerve/models/vehicle_params.hpp"
@@ -78,8 +79,6 @@ class FrictionEstimator {
     double t = 0.0;
     std::array<double, 2 * kMaxModules> inputs{};  // steering rate, wheel speed per module
   };
-  // The index of the stored command sent within half a period of `t`, or -1.
-  int find_command(double t) const noexcept;
   // The prediction from state_ under inputs_ at grip `scale` into `next`; false when it failed.
   bool predict(double scale, Eigen::VectorXd* next) noexcept;
   // The lagged actuator states of state_ for a chain that starts at `measured`: wheels rolling
@@ -105,8 +104,7 @@ class FrictionEstimator {
   bool chained_ = false;  // state_'s actuator states continue a prediction (else: just started)
   bool have_updated_ = false;
   double last_update_at_ = 0.0;  // s: the measurement of the last update
-  std::array<SentCommand, kHistory> sent_{};
-  int sent_count_ = 0, sent_newest_ = -1;
+  StampedHistory<SentCommand, kHistory> sent_;
   double scale_ = 1.0;
   double information_ = 0.0;
 };

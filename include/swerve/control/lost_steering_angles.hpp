@@ -9,6 +9,7 @@
 #include <array>
 
 #include "swerve/control/steering_fault_detector.hpp"
+#include "swerve/core/stamped_history.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/kinematics/module_state.hpp"
 
@@ -42,8 +43,7 @@ class LostSteeringAngles {
   ModuleLimits limits_;
   int modules_;
   double period_;
-  std::array<StampedModuleValues, kHistory> rates_{};  // ring buffer, newest at rates_newest_
-  int rates_count_ = 0, rates_newest_ = -1;
+  StampedHistory<StampedModuleValues, kHistory> rates_;  // the steering rates sent
   std::array<double, kMaxModules> angles_{};  // the last reading, or its stand-in
   std::array<bool, kMaxModules> known_{};
   std::array<bool, kMaxModules> lost_{};

@@ -6,8 +6,11 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cmath>
+#include <cstddef>
 
 #include "swerve/core/option_fields.hpp"
+#include "swerve/core/stamped_history.hpp"
 #include "swerve/kinematics/module_faults.hpp"
 #include "swerve/kinematics/module_layout.hpp"
 #include "swerve/kinematics/module_state.hpp"
@@ -41,6 +44,19 @@ struct StampedModuleValues {
   double t = 0.0;
   std::array<double, kMaxModules> values{};
 };
+
+// Pushes the steering rates of `commands`, sent at `t`, onto `history` (a non-finite rate as 0: the
+// drive holds on it); nothing for a non-finite t or commands not for `modules` modules.
+template <int Capacity>
+void record_steering_rates(const ModuleArray<ModuleCommand>& commands, double t, int modules,
+                           StampedHistory<StampedModuleValues, Capacity>* history) noexcept {
+  if (!std::isfinite(t) || commands.size() != modules) return;
+  StampedModuleValues& sent = history->push(t);
+  for (int i = 0; i < modules; ++i) {
+    const double rate = commands[i].steering_rate;
+    sent.values[static_cast<std::size_t>(i)] = std::isfinite(rate) ? rate : 0.0;
+  }
+}
 
 class SteeringFaultDetector {
  public:
@@ -77,17 +93,14 @@ class SteeringFaultDetector {
 
  private:
   static constexpr int kHistory = 128;  // periods kept: windows of up to 120 periods
-  using Sample = StampedModuleValues;
-  // The index of the stored sample of `history` stamped within half a period of `t`, or -1.
-  int find(const std::array<Sample, kHistory>& history, int count, int newest, double t) const noexcept;
+  using History = StampedHistory<StampedModuleValues, kHistory>;
 
   FaultDetectionOptions options_;
   ModuleLimits limits_;
   int modules_;
   double period_;
   int window_;                                       // periods per window
-  std::array<Sample, kHistory> angles_{}, rates_{};  // ring buffers, newest at *_newest_
-  int angle_count_ = 0, angle_newest_ = -1, rate_count_ = 0, rate_newest_ = -1;
+  History angles_, rates_;  // the angles measured and the steering rates sent
   std::array<int, kMaxModules> agreeing_{};  // consecutive windows judged stuck
   std::array<bool, kMaxModules> stuck_{};
 };
