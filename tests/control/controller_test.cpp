@@ -1072,6 +1072,32 @@ TEST(Controller, AStepAtAnotherTimeThanTheOnePreparedForSolvesWhole) {
   EXPECT_FALSE(sa.prepare(0.05));
 }
 
+// A preparation linearised the wear at the weights of its time: tires whose wear moves a weight by
+// more than 5 % drop it, and the next step solves whole; wear that leaves every weight where it was
+// keeps it.
+TEST(Controller, WithWearBalancingAWearThatMovesTheWeightsDropsTheRtiPreparation) {
+  const VehicleParams params = small_robot();
+  const auto reference = straight_line_at(0.5);
+  const testing::WorkClock clock(kClockTick);
+  ControllerOptions options = closed_loop_options(1.0, InputParameterization::kBodyTwist);
+  options.wear_balancing.enabled = true;
+  for (const bool uneven : {false, true}) {
+    Controller controller(params, reference, options,
+                          [](const OcpProblem& problem) { return std::make_unique<RtiSolver>(problem, RtiOptions{}); });
+    controller.set_clock(clock);
+    const auto& rti = dynamic_cast<const RtiSolver&>(controller.solver());
+    const Eigen::VectorXd state = offset_start(0.0);
+    controller.step(state, 0.0);
+    ASSERT_TRUE(controller.prepare(0.05));
+    Eigen::VectorXd wear = Eigen::VectorXd::Constant(params.layout.size(), 10.0);
+    if (uneven) wear[0] = 30.0;
+    controller.set_module_wear(wear);
+    EXPECT_EQ(controller.wear_weight_of(0) != 1.0, uneven);
+    controller.step(state, 0.05);
+    EXPECT_EQ(rti.last_details().feedback, !uneven) << (uneven ? "uneven wear" : "even wear");
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Real time: step() allocates nothing once running.
 
@@ -2008,6 +2034,8 @@ TEST(Controller, EachModulesAccumulatedWearWeighsItsWearOnlyWithBalancingAndBadW
   EXPECT_EQ(balanced.wear_weight_of(0), 0.25);
   EXPECT_EQ(balanced.wear_weight_of(3), 4.0);
   EXPECT_EQ(plain.wear_weight_of(3), 1.0);
+  EXPECT_TRUE(std::isnan(balanced.wear_weight_of(4)));  // no fifth module
+  EXPECT_TRUE(std::isnan(balanced.wear_weight_of(-1)));
   // The prediction sees them: the same turning step costs differently.
   const PredictionModel& weighted_model = balanced.problem().model();
   const PredictionModel& plain_model = plain.problem().model();

@@ -179,8 +179,12 @@ class Controller final : public TrackingController {
   // With wear_balancing enabled, the prediction weighs module i's wear by wear_balancing_weights()
   // of `wear` from the next step on; otherwise only checked (TrackingController::set_module_wear).
   void set_module_wear(const Eigen::Ref<const Eigen::VectorXd>& wear) override;
-  // Module i's weight on its wear in the prediction now (1 until set_module_wear with balancing).
-  double wear_weight_of(int module) const noexcept { return (*wear_weights_)[static_cast<std::size_t>(module)]; }
+  // Module i's weight on its wear in the prediction now (1 until set_module_wear with balancing);
+  // NaN for a module the vehicle does not have.
+  double wear_weight_of(int module) const noexcept {
+    if (module < 0 || module >= modules_) return std::numeric_limits<double>::quiet_NaN();
+    return (*wear_weights_)[static_cast<std::size_t>(module)];
+  }
 
   const OcpProblem& problem() const noexcept { return *problem_; }
   const Solution& plan() const noexcept { return plan_; }
