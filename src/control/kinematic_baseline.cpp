@@ -197,20 +197,45 @@ bool KinematicBaseline::plan_twists(const Eigen::Vector3d& pose_world, const Eig
     twists_.col(k) = within_drive_limits(previous, twists_.col(k));
     previous = twists_.col(k);
   }
-  // The pre-alignment arms at rest when nothing is planned (a stop) or the reference stands still (a
-  // dwell: a controller still closing a residual error at a creep is not under way, and the next
-  // leg is a start). Once the wheels drove, the vehicle tracks until it is at rest again, so a
-  // re-steer under way is not a start. Armed here, before module_inputs(), so that this step's
-  // steering already follows the at-rest rule.
-  if (pre_aligns_ && at_rest(twist_body) && (at_rest(twists_.col(0)) || at_rest(reference_twists.col(0)))) {
-    aligning_ = true;
-  }
+  // Armed here, before module_inputs(), so that this step's steering already follows the at-rest
+  // rule.
+  if (pre_aligns_) arm_pre_alignment(pose_world, twist_body, reference_poses.col(0), reference_twists.col(0));
   return true;
 }
 
-bool KinematicBaseline::at_rest(const Eigen::Vector3d& twist_body) const noexcept {
-  const double rest = std::max(options_.steer_speed_threshold, kHoldSpeed);
-  return twist_body.head<2>().norm() < rest && std::abs(twist_body.z()) * max_module_radius_ < rest;
+void KinematicBaseline::arm_pre_alignment(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
+                                           const Eigen::Vector3d& reference_pose,
+                                           const Eigen::Vector3d& reference_twist) noexcept {
+  // The pre-alignment arms at a start:
+  // - at a stop: the vehicle at rest, with nothing planned or the reference at rest (slower than
+  //   the steer threshold);
+  // - at a dwell the vehicle has arrived at (arrived()), however it still moves. A controller
+  //   closing a residual error, or easing into the next leg its horizon already sees, creeps
+  //   through a short dwell at a few cm/s; with a speed bound alone, that creep decided whether an
+  //   in-place turn after a crab was pre-aligned or driven about a far centre, off the path by
+  //   metres. A dwell here is the reference standing still (below the kinematics' hold speed),
+  //   not creeping: a reference that creeps at the threshold is a leg to drive, not a start. A
+  //   vehicle that reaches the dwell far from its pose (lagging a turn) is still under way: holding
+  //   it would stop it short with its modules aimed at the next leg.
+  // Once the wheels drove on a moving reference, the vehicle tracks until the next start, so a
+  // re-steer under way is not one.
+  const bool stop = at_rest(twist_body) && (at_rest(twists_.col(0)) || at_rest(reference_twist));
+  const bool arrived_at_dwell = slower_than(reference_twist, kHoldSpeed) && arrived(pose_world, reference_pose);
+  if (stop || arrived_at_dwell) aligning_ = true;
+}
+
+double KinematicBaseline::rest_speed() const noexcept { return std::max(options_.steer_speed_threshold, kHoldSpeed); }
+
+bool KinematicBaseline::slower_than(const Eigen::Vector3d& twist_body, double speed) const noexcept {
+  return twist_body.head<2>().norm() < speed && std::abs(twist_body.z()) * max_module_radius_ < speed;
+}
+
+bool KinematicBaseline::arrived(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& reference_pose) const noexcept {
+  // The farthest any module is from where the reference puts it (to first order in the heading
+  // error), against the distance the steer threshold's speed covers in one horizon.
+  const double position_error = (reference_pose.head<2>() - pose_world.head<2>()).norm();
+  const double heading_error = std::abs(wrap_angle(reference_pose.z() - pose_world.z()));
+  return position_error + heading_error * max_module_radius_ < rest_speed() * horizon_ * options_.dt;
 }
 
 double KinematicBaseline::drive_change_per_step() const noexcept {

@@ -579,6 +579,52 @@ TEST(KinematicBaseline, PreAlignmentArmsWhileTheReferenceDwellsEvenIfTheVehicleS
   EXPECT_NEAR(baseline.step(state, 1.55).reference_delay_s, 0.05, 1e-12);
 }
 
+// A crab that ends in a dwell before a turn in place: a controller easing into the turn its horizon
+// already sees creeps through the dwell faster than the steer threshold (the 8-module carrier's duty
+// cycle: 4-5 cm/s). The dwell arms the pre-alignment all the same, so the wheels wait while the
+// modules turn from the crab to the turn. (Armed only below the threshold, the turn was driven with
+// the modules still at the crab's angle, about a far centre, and the vehicle left the path by metres.)
+TEST(KinematicBaseline, PreAlignmentArmsAtADwellEvenIfTheVehicleCreepsFasterThanTheSteerThreshold) {
+  const ModuleLayout layout = small_robot_with_end_stops();
+  const auto turn = start_after_dwell(2.0, Eigen::Vector3d(0.0, 0.0, 1.0), 1.5);  // 1 rad/s in place
+  KinematicBaseline baseline(layout, turn, pre_aligning_options());
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
+  state.tail(layout.size()).setConstant(kPi / 2);  // crabbing at the stop
+  state[4] = 0.06;                                 // twice steer_speed_threshold, along the modules
+  ASSERT_GT(state[4], 1.5 * BaselineOptions{}.steer_speed_threshold);
+  // Early in the dwell the horizon holds only the stop: the creep runs along the modules, nothing to
+  // wait for.
+  const ControlOutput& stopping = baseline.step(state, 0.0);
+  EXPECT_NE(stopping.modules[0].wheel_speed, 0.0);
+  baseline.step(state, 0.05);
+  // Half a second before the turn, the horizon holds it: every wheel waits while the modules turn.
+  const ControlOutput& before_turn = baseline.step(state, 1.5);
+  for (int i = 0; i < layout.size(); ++i) EXPECT_EQ(before_turn.modules[i].wheel_speed, 0.0) << "module " << i;
+  double steering = 0.0;
+  for (int i = 0; i < layout.size(); ++i) steering = std::max(steering, std::abs(before_turn.modules[i].steering_rate));
+  EXPECT_GT(steering, 1.0);
+  EXPECT_NEAR(baseline.step(state, 1.55).reference_delay_s, 0.05, 1e-12);
+}
+
+// The other side of the rule above: a vehicle that reaches a dwell further from its pose than it
+// could close below the steer threshold within the horizon (here 6 cm short, crabbing toward it at
+// 5 cm/s; 3 cm would be arrived) is still under way, not at a start. The wheels keep driving it to
+// the pose; holding them would stop it short and turn its modules to the next leg (along +x)
+// before this one is done. (Armed at every dwell, the practical baseline froze lagging
+// in-place turns of the 8-module carrier's duty cycle half done: 200 mm RMSE against 63 mm.)
+TEST(KinematicBaseline, PreAlignmentDoesNotStopAVehicleStillFarFromItsPoseAtADwell) {
+  const ModuleLayout layout = small_robot_with_end_stops();
+  KinematicBaseline baseline(layout, line_after_dwell(2.0, 0.0, 0.5), pre_aligning_options());
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
+  state.tail(layout.size()).setConstant(kPi / 2);
+  state[1] = -0.06;  // 6 cm short of the dwell
+  state[4] = 0.05;  // and crabbing toward it
+  baseline.step(state, 0.0);
+  const ControlOutput& before_start = baseline.step(state, 1.5);  // the next leg in the horizon
+  for (int i = 0; i < layout.size(); ++i) EXPECT_NE(before_start.modules[i].wheel_speed, 0.0) << "module " << i;
+  EXPECT_EQ(before_start.reference_delay_s, 0.0);
+}
+
 // A turn in place from a stop that left the vehicle 4 cm off to the side: early in the yaw-rate
 // ramp the plan's module velocities are mostly the feedback's sideways correction, and the turn's
 // own directions (each module at right angles to its position) only dominate later. The modules

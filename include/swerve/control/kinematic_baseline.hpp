@@ -46,8 +46,9 @@ struct BaselineOptions {
   //   least aligned module's steering error, not by its own, so the modules keep the common centre
   //   of rotation the plan has while they steer. Team 254's and PathPlanner's setpoint generators
   //   limit the chassis step for the same reason (SetpointGenerator's body-first mode).
-  // - pre_align: from rest (the vehicle slower than steer_speed_threshold with its plan or its
-  //   reference at rest), the wheels wait until every module is within pre_align_tolerance (rad)
+  // - pre_align: at a start (the vehicle slower than steer_speed_threshold with nothing planned or
+  //   the reference standing still, or at a dwell it has arrived at, however it still moves), the
+  //   wheels wait until every module is within pre_align_tolerance (rad)
   //   of its first direction of travel, as teams turn the modules before a path starts; the
   //   reference is held meanwhile, so the run is late by the time it took
   //   (ControlOutput::reference_delay_s), not off the path.
@@ -147,9 +148,21 @@ class KinematicBaseline final : public TrackingController {
   // planned_speeds_) and the step each module's steering aims at (steer_from_), by the at-rest rule
   // while the wheels wait for a start.
   void plan_module_directions(double threshold, bool at_rest_rule) noexcept;
-  // Whether a body twist is at rest for the pre-alignment (slower than steer_speed_threshold at
-  // every module).
-  bool at_rest(const Eigen::Vector3d& twist_body) const noexcept;
+  // plan_twists' last part: arms the pre-alignment at a start, from the vehicle's pose and twist,
+  // the plan just made and the reference's pose and twist at its first step.
+  void arm_pre_alignment(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& twist_body,
+                         const Eigen::Vector3d& reference_pose, const Eigen::Vector3d& reference_twist) noexcept;
+  // The speed below which a module is at rest for the pre-alignment: steer_speed_threshold, or the
+  // kinematics' hold speed if higher.
+  double rest_speed() const noexcept;
+  // Whether a body twist moves no module (and no point within the farthest module's radius) as fast
+  // as `speed`; at_rest: slower than rest_speed(), at rest for the pre-alignment.
+  bool slower_than(const Eigen::Vector3d& twist_body, double speed) const noexcept;
+  bool at_rest(const Eigen::Vector3d& twist_body) const noexcept { return slower_than(twist_body, rest_speed()); }
+  // Whether the vehicle at `pose_world` has arrived at `reference_pose` for the pre-alignment: its
+  // error one the plan could close slower than rest_speed() within its horizon. The motion that
+  // closes it is below the steer threshold, where the modules do not steer after it anyway.
+  bool arrived(const Eigen::Vector3d& pose_world, const Eigen::Vector3d& reference_pose) const noexcept;
   // Safe-stop commands with `reason`; the ramp restarts from the measured twist next step.
   const ControlOutput& stop_safely(const Eigen::Ref<const Eigen::VectorXd>& measured, const char* reason) noexcept;
   BaselineOptions options_;
