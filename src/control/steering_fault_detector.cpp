@@ -28,7 +28,11 @@ void FaultDetectionOptions::validate() const { check_fields("FaultDetectionOptio
 
 SteeringFaultDetector::SteeringFaultDetector(const ModuleLayout& layout, double control_period,
                                              double steering_lag, FaultDetectionOptions options)
-    : options_(options), limits_(layout.limits()), modules_(layout.size()), period_(control_period) {
+    : options_(options),
+      limits_(layout.limits()),
+      modules_(layout.size()),
+      period_(control_period),
+      steering_lag_(steering_lag) {
   options_.validate();
   if (!std::isfinite(control_period) || control_period <= 0.0) {
     throw_invalid_field("SteeringFaultDetector", "control_period", control_period, "must be > 0");
@@ -39,18 +43,15 @@ SteeringFaultDetector::SteeringFaultDetector(const ModuleLayout& layout, double 
   if (modules_ < 1 || modules_ > kMaxModules) {
     throw_invalid_field("SteeringFaultDetector", "modules", modules_, "must be in [1, 16]");
   }
-  // Three lags: a healthy module at full rate from rest falls behind its commands by one lag's
-  // worth of turn, a third of such a window. And long enough that a module turning at half its
-  // rate limit is asked min_commanded_turn: on a 1 rad/s carrier at 20 Hz, 3 periods could never
-  // ask 0.2 rad.
-  const double for_lag = 3.0 * steering_lag / control_period;
+  // Long enough that a module turning at half its rate limit is asked min_commanded_turn: on a
+  // 1 rad/s carrier at 20 Hz, 3 periods could never ask 0.2 rad. The steering's lag needs no
+  // longer window: the commands are run through it (observe()).
   const double for_turn = 2.0 * options_.min_commanded_turn / (limits_.max_steering_rate * control_period);
-  const double periods = std::max(
-      {static_cast<double>(options_.window_cycles), std::ceil(for_lag - 1e-9), std::ceil(for_turn - 1e-9)});
+  const double periods = std::max(static_cast<double>(options_.window_cycles), std::ceil(for_turn - 1e-9));
   if (periods > kHistory - 4) {
     throw_invalid_field("SteeringFaultDetector", "window", periods,
                         "periods exceed the history of " + std::to_string(kHistory - 4) +
-                            " (a steering lag or min_commanded_turn far too large for this control period)");
+                            " (min_commanded_turn far too large for this steering rate and control period)");
   }
   window_ = static_cast<int>(periods);
 }
@@ -77,7 +78,8 @@ bool SteeringFaultDetector::observe(const Eigen::Ref<const Eigen::VectorXd>& ste
   if (!options_.enabled) return false;
 
   // The window [start, measured_at]: the angles at both ends, and the commands sent in it (each
-  // acts over the period after it; the rate lag's delay is what max_followed_share allows for).
+  // acts over the period after it, through the steering's lag; max_followed_share allows for what
+  // the lag model misses: noise, the rate limit, a lag not quite first order).
   const double start = measured_at - window_ * period_;
   const int first = angles_.find(start, 0.5 * period_);
   // A window with a gap is no window; the next whole one starts the agreement afresh.
@@ -85,14 +87,27 @@ bool SteeringFaultDetector::observe(const Eigen::Ref<const Eigen::VectorXd>& ste
     agreeing_.fill(0);
     return false;
   }
-  std::array<double, kMaxModules> asked{};
+  // The turn the window's commands make through the steering's first-order rate lag, from the
+  // rate the older commands left each drive at (the lag run from the oldest kept, at rest there:
+  // the history is many lags long). A healthy steering falls behind the bare sum of its commands
+  // by lag x (rate change over the window): a command that swings from -3.7 to +3.7 rad/s behind
+  // a 92 ms lag asks 0.7 rad more than the module can have turned, and judged on the bare sum,
+  // every module of such a vehicle was found stuck.
+  std::array<double, kMaxModules> asked{}, rate{};
+  const double decay = steering_lag_ > 0.0 ? std::exp(-period_ / steering_lag_) : 0.0;
   int periods = 0;
-  for (int back = 0; back < rates_.size(); ++back) {
+  for (int back = rates_.size() - 1; back >= 0; --back) {
     const StampedModuleValues& sample = rates_.back(back);
-    if (sample.t < start - 0.5 * period_ || sample.t >= measured_at - 0.5 * period_) continue;
-    ++periods;
-    for (int i = 0; i < modules_; ++i)
-      asked[static_cast<std::size_t>(i)] += sample.values[static_cast<std::size_t>(i)] * period_;
+    if (sample.t >= measured_at - 0.5 * period_) break;
+    const bool in_window = sample.t >= start - 0.5 * period_;
+    periods += in_window ? 1 : 0;
+    for (int i = 0; i < modules_; ++i) {
+      const auto m = static_cast<std::size_t>(i);
+      const double command = sample.values[m];
+      // The exact integral of the lagged rate over the period, and its value at the period's end.
+      if (in_window) asked[m] += command * period_ + (rate[m] - command) * steering_lag_ * (1.0 - decay);
+      rate[m] = command + (rate[m] - command) * decay;
+    }
   }
   // Judged only on a window every command of which is known (no gap in the history).
   if (periods != window_) {

@@ -92,21 +92,48 @@ TEST(SteeringFaultDetector, EncoderNoiseOfTwoHundredthsOfARadianRaisesNoAlarmOnA
 }
 
 TEST(SteeringFaultDetector, OnASlowSteeringCarrierTheWindowGrowsUntilItCanAskTheTurn) {
-  // 1 rad/s and an 80 ms lag (carrier_8module) at 20 Hz: 3 periods could ask 0.15 rad at most,
-  // never the 0.2 judged. The window grows to 8 periods (2 x 0.2 rad at 1 rad/s), more than the
-  // 5 that three lags need; at 100 Hz to 40 (0.4 rad at 1 rad/s takes 0.4 s).
+  // 1 rad/s and an 80 ms lag (carrier_8module) at 20 Hz: 3 periods could ask 0.15 rad at most, the
+  // least judged, and only at full rate. The window grows to 6 periods (2 x 0.15 rad at 1 rad/s);
+  // at 100 Hz to 30 (0.3 rad at 1 rad/s takes 0.3 s). The lag lengthens no window: the commands
+  // are run through it.
   Loop carrier;
   carrier.max_rate = 1.0;
   carrier.lag = 0.08;
-  EXPECT_EQ(SteeringFaultDetector(two_modules(1.0), kPeriod, 0.08, {}).window_periods(), 8);
-  EXPECT_EQ(SteeringFaultDetector(two_modules(1.0), 0.01, 0.08, {}).window_periods(), 40);
+  EXPECT_EQ(SteeringFaultDetector(two_modules(1.0), kPeriod, 0.08, {}).window_periods(), 6);
+  EXPECT_EQ(SteeringFaultDetector(two_modules(1.0), 0.01, 0.08, {}).window_periods(), 30);
   EXPECT_EQ(SteeringFaultDetector(two_modules(3.0), kPeriod, 0.03, {}).window_periods(), 3);  // agv_4wheel
-  // Found after 8 + 1 periods at full rate, and a following module is never found, at 20 and 100 Hz.
-  EXPECT_EQ(cycles_to_find(1, 1.0, 60, carrier), 9);
+  // Found after 6 + 1 periods at full rate, and a following module is never found, at 20 and 100 Hz.
+  EXPECT_EQ(cycles_to_find(1, 1.0, 60, carrier), 7);
   EXPECT_EQ(cycles_to_find(0, 1.0, 200, carrier), -1);
   carrier.period = 0.01;
-  EXPECT_EQ(cycles_to_find(1, 1.0, 100, carrier), 41);
+  EXPECT_EQ(cycles_to_find(1, 1.0, 100, carrier), 31);
   EXPECT_EQ(cycles_to_find(0, 1.0, 400, carrier), -1);
+}
+
+// A healthy steering behind a 92 ms lag whose commands swing between its rate limits every 8
+// periods (a 127 kg, 8-module carrier of the envelope, 17 ms period): over a window the bare sum of
+// the commands asks up to 0.7 rad more than the lag lets any module turn. Judged on that sum, every
+// module of such a vehicle was found stuck; run through the lag, none is, and a stuck one still is.
+TEST(SteeringFaultDetector, AHealthySteeringWhoseCommandsSwingBetweenItsRateLimitsIsNeverFound) {
+  constexpr double period = 0.017, lag = 0.092, limit = 3.7;
+  SteeringFaultDetector detector(two_modules(limit), period, lag, {});
+  double angle = 0.0, actual_rate = 0.0;
+  int found_at = -1;
+  for (int k = 0; k < 600; ++k) {
+    const double t = k * period;
+    if (detector.observe(Eigen::Vector2d(angle, 0.3), t) && found_at < 0) found_at = k;
+    const double rate = (k / 8) % 2 == 0 ? limit : -limit;
+    detector.commanded(commands_with_rates(rate, rate), t);  // module 1 never moves: stuck
+    constexpr int kSubsteps = 50;
+    for (int s = 0; s < kSubsteps; ++s) {
+      const double h = period / kSubsteps;
+      actual_rate += h * (rate - actual_rate) / lag;
+      angle += h * actual_rate;
+    }
+  }
+  EXPECT_GT(found_at, 0);
+  EXPECT_FALSE(detector.stuck(0));
+  EXPECT_TRUE(detector.stuck(1));
 }
 
 TEST(SteeringFaultDetector, AModuleHeldAtItsEndStopIsNotStuck) {
@@ -167,10 +194,13 @@ TEST(FaultDetectionOptions, EachFieldOutOfRangeIsRefusedNamingIt) {
   refused(o, "confirm_cycles");
   EXPECT_THROW(SteeringFaultDetector(two_modules(), 0.0, 0.05, {}), ConfigError);
   EXPECT_THROW(SteeringFaultDetector(two_modules(), kPeriod, -0.01, {}), ConfigError);
-  // A window longer than the history: a lag of seconds at 100 Hz.
-  EXPECT_NE(
-      testing::config_error_of([] { SteeringFaultDetector(two_modules(), 0.01, 2.0, {}); }).find("window"),
-      std::string::npos);
+  // A window longer than the history: 3 rad asked of a 1 rad/s steering at 100 Hz (600 periods).
+  FaultDetectionOptions far;
+  far.min_commanded_turn = 3.0;
+  EXPECT_NE(testing::config_error_of([&] { SteeringFaultDetector(two_modules(1.0), 0.01, 0.05, far); }).find("window"),
+            std::string::npos);
+  // A lag of seconds no longer lengthens the window: the commands are run through it.
+  EXPECT_EQ(SteeringFaultDetector(two_modules(), 0.01, 2.0, {}).window_periods(), 10);  // 2 x 0.15 rad at 3 rad / s
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // Finds a steering that stopped following its commands: over a window of control periods, the
-// angle change the commands asked of a module (its steering rates times the period, within its end
-// stops) against the change its measured angle made. A module asked to turn far that turns a small
+// angle change the commands asked of a module (its steering rates run through the steering's lag,
+// within its end stops) against the change its measured angle made. A module asked to turn far that turns a small
 // share of it, window after window, is stuck. Fixed capacity: no allocation after construction.
 #pragma once
 
@@ -19,18 +19,17 @@ namespace swerve {
 
 struct FaultDetectionOptions {
   bool enabled = true;
-  // rad: the least turn the window's commands must ask of a module before it is judged. Far above
-  // the change steering-encoder noise makes of two angles (crab90_noisy's 0.02 rad noise: 0.03 rad
-  // standard deviation), and below what a controller asks of a module stuck a few degrees off its
-  // target (the command is the remaining turn per period, up to the rate limit).
-  double min_commanded_turn = 0.2;
-  // The share of the commanded turn a healthy module makes at least. Its first-order rate lag
-  // keeps it behind the command by (time constant) x (rate change): at full rate from rest over a
-  // 3-period window of 50 ms with a 50 ms lag that is a third of the turn, so two thirds follow.
+  // rad: the least turn the window's commands (through the steering's lag) must ask of a module
+  // before it is judged. Five standard deviations of the change steering-encoder noise makes of two
+  // angles (crab90_noisy's 0.02 rad noise: 0.03 rad), and below what a controller asks of a module
+  // stuck a few degrees off its target (the command is the remaining turn per period, up to the
+  // rate limit).
+  double min_commanded_turn = 0.15;
+  // The share of the commanded turn (run through the steering's first-order rate lag) a healthy
+  // module makes at least: the rest is what that model misses (noise, the rate limit).
   double max_followed_share = 0.25;
-  // Control periods per window, at least: the window is lengthened to 3 steering lags (a healthy
-  // module then makes two thirds of its turn from rest at full rate) and to what asks
-  // min_commanded_turn of a module at half its steering-rate limit (window_periods()).
+  // Control periods per window, at least: the window is lengthened to what asks min_commanded_turn
+  // of a module at half its steering-rate limit (window_periods()).
   int window_cycles = 3;
   // Windows running that must agree. Each measurement ends a window, so they overlap: 2 windows
   // of 3 periods span 4 periods.
@@ -99,6 +98,7 @@ class SteeringFaultDetector {
   ModuleLimits limits_;
   int modules_;
   double period_;
+  double steering_lag_;  // s: the steering drives' time constant (0: none)
   int window_;                                       // periods per window
   History angles_, rates_;  // the angles measured and the steering rates sent
   std::array<int, kMaxModules> agreeing_{};  // consecutive windows judged stuck
