@@ -1,7 +1,8 @@
 // Finds a steering that stopped following its commands: over a window of control periods, the
 // angle change the commands asked of a module (its steering rates run through the steering's lag,
-// within its end stops) against the change its measured angle made. A module asked to turn far that turns a small
-// share of it, window after window, is stuck. Fixed capacity: no allocation after construction.
+// within its end stops) against the change its measured angle made. A module asked to turn far
+// that turns a small share of it, window after window, is stuck. Fixed capacity: no allocation
+// after construction.
 #pragma once
 
 #include <Eigen/Core>

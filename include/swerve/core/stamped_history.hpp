@@ -15,8 +15,6 @@ class StampedHistory {
   static_assert(Capacity > 0, "StampedHistory: Capacity must be positive");
 
  public:
-  static constexpr int kCapacity = Capacity;
-
   // The record for time `t`, now the newest; the caller fills in the rest of it.
   Record& push(double t) noexcept {
     newest_ = (newest_ + 1) % Capacity;
