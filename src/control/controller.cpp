@@ -740,9 +740,10 @@ const ControlOutput& Controller::step(const Eigen::Ref<const Eigen::VectorXd>& r
   update_problem(t, reference_hold_.reference_time(t));
   bool policy_guess_usable = false;
   const bool baseline_usable = plan_baseline(&policy_guess_usable);
-  reference_hold_.set_held(baseline_usable && pre_align());
+  const bool aligning = baseline_usable && pre_align();
+  reference_hold_.set_held(aligning || (baseline_usable && baseline_.awaits_arrival()));
   output_.reference_delay_s = reference_hold_.delay_s();
-  if (reference_hold_.held()) return finish(step_start);
+  if (aligning) return finish(step_start);
   if (options_.tracking_tolerance.enabled()) {
     tube_->set(*problem_, *model_data_, baseline_usable ? &baseline_guess_ : nullptr);
   }

@@ -48,6 +48,7 @@ const OptionFields<BaselineOptions>& BaselineOptions::fields() {
       {"pre_align_only_with_end_stops", &BaselineOptions::pre_align_only_with_end_stops},
       {"pre_align_tolerance", &BaselineOptions::pre_align_tolerance, Bound::half_open(0.0, kPi / 2), {}, nullptr,
        "(rad)"},
+      {"wait_for_arrival", &BaselineOptions::wait_for_arrival},
   };
   return table;
 }
@@ -105,6 +106,8 @@ void KinematicBaseline::reset() noexcept {
   twists_.setZero();
   twist_committed_ = false;
   aligning_ = true;
+  awaiting_arrival_ = false;
+  arrival_wait_steps_ = stalled_wait_steps_ = 0;
   reference_hold_.reset();
   latency_.reset();
   detector_.reset();  // the faults found stay: they are the hardware's
@@ -219,9 +222,28 @@ void KinematicBaseline::arm_pre_alignment(const Eigen::Vector3d& pose_world, con
   //   it would stop it short with its modules aimed at the next leg.
   // Once the wheels drove on a moving reference, the vehicle tracks until the next start, so a
   // re-steer under way is not one.
-  const bool stop = at_rest(twist_body) && (at_rest(twists_.col(0)) || at_rest(reference_twist));
-  const bool arrived_at_dwell = slower_than(reference_twist, kHoldSpeed) && arrived(pose_world, reference_pose);
-  if (stop || arrived_at_dwell) aligning_ = true;
+  // wait_for_arrival: at a dwell the vehicle has not arrived at, the reference waits for it
+  // (awaits_arrival()), and the stop rule does not arm meanwhile. A residual error closed first
+  // leaves the modules to turn once, to the next leg; aligned to the next leg first, they turn back
+  // to close the residual and again to the leg once it has begun, dragged sideways meanwhile. The
+  // wait ends when the vehicle has stood one horizon without arriving (a residual it does not
+  // close), or, still moving, after kMostWaitHorizons: a vehicle closing in keeps the reference,
+  // one that circles the pose does not.
+  constexpr int kMostWaitHorizons = 4;
+  const bool dwell = slower_than(reference_twist, kHoldSpeed);
+  const bool arrived_here = arrived(pose_world, reference_pose);
+  awaiting_arrival_ = options_.wait_for_arrival && dwell && !arrived_here && stalled_wait_steps_ < horizon_ &&
+                      arrival_wait_steps_ < kMostWaitHorizons * horizon_;
+  if (!dwell) {
+    arrival_wait_steps_ = stalled_wait_steps_ = 0;
+  } else if (awaiting_arrival_) {
+    ++arrival_wait_steps_;
+    if (at_rest(twist_body)) ++stalled_wait_steps_;
+  }
+  const bool stop =
+      at_rest(twist_body) && (at_rest(twists_.col(0)) || at_rest(reference_twist)) && !awaiting_arrival_;
+  if (stop || (dwell && arrived_here)) aligning_ = true;
+  if (awaiting_arrival_) aligning_ = false;  // a run's start short of its first pose waits too
 }
 
 double KinematicBaseline::rest_speed() const noexcept { return std::max(options_.steer_speed_threshold, kHoldSpeed); }
@@ -505,7 +527,7 @@ const ControlOutput& KinematicBaseline::step(const Eigen::Ref<const Eigen::Vecto
   }
   module_inputs(now_.segment(6, modules_), inputs_);
   const bool pre_aligning = pre_aligns_ && pre_align_holds();
-  reference_hold_.set_held(pre_aligning);
+  reference_hold_.set_held(pre_aligning || awaiting_arrival_);
   commit_first_step();
   if (pre_aligning) {
     // The wheels wait for the steering; the next plan's ramp starts from rest, not from a twist

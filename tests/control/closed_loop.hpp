@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <vector>
 
 #include "support/model_fixtures.hpp"
 #include "swerve/models/integrators.hpp"
@@ -36,6 +37,30 @@ inline VehicleParams small_robot() {
   // drives either (it charges a command change only their share of the wear, VehiclePredictionModel).
   params.plant.actuator_lag = false;
   return params;
+}
+
+// At rest for `dwell` s at the origin (heading 0), then a start whose body twist ramps from rest to
+// `twist` in 0.5 s and stays there, `seconds` in all: a pure translation (the heading stays 0, so the
+// body frame is the world's) or a pure turn in place. Rows (t, x, y, psi, vx, vy, r) every 0.05 s,
+// through the dwell too: the spline through the poses is global, and rows at the dwell's ends only
+// would let it wander between them ahead of the start.
+inline std::shared_ptr<const Reference> start_after_dwell(double dwell, const Eigen::Vector3d& twist, double seconds) {
+  const double accelerate = 0.5;  // s to reach the twist
+  std::vector<std::vector<double>> rows;
+  for (double t = 0.0; t < dwell - 1e-9; t += 0.05) rows.push_back({t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
+  for (int k = 0; 0.05 * k <= seconds + 1e-9; ++k) {
+    const double t = 0.05 * k;
+    const double share = std::min(1.0, t / accelerate);  // of the twist, now
+    const double travel = t < accelerate ? 0.5 * t * t / accelerate : t - 0.5 * accelerate;  // of it, integrated
+    rows.push_back({dwell + t, travel * twist.x(), travel * twist.y(), travel * twist.z(), share * twist.x(),
+                    share * twist.y(), share * twist.z()});
+  }
+  return std::make_shared<SampledReference>(rows);
+}
+
+// A start along the world direction `direction` at `speed` after the dwell.
+inline std::shared_ptr<const Reference> line_after_dwell(double dwell, double direction, double speed) {
+  return start_after_dwell(dwell, Eigen::Vector3d(speed * std::cos(direction), speed * std::sin(direction), 0.0), 1.0);
 }
 
 // Straight along +x from (0, lateral), 50 m.

@@ -1560,6 +1560,40 @@ TEST(Controller, WithPreAlignmentTheWheelsWaitAtRestWhileTheModulesTurnAndTheRef
   }
 }
 
+TEST(Controller, WaitingForArrivalTheSolverKeepsDrivingWhileTheReferenceWaitsAtADwell) {
+  // BaselineOptions::wait_for_arrival in the wear-aware controller: 6 cm short of a dwell's pose,
+  // the solver's plan drives the vehicle on (unlike the pre-alignment, which sends the baseline's
+  // steering with the wheels at rest), while the reference's clock stops: the problem's reference
+  // is the dwell's, however long the vehicle takes.
+  const ControllerOptions options = fast_options();
+  const auto reference = testing::line_after_dwell(0.5, kPi / 2, 0.3);
+  Eigen::MatrixXd forward = Eigen::MatrixXd::Zero(3, options.horizon);
+  for (int k = 0; k < options.horizon; ++k) forward(0, k) = 0.01 * (k + 1);
+  BaselineOptions baseline;
+  baseline.pre_align = true;
+  baseline.wait_for_arrival = true;
+  Eigen::Vector3d first_reference_pose = Eigen::Vector3d::Constant(-1.0);
+  Controller controller(
+      small_robot(), reference, options,
+      [&](const OcpProblem& p) { return std::make_unique<FixedPlanSolver>(p, forward, &first_reference_pose); },
+      baseline);
+  testing::ManualClock clock;
+  controller.set_clock(clock);
+  Eigen::VectorXd state = at_rest();
+  state[0] = -0.06;
+  // Past the dwell's end (0.5 s) on the wall clock; the reference's still stands at its start.
+  for (int k = 0; k < 12; ++k) {
+    const double t = 0.05 * k;
+    const ControlOutput& out = controller.step(state, t);
+    ASSERT_EQ(out.source, CommandSource::kOptimizer) << reason_of(out);
+    EXPECT_STREQ(out.reason, "fixed plan");
+    EXPECT_NEAR(out.reference_delay_s, t, 1e-12);
+    EXPECT_GT(out.modules[0].wheel_speed, 0.0);
+    EXPECT_TRUE(first_reference_pose.isApprox(reference->sample(options.dt).pose_world, 1e-12))
+        << first_reference_pose.transpose();
+  }
+}
+
 TEST(Controller, CommandsTheSteeringAngleOneCycleAlongTheCommandedRate) {
   // Module rates: the fake plan steers every module at 0.01 rad/s in its first column; from a
   // measured 0.3 rad the angle target is 0.3 + dt * 0.01 (and wrapped across pi).

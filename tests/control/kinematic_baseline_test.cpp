@@ -19,6 +19,8 @@ namespace swerve {
 namespace {
 
 using testing::all_finite;
+using testing::line_after_dwell;
+using testing::start_after_dwell;
 using testing::small_robot;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -495,30 +497,6 @@ ModuleLayout small_robot_with_end_stops() {
   return ModuleLayout(positions, free_layout.wheel_radius(), stopped);
 }
 
-// At rest for `dwell` s at the origin (heading 0), then a start whose body twist ramps from rest to
-// `twist` in 0.5 s and stays there, `seconds` in all: a pure translation (the heading stays 0, so the
-// body frame is the world's) or a pure turn in place. Rows (t, x, y, psi, vx, vy, r) every 0.05 s,
-// through the dwell too: the spline through the poses is global, and rows at the dwell's ends only
-// would let it wander between them ahead of the start.
-std::shared_ptr<const Reference> start_after_dwell(double dwell, const Eigen::Vector3d& twist, double seconds) {
-  const double accelerate = 0.5;  // s to reach the twist
-  std::vector<std::vector<double>> rows;
-  for (double t = 0.0; t < dwell - 1e-9; t += 0.05) rows.push_back({t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
-  for (int k = 0; 0.05 * k <= seconds + 1e-9; ++k) {
-    const double t = 0.05 * k;
-    const double share = std::min(1.0, t / accelerate);  // of the twist, now
-    const double travel = t < accelerate ? 0.5 * t * t / accelerate : t - 0.5 * accelerate;  // of it, integrated
-    rows.push_back({dwell + t, travel * twist.x(), travel * twist.y(), travel * twist.z(), share * twist.x(),
-                    share * twist.y(), share * twist.z()});
-  }
-  return std::make_shared<SampledReference>(rows);
-}
-
-// A start along the world direction `direction` at `speed` after the dwell.
-std::shared_ptr<const Reference> line_after_dwell(double dwell, double direction, double speed) {
-  return start_after_dwell(dwell, Eigen::Vector3d(speed * std::cos(direction), speed * std::sin(direction), 0.0), 1.0);
-}
-
 BaselineOptions pre_aligning_options() {
   BaselineOptions options;
   options.cosine_scaling = true;
@@ -623,6 +601,66 @@ TEST(KinematicBaseline, PreAlignmentDoesNotStopAVehicleStillFarFromItsPoseAtADwe
   const ControlOutput& before_start = baseline.step(state, 1.5);  // the next leg in the horizon
   for (int i = 0; i < layout.size(); ++i) EXPECT_NE(before_start.modules[i].wheel_speed, 0.0) << "module " << i;
   EXPECT_EQ(before_start.reference_delay_s, 0.0);
+}
+
+BaselineOptions arrival_waiting_options() {
+  BaselineOptions options = pre_aligning_options();
+  options.wait_for_arrival = true;
+  return options;
+}
+
+// A stop that left a residual error at a dwell, before a leg in another direction (the 8-module
+// carrier's duty cycle: an in-place turn that overshot by 0.07 rad, and a crab at the end stops
+// next). With wait_for_arrival the pre-alignment waits until the vehicle has arrived, and the
+// reference waits for it: the wheels close the residual (here 6 cm along +x, where the modules
+// point) first, and only then do the modules turn to the next leg (+y) while the wheels wait.
+// (Armed at the stop, the modules turned to the crab, and the wear-aware controller turned them
+// back to close the residual and again to the crab once it had begun, dragging the rear axles
+// sideways at full grip: half the duty cycle's wear.)
+TEST(KinematicBaseline, WaitingForArrivalTheVehicleClosesItsResidualBeforeTheModulesPreAlignForTheNextLeg) {
+  const ModuleLayout layout = small_robot_with_end_stops();
+  KinematicBaseline baseline(layout, line_after_dwell(0.5, kPi / 2, 0.3), arrival_waiting_options());
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
+  state[0] = -0.06;  // 6 cm behind the dwell's pose, at rest, modules along +x
+  const ControlOutput& residual = baseline.step(state, 0.0);
+  for (int i = 0; i < layout.size(); ++i) {
+    EXPECT_GT(residual.modules[i].wheel_speed, 0.0) << "module " << i;  // driving forward, to the pose
+    EXPECT_LT(std::abs(residual.modules[i].steering_rate), 0.5) << "module " << i;
+  }
+  EXPECT_NEAR(baseline.step(state, 0.05).reference_delay_s, 0.05, 1e-12);  // the reference waits
+  // Arrived, still half a second before the leg on the reference's clock: the modules turn to +y,
+  // the wheels wait.
+  state[0] = 0.0;
+  const ControlOutput& arrived = baseline.step(state, 0.1);
+  for (int i = 0; i < layout.size(); ++i) {
+    EXPECT_EQ(arrived.modules[i].wheel_speed, 0.0) << "module " << i;
+    EXPECT_GT(std::abs(arrived.modules[i].steering_rate), 1.0) << "module " << i;
+  }
+}
+
+// The wait's two ends. A vehicle that stands short of the dwell's pose without closing in (here
+// 6 cm) holds the reference one horizon, then the stop rule arms as without the wait: the modules
+// turn to the next leg while the wheels wait. A vehicle still moving keeps the reference longer, up
+// to four horizons, so one that circles the pose cannot hold it for ever.
+TEST(KinematicBaseline, WaitingForArrivalHoldsTheReferenceOneHorizonAtRestAndFourWhileMoving) {
+  const ModuleLayout layout = small_robot_with_end_stops();
+  const int horizon = arrival_waiting_options().horizon;
+  for (const bool moving : {false, true}) {
+    SCOPED_TRACE(moving ? "moving" : "at rest");
+    KinematicBaseline baseline(layout, line_after_dwell(0.5, kPi / 2, 0.3), arrival_waiting_options());
+    Eigen::VectorXd state = Eigen::VectorXd::Zero(6 + layout.size());
+    state[0] = -0.06;
+    if (moving) state[3] = 0.05;  // closing in along +x (the measurement does not advance here)
+    const int held_steps = moving ? 4 * horizon : horizon;
+    double t = 0.0;
+    for (int k = 0; k < held_steps; ++k, t += 0.05) {
+      ASSERT_NEAR(baseline.step(state, t).reference_delay_s, 0.05 * k, 1e-9) << "step " << k;
+    }
+    // The wait is over: the reference's clock runs again from here.
+    const ControlOutput& after = baseline.step(state, t);
+    EXPECT_NEAR(after.reference_delay_s, 0.05 * held_steps, 1e-9);
+    EXPECT_NEAR(baseline.step(state, t + 0.05).reference_delay_s, after.reference_delay_s + (moving ? 0.0 : 0.05), 1e-9);
+  }
 }
 
 // A turn in place from a stop that left the vehicle 4 cm off to the side: early in the yaw-rate

@@ -57,8 +57,14 @@ struct BaselineOptions {
   //   it (an in-place turn after a crab at the stop) has to wait at rest. Without end stops the
   //   wear-aware controller wears less when it steers while rolling
   //   (docs/decisions/pre-alignment.md).
+  // - wait_for_arrival (with pre_align): at a dwell (the reference standing still) the vehicle has
+  //   not arrived at, the reference waits while the vehicle closes its residual error, and only
+  //   then do the modules pre-align for the next leg (arm_pre_alignment). Off here and in the
+  //   practical baseline: its heading regulation at a stop is underdamped on the 8-module carrier,
+  //   and the wait let it swing (docs/decisions/pre-alignment.md).
   bool common_scaling = false;
   bool pre_align = false;
+  bool wait_for_arrival = false;
   bool pre_align_only_with_end_stops = false;
   double pre_align_tolerance = 0.1;
   double flip_hysteresis = 0.1;      // rad around 90 deg, as in KinematicsOptions
@@ -131,6 +137,11 @@ class KinematicBaseline final : public TrackingController {
   // than pre_align_tolerance from their first direction of travel). After plan_twists() and
   // module_inputs() of this step; the wear-aware controller asks it too.
   bool pre_align_holds() noexcept;
+  // pre_align: whether the reference waits this step for the vehicle to arrive at a dwell (the
+  // reference standing still, the vehicle not yet arrived()): while it closes in, until it has
+  // stood one horizon short of the pose (arm_pre_alignment). The controller keeps tracking
+  // meanwhile; only the reference's clock stops. After plan_twists().
+  bool awaits_arrival() const noexcept { return awaiting_arrival_; }
 
  private:
   void module_faults_changed() noexcept override { detector_.forget_healthy(module_faults()); }
@@ -187,6 +198,9 @@ class KinematicBaseline final : public TrackingController {
   double first_step_misalignment_ = 0.0;              // rad: the largest steering error left after step 0
   bool pre_aligns_ = false;                           // options_ on this vehicle (pre_aligns())
   bool aligning_ = true;                              // pre_align: the wheels wait for the steering
+  bool awaiting_arrival_ = false;                     // awaits_arrival()
+  int arrival_wait_steps_ = 0;                        // steps this dwell has waited for the vehicle
+  int stalled_wait_steps_ = 0;                        // those of them with the vehicle at rest
   ReferenceHold reference_hold_;                      // pre-alignment holds the reference
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
   using Vector6 = Eigen::Matrix<double, 6, 1>;
