@@ -3,6 +3,7 @@
 #include "swerve/app/tuning.hpp"
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
@@ -12,7 +13,9 @@
 #include <tuple>
 
 #include "support/fake_clocks.hpp"
+#include "swerve/app/controller_config.hpp"
 #include "swerve/app/scenario_runner.hpp"
+#include "swerve/app/target_config.hpp"
 #include "swerve/app/vehicle_config.hpp"
 
 namespace swerve {
@@ -682,6 +685,67 @@ TEST(TuneByQuality, WritesTheWorkBudgetsRatesScaledByTheTargetsSlowdown) {
   EXPECT_DOUBLE_EQ(tuned.seconds_per_read, 4.0 * original.seconds_per_read);
   EXPECT_DOUBLE_EQ(tuned.seconds_per_module_evaluation, 4.0 * original.seconds_per_module_evaluation);
   std::remove(path.c_str());
+}
+
+// Adds a failure for every key one YAML tree has and the other lacks, and every value that
+// differs (numbers as numbers: 1.0e-9 is 1e-09), each named by its key path.
+void expect_same_tree(const YAML::Node& expected, const YAML::Node& actual, const std::string& path) {
+  if (expected.IsMap() && actual.IsMap()) {
+    for (const auto& entry : expected) {
+      const std::string key = entry.first.as<std::string>();
+      if (!actual[key]) {
+        ADD_FAILURE() << path << "." << key << " is missing";
+        continue;
+      }
+      expect_same_tree(entry.second, actual[key], path + "." + key);
+    }
+    for (const auto& entry : actual) {
+      const std::string key = entry.first.as<std::string>();
+      if (!expected[key]) ADD_FAILURE() << path << "." << key << " is not in the file it was tuned from";
+    }
+    return;
+  }
+  if (expected.IsSequence() && actual.IsSequence() && expected.size() == actual.size()) {
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      expect_same_tree(expected[i], actual[i], path + "[" + std::to_string(i) + "]");
+    }
+    return;
+  }
+  if (expected.IsScalar() && actual.IsScalar()) {
+    double a = 0.0, b = 0.0;
+    if (YAML::convert<double>::decode(expected, a) && YAML::convert<double>::decode(actual, b)) {
+      EXPECT_NEAR(b, a, 1e-12 * std::abs(a)) << path;
+    } else {
+      EXPECT_EQ(actual.as<std::string>(), expected.as<std::string>()) << path;
+    }
+    return;
+  }
+  ADD_FAILURE() << path << ": " << actual << " where the default has " << expected;
+}
+
+// Each shipped tuned file (configs/controllers/tuned/<target>.yaml) is what the tuner writes:
+// configs/controllers/default.yaml with the file's own candidate written over it. Re-written here
+// and compared setting by setting, so a setting the default gains later cannot go missing on the
+// targets that use a tuned file. (Tuned before the default had them, the shipped files lacked the
+// baseline's pre-alignment, the stuck-steering detector and the work budget.)
+TEST(TunedControllerFiles, EachShippedTunedFileIsTheDefaultWithItsOwnCandidateWrittenOverIt) {
+  for (const std::string name : {"default", "jetson_orin_nano", "raspberry_pi_4"}) {
+    SCOPED_TRACE(name);
+    const std::string shipped = config_file("controllers/tuned/" + name + ".yaml");
+    const ControllerConfig tuned = load_controller_config_file(shipped);
+    const TargetConfig target = load_target_config_file(config_file("targets/" + name + ".yaml"));
+    TuningCandidate candidate;
+    candidate.horizon = tuned.mpc.horizon;
+    candidate.knots = tuned.solver.sa.knots;
+    candidate.deadline_margin = tuned.mpc.deadline_margin;
+    candidate.backend = tuned.solver.backend;
+    candidate.dt = tuned.mpc.dt;
+    candidate.control_period = tuned.mpc.period();
+    const std::string rewritten = ::testing::TempDir() + "tuned_" + name + ".yaml";
+    write_tuned_controller(config_file("controllers/default.yaml"), candidate, target, "", rewritten);
+    expect_same_tree(YAML::LoadFile(rewritten), YAML::LoadFile(shipped), "");
+    if (::testing::Test::HasFailure()) std::printf("%s: what the tuner writes: %s\n", name.c_str(), rewritten.c_str());
+  }
 }
 
 TEST(TuneByQuality, WritesALongerStepWithTheTargetsControlPeriodAndDropsItAtThePeriod) {
