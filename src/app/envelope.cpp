@@ -529,6 +529,35 @@ ReferenceDraw draw_stop_and_go(const ReferenceBasis& b, DrawRandom& rng) {
   return r;
 }
 
+// A warehouse vehicle's turn to face a bay: a turn in place of 45-180 deg, a dwell (none in a
+// quarter of the draws: the leg follows the turn at once), then a straight leg along the basis
+// direction at the heading the turn left, so the leg runs at minus the turn in the body frame (a
+// crab for a quarter turn).
+ReferenceDraw draw_turn_then_go(const ReferenceBasis& b, DrawRandom& rng) {
+  Motion m;
+  m.direction = b.direction;
+  m.heading_follows_path = false;
+  const double turn = rng.uniform(45.0, 180.0) * kDegree;
+  // Yaw rate within the wheel speeds; a turn in place needs no steering while it lasts.
+  const double max_yaw_rate = kWheelSpeedShare * b.v.drive_speed / b.radius;
+  m.turn_start = 0.5;
+  m.turn_time = std::max(1.0, turn * kSmootherstepPeakRate / max_yaw_rate) * rng.uniform(1.0, 1.5);
+  const double dwell = rng.chance(0.25) ? 0.0 : rng.uniform(0.2, 1.5);
+  m.turn = rng.sign() * turn;
+  const double go = m.turn_start + m.turn_time + dwell;
+  const Trapezoid tz = trapezoid(std::max(b.duration - go, 3.0), b.speed, b.acceleration, b.v.drive_acceleration);
+  m.knots = {{0.0, 0.0}};
+  for (const auto& knot : trapezoid_knots(tz)) m.knots.push_back({go + knot[0], knot[1]});
+  keep_within_the_steering_range(&m, &m.turn, b.v);
+  ReferenceDraw r = csv_reference(m, "turn in place " + fixed(m.turn / kDegree, 1) + " deg over " +
+                                         fixed(m.turn_time, 1) + " s, dwell " + fixed(dwell, 1) + " s, then " +
+                                         fixed(tz.length, 2) + " m at " + speed_text(tz.speed));
+  r.speed = tz.speed;
+  r.acceleration = tz.acceleration;
+  r.length = tz.length;
+  return r;
+}
+
 ReferenceDraw draw_reference(ReferenceFamily family, const VehicleDraw& v, DrawRandom& rng) {
   const double duration = rng.uniform(6.0, 20.0);
   // Curved families leave part of the drive speed for the yaw's share of the wheel speeds.
@@ -557,6 +586,7 @@ ReferenceDraw draw_reference(ReferenceFamily family, const VehicleDraw& v, DrawR
     case ReferenceFamily::kHeadingChange: r = draw_heading_change(b, rng); break;
     case ReferenceFamily::kCreepToStop: r = draw_creep_to_stop(b, rng); break;
     case ReferenceFamily::kStopAndGo: r = draw_stop_and_go(b, rng); break;
+    case ReferenceFamily::kTurnThenGo: r = draw_turn_then_go(b, rng); break;
   }
   r.duration = r.type == "csv" ? r.rows.back()[0] : built_in_duration(r);
   return r;
@@ -688,6 +718,8 @@ const char* to_string(ReferenceFamily family) noexcept {
       return "creep_to_stop";
     case ReferenceFamily::kStopAndGo:
       return "stop_and_go";
+    case ReferenceFamily::kTurnThenGo:
+      return "turn_then_go";
   }
   return "unknown";
 }
@@ -697,7 +729,7 @@ const std::vector<ReferenceFamily>& all_reference_families() {
       ReferenceFamily::kLine,          ReferenceFamily::kArc,         ReferenceFamily::kSCurve,
       ReferenceFamily::kLaneChange,    ReferenceFamily::kFigureEight, ReferenceFamily::kHeadingOffset,
       ReferenceFamily::kHeadingChange, ReferenceFamily::kCrab,        ReferenceFamily::kReverse,
-      ReferenceFamily::kCreepToStop,   ReferenceFamily::kStopAndGo,
+      ReferenceFamily::kCreepToStop,   ReferenceFamily::kStopAndGo,   ReferenceFamily::kTurnThenGo,
   };
   return families;
 }

@@ -66,6 +66,30 @@ TEST(Envelope, SameSeedAndIndexGiveTheSameDrawBitForBit) {
   }
 }
 
+TEST(Envelope, TurnThenGoTurnsInPlaceThenDrivesAStraightLegAtTheHeadingTheTurnLeft) {
+  for (int index = 0; index < 6; ++index) {
+    SCOPED_TRACE(index);
+    const Draw d = draw_case(5, index, {ReferenceFamily::kTurnThenGo});
+    const auto& rows = d.reference.rows;
+    ASSERT_GT(rows.size(), 100u);
+    // Until the leg starts the vehicle stands (it only turns); from then on it no longer turns (to
+    // within the turn's last row, where the leg follows at once).
+    const double turned = rows.back()[3] - rows[0][3];
+    EXPECT_GT(std::abs(turned), 1.0 * kDegree);
+    std::size_t k = 0;
+    while (k < rows.size() && std::hypot(rows[k][4], rows[k][5]) == 0.0) ++k;
+    ASSERT_LT(k, rows.size());
+    for (; k < rows.size(); ++k) {
+      EXPECT_NEAR(rows[k][6], 0.0, 1e-6) << "t = " << rows[k][0];
+      EXPECT_NEAR(rows[k][3] - rows[0][3], turned, 1e-6);
+      if (std::hypot(rows[k][4], rows[k][5]) > 1e-6) {
+        // The leg runs along the draw's direction in the world: at minus the turn in the body frame.
+        EXPECT_NEAR(std::remainder(std::atan2(rows[k][5], rows[k][4]) + turned, 2.0 * kPi), 0.0, 1e-6);
+      }
+    }
+  }
+}
+
 TEST(Envelope, ADifferentSeedGivesDifferentDraws) {
   const Draw a = draw_case(1, 0, all_reference_families());
   const Draw b = draw_case(2, 0, all_reference_families());
@@ -150,7 +174,7 @@ TEST(Envelope, AVehicleWithEndStopsIsNeverAskedToRollAcrossThem) {
     }
   }
   EXPECT_GT(limited, 50);
-  const Draw known = draw_case(2, 171, all_reference_families());
+  const Draw known = draw_case(2, 171, {ReferenceFamily::kHeadingChange});  // its family when there were 11
   ASSERT_EQ(known.family, ReferenceFamily::kHeadingChange);
   ASSERT_LT(known.vehicle.steering_limit, kPi);
   double widest = 0.0;
@@ -197,7 +221,8 @@ TEST(Envelope, SampledReferencesFollowTheirOwnTwist) {
   // The CSV's twist columns are the rates of its poses: integrating vx, vy, r in the body frame
   // over the rows lands where the poses say.
   for (const ReferenceFamily family : {ReferenceFamily::kLaneChange, ReferenceFamily::kSCurve,
-                                       ReferenceFamily::kHeadingChange, ReferenceFamily::kStopAndGo}) {
+                                       ReferenceFamily::kHeadingChange, ReferenceFamily::kStopAndGo,
+                                       ReferenceFamily::kTurnThenGo}) {
     SCOPED_TRACE(to_string(family));
     const Draw d = draw_case(11, 0, {family});
     const auto& rows = d.reference.rows;
@@ -260,7 +285,7 @@ TEST(Envelope, FamilyNamesRoundTrip) {
     EXPECT_EQ(*reference_family_named(to_string(family)), family);
   }
   EXPECT_FALSE(reference_family_named("zigzag").has_value());
-  EXPECT_EQ(all_reference_families().size(), 11u);
+  EXPECT_EQ(all_reference_families().size(), 12u);
 }
 
 EnvelopeRun run_with(double wear, double rmse, double heading, double effort) {

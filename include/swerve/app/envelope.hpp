@@ -34,6 +34,7 @@ enum class ReferenceFamily {
   kReverse,        // driving backwards (180 deg offset)
   kCreepToStop,    // slows to a creep, then stops
   kStopAndGo,
+  kTurnThenGo,     // a turn in place, a dwell, then a straight leg at the new heading (a crab at 90 deg)
 };
 const char* to_string(ReferenceFamily family) noexcept;  // "line", "s_curve", ...
 const std::vector<ReferenceFamily>& all_reference_families();
