@@ -240,10 +240,12 @@ void KinematicBaseline::arm_pre_alignment(const Eigen::Vector3d& pose_world, con
     ++arrival_wait_steps_;
     if (at_rest(twist_body)) ++stalled_wait_steps_;
   }
-  const bool stop =
-      at_rest(twist_body) && (at_rest(twists_.col(0)) || at_rest(reference_twist)) && !awaiting_arrival_;
-  if (stop || (dwell && arrived_here)) aligning_ = true;
-  if (awaiting_arrival_) aligning_ = false;  // a run's start short of its first pose waits too
+  const bool stop = at_rest(twist_body) && (at_rest(twists_.col(0)) || at_rest(reference_twist));
+  if (awaiting_arrival_) {
+    aligning_ = false;  // a run's start short of its first pose waits too
+  } else if (stop || (dwell && arrived_here)) {
+    aligning_ = true;
+  }
 }
 
 double KinematicBaseline::rest_speed() const noexcept { return std::max(options_.steer_speed_threshold, kHoldSpeed); }

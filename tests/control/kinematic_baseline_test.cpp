@@ -656,7 +656,8 @@ TEST(KinematicBaseline, WaitingForArrivalHoldsTheReferenceOneHorizonAtRestAndFou
     for (int k = 0; k < held_steps; ++k, t += 0.05) {
       ASSERT_NEAR(baseline.step(state, t).reference_delay_s, 0.05 * k, 1e-9) << "step " << k;
     }
-    // The wait is over: the reference's clock runs again from here.
+    // The wait is over. At rest the stop rule arms, and the pre-alignment holds the reference
+    // while the modules turn to the leg; moving, the reference's clock runs again.
     const ControlOutput& after = baseline.step(state, t);
     EXPECT_NEAR(after.reference_delay_s, 0.05 * held_steps, 1e-9);
     EXPECT_NEAR(baseline.step(state, t + 0.05).reference_delay_s, after.reference_delay_s + (moving ? 0.0 : 0.05), 1e-9);
